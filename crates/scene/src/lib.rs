@@ -1,0 +1,30 @@
+//! # translucent-scene
+//!
+//! Everything that describes what is rendered, apart from the geometry itself:
+//!
+//! * [`camera`]: the Mitsuba 3 `perspective` camera (look-at, fov along x, py down).
+//! * [`light`]: point lights of radiant intensity I (irradiance I/r², no 1/4π), and a constant
+//!   environment emitter (used by energy tests).
+//! * [`medium`]: the homogeneous medium (σ_t, α per RGB channel, HG g, relative IOR η).
+//! * [`image`]: RGB float images with EXR (linear f32) and PNG (tone-mapped sRGB) I/O.
+//! * [`scene_file`]: the scene file format (TOML or JSON), validated with precise errors.
+//! * [`rig`]: multi-view rigs (N views on a Fibonacci sphere, light fixed or attached).
+//! * [`dataset`]: dataset folders (`dataset.json` + EXRs, DATASET.md) and the Mitsuba
+//!   reference-render folder format (`scene.json` + mesh + `view_XXX.exr`).
+
+pub mod camera;
+pub mod dataset;
+pub mod error;
+pub mod image;
+pub mod light;
+pub mod medium;
+pub mod rig;
+pub mod scene_file;
+
+pub use camera::Camera;
+pub use dataset::{Dataset, View};
+pub use error::SceneError;
+pub use image::Image;
+pub use light::{Environment, PointLight};
+pub use medium::Medium;
+pub use scene_file::{MeshSource, SceneDesc};
