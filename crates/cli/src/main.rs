@@ -1,1 +1,90 @@
-fn main() {}
+//! `translucent`: measure what a translucent object is made of from images of it.
+//!
+//! This binary is the only place that uses `anyhow`; the library crates return typed errors.
+
+mod common;
+mod compare;
+mod dataset_cmd;
+mod demo;
+mod render_cmd;
+mod validate;
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+
+const UNITS_HELP: &str = "\
+Units and conventions: lengths in scene units (default objects are about 1 unit across, centred \
+at the origin); extinction sigma_t in 1/unit (mean free path = 1/sigma_t); albedo alpha = \
+sigma_s/sigma_t in [0, 1); point-light intensity I in W/sr (irradiance I/r^2 facing the light); \
+images are linear RGB float32 EXR with sRGB PNG previews. Cameras follow Mitsuba 3's \
+`perspective` (fov along x, row 0 at the top).";
+
+#[derive(Parser)]
+#[command(name = "translucent", version, about = "Inverse rendering of translucent objects (Son et al. 2024) — forward renderers, datasets and tools", long_about = None, after_help = UNITS_HELP)]
+struct Cli {
+    /// Worker threads (default: all cores). Same seed and thread count give the same output.
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    /// Less output (no progress bars).
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render the built-in demo scene (a bumpy blob in a paper-range medium) and write its images.
+    Demo(demo::DemoArgs),
+    /// Render every view of a scene file (TOML/JSON, see SCENE.md) or dataset folder.
+    Render(render_cmd::RenderArgs),
+    /// Render a multi-view dataset (dataset.json + EXRs, see DATASET.md) with the volumetric tracer.
+    Dataset(dataset_cmd::DatasetArgs),
+    /// Compare images A against reference B: mean ratio, RMSE, relative MSE, false-colour diffs.
+    Compare(CompareArgs),
+    /// Render a Mitsuba 3 reference-render folder (scene.json + mesh + view_XXX.exr) with our
+    /// volumetric path tracer and check per-view means against Mitsuba's.
+    #[command(name = "validate-mitsuba")]
+    ValidateMitsuba(validate::ValidateArgs),
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Image or folder of images to test (EXR).
+    a: PathBuf,
+    /// Reference image or folder (EXR); folders are matched by file name.
+    b: PathBuf,
+    /// Write false-colour difference PNGs (blue: A < B, red: A > B) into this folder.
+    #[arg(long)]
+    diff: Option<PathBuf>,
+    /// Replace existing difference images.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if cli.quiet { "warn" } else { "info" }));
+    tracing_subscriber::fmt().with_env_filter(filter).with_target(false).without_time().with_writer(std::io::stderr).init();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    if let Some(n) = cli.threads {
+        anyhow::ensure!(n > 0, "--threads must be at least 1");
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
+    }
+    common::set_quiet(cli.quiet);
+    match cli.command {
+        Command::Demo(a) => demo::run(&a),
+        Command::Render(a) => render_cmd::run(&a),
+        Command::Dataset(a) => dataset_cmd::run(&a),
+        Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
+        Command::ValidateMitsuba(a) => validate::run(&a),
+    }
+}

@@ -6,6 +6,8 @@
 //! d_cam = ((1 − 2px/W)·t, (1 − 2py/H)·t·H/W, 1), d_world = normalize(R·d_cam).
 
 use glam::{Mat3, Vec3};
+
+use crate::SceneError;
 use serde::{Deserialize, Serialize};
 
 /// A pinhole perspective camera.
@@ -24,11 +26,24 @@ pub struct Camera {
 impl Camera {
     /// Mitsuba `look_at`. `up` must not be parallel to `target − origin` (checked by the scene
     /// validation, which reports it as an error).
-    pub fn look_at(origin: Vec3, target: Vec3, up: Vec3, fov_x_deg: f32, width: u32, height: u32) -> Self {
+    pub fn look_at(
+        origin: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_x_deg: f32,
+        width: u32,
+        height: u32,
+    ) -> Self {
         let z = (target - origin).normalize();
         let x = up.cross(z).normalize();
         let y = z.cross(x);
-        Camera { origin, rotation: Mat3::from_cols(x, y, z), fov_x_deg, width, height }
+        Camera {
+            origin,
+            rotation: Mat3::from_cols(x, y, z),
+            fov_x_deg,
+            width,
+            height,
+        }
     }
 
     /// Primary ray through film position (px, py) (pixels, py down): (origin, unit direction).
@@ -37,7 +52,11 @@ impl Camera {
         let t = (0.5 * self.fov_x_deg.to_radians()).tan();
         let w = self.width as f32;
         let h = self.height as f32;
-        let d = Vec3::new((1.0 - 2.0 * px / w) * t, (1.0 - 2.0 * py / h) * t * h / w, 1.0);
+        let d = Vec3::new(
+            (1.0 - 2.0 * px / w) * t,
+            (1.0 - 2.0 * py / h) * t * h / w,
+            1.0,
+        );
         (self.origin, (self.rotation * d).normalize())
     }
 
@@ -53,5 +72,256 @@ impl Camera {
         let px = (1.0 - d.x / d.z / t) * 0.5 * w;
         let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
         Some((px, py))
+    }
+
+    /// Build from a Mitsuba `to_world` matrix given row-major (`rows[r][c]`): columns 0, 1, 2 are
+    /// x (image left), y (image up), z (view direction), column 3 is the origin. The matrix is
+    /// used as is; [`Camera::validate`] checks that its rotation is orthonormal.
+    pub fn from_to_world(rows: [[f32; 4]; 4], fov_x_deg: f32, width: u32, height: u32) -> Self {
+        let col = |c: usize| Vec3::new(rows[0][c], rows[1][c], rows[2][c]);
+        Camera {
+            origin: col(3),
+            rotation: Mat3::from_cols(col(0), col(1), col(2)),
+            fov_x_deg,
+            width,
+            height,
+        }
+    }
+
+    /// The Mitsuba `to_world` matrix, row-major (`rows[r][c]`), columns [x, y, z, origin].
+    pub fn to_world_rows(&self) -> [[f32; 4]; 4] {
+        let (x, y, z, o) = (
+            self.rotation.x_axis,
+            self.rotation.y_axis,
+            self.rotation.z_axis,
+            self.origin,
+        );
+        [
+            [x.x, y.x, z.x, o.x],
+            [x.y, y.y, z.y, o.y],
+            [x.z, y.z, z.z, o.z],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    }
+
+    /// View direction (unit, the camera's z axis).
+    pub fn direction(&self) -> Vec3 {
+        self.rotation.z_axis
+    }
+
+    /// Check the camera: resolution > 0 (at most 65536 per side), fov in (0°, 180°), finite
+    /// origin, rotation orthonormal and right-handed (tolerance 1e-3). `context` (e.g.
+    /// "dataset.json: views[3].camera") goes into the error.
+    pub fn validate(&self, context: &str) -> Result<(), SceneError> {
+        self.validate_named(context, "fov")
+    }
+
+    /// [`Camera::validate`] with the name the file format gives the fov field.
+    pub(crate) fn validate_named(&self, context: &str, fov_field: &str) -> Result<(), SceneError> {
+        let bad = |field: &str, reason: String| SceneError::Invalid {
+            location: format!("{context}.{field}"),
+            reason,
+        };
+        for (field, v) in [("width", self.width), ("height", self.height)] {
+            if v == 0 || v > 65536 {
+                return Err(bad(
+                    field,
+                    format!(
+                        "= {v}: image resolution must be between 1 and 65536 pixels; fix: use e.g. 256"
+                    ),
+                ));
+            }
+        }
+        let f = self.fov_x_deg;
+        if !(f.is_finite() && f > 0.0 && f < 180.0) {
+            return Err(bad(
+                fov_field,
+                format!(
+                    "= {f}: horizontal field of view must be in (0, 180) degrees; fix: use e.g. 40"
+                ),
+            ));
+        }
+        if !self.origin.is_finite() {
+            return Err(bad(
+                "origin",
+                format!("= {:?}: must be finite", self.origin.to_array()),
+            ));
+        }
+        let r = self.rotation;
+        let ortho_err = (r.transpose() * r - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+        if !(ortho_err.is_finite() && ortho_err < 1e-3) {
+            return Err(bad(
+                "to_world",
+                format!(
+                    "rotation part is not orthonormal (max |RᵀR − I| = {ortho_err:.3e}); fix: the \
+                     first three columns must be unit, mutually orthogonal axes (no scale or shear)"
+                ),
+            ));
+        }
+        if r.determinant() < 0.0 {
+            return Err(bad(
+                "to_world",
+                "rotation part is a reflection (determinant −1); fix: use a right-handed frame, \
+                 x = normalize(cross(up, z)), y = cross(z, x)"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::excessive_precision, clippy::type_complexity)] // numbers copied verbatim from Mitsuba's scene.json
+mod tests {
+    use super::*;
+
+    fn cam(w: u32, h: u32) -> Camera {
+        Camera::look_at(
+            Vec3::new(0.3, 0.8, 2.5),
+            Vec3::new(0.1, -0.2, 0.0),
+            Vec3::Y,
+            40.0,
+            w,
+            h,
+        )
+    }
+
+    fn close(a: Vec3, b: Vec3, tol: f32) -> bool {
+        (a - b).abs().max_element() <= tol
+    }
+
+    #[test]
+    fn centre_pixel_ray_is_the_view_direction() {
+        for (w, h) in [(64, 64), (65, 33), (100, 40)] {
+            let c = cam(w, h);
+            let (o, d) = c.ray(w as f32 / 2.0, h as f32 / 2.0);
+            assert_eq!(o, c.origin);
+            let z = (Vec3::new(0.1, -0.2, 0.0) - c.origin).normalize();
+            assert!(close(d, z, 1e-6), "{d} vs {z}");
+        }
+    }
+
+    #[test]
+    fn px_zero_is_image_left_and_py_zero_is_up() {
+        let c = cam(80, 60);
+        let (x, y, z) = (c.rotation.x_axis, c.rotation.y_axis, c.rotation.z_axis);
+        // x = normalize(cross(up, z)) is image LEFT: column 0 looks towards +x.
+        assert!(close(x, Vec3::Y.cross(z).normalize(), 1e-6));
+        let (_, left) = c.ray(0.0, 30.0);
+        let (_, right) = c.ray(80.0, 30.0);
+        assert!(left.dot(x) > 0.0 && right.dot(x) < 0.0);
+        assert!(left.dot(y).abs() < 1e-6);
+        // Row 0 looks up (+y), the last row down.
+        let (_, top) = c.ray(40.0, 0.0);
+        let (_, bottom) = c.ray(40.0, 60.0);
+        assert!(top.dot(y) > 0.0 && bottom.dot(y) < 0.0);
+        // fov along x: the left edge is at angle fov/2 from the axis; the top edge at
+        // atan(tan(fov/2)·H/W).
+        let t = 20f32.to_radians().tan();
+        assert!((left.dot(x) / left.dot(z) - t).abs() < 1e-5);
+        assert!((top.dot(y) / top.dot(z) - t * 60.0 / 80.0).abs() < 1e-5);
+        // World up (+Y) appears at the top of the image for this camera.
+        assert!(y.dot(Vec3::Y) > 0.0);
+    }
+
+    #[test]
+    fn project_round_trips_ray() {
+        let c = cam(97, 41);
+        for &(px, py) in &[
+            (0.0, 0.0),
+            (0.5, 0.5),
+            (96.5, 40.5),
+            (48.5, 20.5),
+            (10.25, 33.75),
+            (97.0, 41.0),
+        ] {
+            let (o, d) = c.ray(px, py);
+            for t in [0.5f32, 2.0, 7.0] {
+                let (qx, qy) = c.project(o + t * d).expect("in front of the camera");
+                assert!(
+                    (qx - px).abs() < 2e-3 && (qy - py).abs() < 2e-3,
+                    "({px},{py}) -> ({qx},{qy})"
+                );
+            }
+        }
+        assert!(c.project(c.origin - c.direction()).is_none());
+    }
+
+    #[test]
+    fn camera_from_to_world_equals_look_at() {
+        // View 0 of the Mitsuba reference render (numbers copied from its scene.json).
+        let rows = [
+            [
+                -0.29552020666133955,
+                -0.8359194279849053,
+                -0.4625002890509669,
+                0.23125014452548345,
+            ],
+            [0.0, 0.4841229182759271, -0.875, 0.4375],
+            [
+                0.955336489125606,
+                -0.2585801808286721,
+                -0.14306810485839278,
+                0.07153405242919639,
+            ],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+        .map(|r: [f64; 4]| r.map(|v| v as f32));
+        let a = Camera::from_to_world(rows, 40.0, 64, 64);
+        let b = Camera::look_at(
+            Vec3::new(0.23125014452548345, 0.4375, 0.07153405242919639),
+            Vec3::ZERO,
+            Vec3::Y,
+            40.0,
+            64,
+            64,
+        );
+        assert!(close(a.origin, b.origin, 1e-7));
+        for i in 0..3 {
+            assert!(
+                close(a.rotation.col(i), b.rotation.col(i), 1e-6),
+                "column {i}"
+            );
+        }
+        for &(px, py) in &[(0.0, 0.0), (32.0, 32.0), (16.0, 44.8)] {
+            assert!(close(a.ray(px, py).1, b.ray(px, py).1, 1e-6));
+        }
+        // And back to rows.
+        let back = b.to_world_rows();
+        for r in 0..4 {
+            for c in 0..4 {
+                assert!((back[r][c] - rows[r][c]).abs() < 1e-6);
+            }
+        }
+        a.validate("test").unwrap();
+    }
+
+    #[test]
+    fn validate_names_the_field() {
+        let mut c = cam(8, 8);
+        c.width = 0;
+        assert!(c.validate("x").unwrap_err().to_string().contains("x.width"));
+        let mut c = cam(8, 8);
+        c.fov_x_deg = 180.0;
+        assert!(c.validate("x").unwrap_err().to_string().contains("x.fov"));
+        let mut c = cam(8, 8);
+        c.rotation *= 2.0;
+        assert!(
+            c.validate("x")
+                .unwrap_err()
+                .to_string()
+                .contains("orthonormal")
+        );
+        let mut c = cam(8, 8);
+        c.rotation.x_axis = -c.rotation.x_axis;
+        assert!(
+            c.validate("x")
+                .unwrap_err()
+                .to_string()
+                .contains("reflection")
+        );
     }
 }

@@ -15,6 +15,7 @@
 pub mod camera;
 pub mod dataset;
 pub mod error;
+mod fsutil;
 pub mod image;
 pub mod light;
 pub mod medium;
@@ -22,9 +23,10 @@ pub mod rig;
 pub mod scene_file;
 
 pub use camera::Camera;
-pub use dataset::{Dataset, View};
+pub use dataset::{Dataset, DatasetKind, DatasetMetadata, View, load_reference_folder};
 pub use error::SceneError;
 pub use image::Image;
 pub use light::{Environment, PointLight};
 pub use medium::Medium;
-pub use scene_file::{MeshSource, SceneDesc};
+pub use rig::{Rig, RigLight, fibonacci_sphere};
+pub use scene_file::{MediumSpec, MeshSource, RenderInfo, Rgb, SceneDesc, ShapeSpec, ViewDesc};

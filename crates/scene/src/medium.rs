@@ -1,7 +1,5 @@
 //! The homogeneous medium (architecture.md §3): per RGB channel extinction σ_t [1/unit] and
 //! single-scattering albedo α (σ_s = α σ_t), Henyey–Greenstein g, relative IOR η = n_in/n_out.
-//!
-//! SKELETON: helper H3 owns `validate`.
 
 use serde::{Deserialize, Serialize};
 
@@ -28,10 +26,136 @@ impl Medium {
     /// Check ranges: σ_t > 0 and finite, α ∈ [0, 1), g ∈ (−1, 1), η ≥ 1. `context` (file and
     /// field path, e.g. "scene.toml: medium") goes into the error.
     pub fn validate(&self, context: &str) -> Result<(), SceneError> {
-        todo!()
+        let bad = |field: String, value: f32, reason: &str| SceneError::Invalid {
+            location: format!("{context}.{field} = {value}"),
+            reason: reason.to_string(),
+        };
+        for c in 0..3 {
+            let s = self.sigma_t[c];
+            if !(s.is_finite() && s > 0.0) {
+                return Err(bad(
+                    format!("sigma_t[{c}]"),
+                    s,
+                    "extinction must be > 0 and finite (1/scene unit); fix: use a positive value, \
+                     e.g. 30–100 for an object about 1 unit across",
+                ));
+            }
+        }
+        for c in 0..3 {
+            let a = self.albedo[c];
+            if !(a.is_finite() && (0.0..1.0).contains(&a)) {
+                return Err(bad(
+                    format!("albedo[{c}]"),
+                    a,
+                    "single-scattering albedo must be in [0, 1) (1 would mean no absorption at \
+                     all); fix: use a value such as 0.9 (at most 0.9999)",
+                ));
+            }
+        }
+        if !(self.g.is_finite() && self.g > -1.0 && self.g < 1.0) {
+            return Err(bad(
+                "g".into(),
+                self.g,
+                "Henyey–Greenstein anisotropy must be in (−1, 1); fix: use 0 for isotropic \
+                 scattering (the paper's setting)",
+            ));
+        }
+        if !(self.eta.is_finite() && self.eta >= 1.0) {
+            return Err(bad(
+                "eta".into(),
+                self.eta,
+                "relative index of refraction n_inside/n_outside must be ≥ 1 and finite; fix: \
+                 use 1 for the index-matched (null) boundary, or e.g. 1.5 for glass-like media",
+            ));
+        }
+        Ok(())
     }
     /// σ_s per channel.
     pub fn sigma_s(&self) -> [f32; 3] {
         [0, 1, 2].map(|c| self.sigma_t[c] * self.albedo[c])
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::excessive_precision, clippy::type_complexity)] // numbers copied verbatim from Mitsuba's scene.json
+mod tests {
+    use super::*;
+
+    fn ok() -> Medium {
+        Medium {
+            sigma_t: [50.0, 60.0, 70.0],
+            albedo: [0.95, 0.9, 0.85],
+            g: 0.0,
+            eta: 1.0,
+        }
+    }
+
+    #[test]
+    fn valid_medium_passes() {
+        ok().validate("scene.toml: medium").unwrap();
+        Medium {
+            albedo: [0.0; 3],
+            g: -0.9,
+            eta: 1.5,
+            ..ok()
+        }
+        .validate("m")
+        .unwrap();
+    }
+
+    #[test]
+    fn each_range_error_names_its_field() {
+        let cases = [
+            (
+                Medium {
+                    sigma_t: [50.0, -3.0, 70.0],
+                    ..ok()
+                },
+                "scene.toml: medium.sigma_t[1] = -3: extinction must be > 0",
+            ),
+            (
+                Medium {
+                    sigma_t: [0.0, 1.0, 1.0],
+                    ..ok()
+                },
+                "medium.sigma_t[0] = 0",
+            ),
+            (
+                Medium {
+                    sigma_t: [1.0, 1.0, f32::INFINITY],
+                    ..ok()
+                },
+                "medium.sigma_t[2] = inf",
+            ),
+            (
+                Medium {
+                    albedo: [0.5, 1.0, 0.5],
+                    ..ok()
+                },
+                "medium.albedo[1] = 1",
+            ),
+            (
+                Medium {
+                    albedo: [-0.1, 0.5, 0.5],
+                    ..ok()
+                },
+                "medium.albedo[0] = -0.1",
+            ),
+            (Medium { g: 1.0, ..ok() }, "medium.g = 1"),
+            (Medium { g: -1.5, ..ok() }, "medium.g = -1.5"),
+            (Medium { eta: 0.9, ..ok() }, "medium.eta = 0.9"),
+            (
+                Medium {
+                    eta: f32::NAN,
+                    ..ok()
+                },
+                "medium.eta = NaN",
+            ),
+        ];
+        for (m, want) in cases {
+            let msg = m.validate("scene.toml: medium").unwrap_err().to_string();
+            assert!(msg.contains(want), "{msg:?} should contain {want:?}");
+            assert!(msg.contains("fix"), "{msg:?} should say how to fix it");
+        }
     }
 }

@@ -1,1 +1,22 @@
-//! volpath
+//! # translucent-volpath
+//!
+//! The volumetric path tracer: ground truth for the learned BSSRDF, generator of datasets and a
+//! baseline of the inverse problem. Conventions follow Mitsuba 3's `volpath` (architecture.md §3)
+//! so that its images can be compared with Mitsuba's directly.
+//!
+//! * [`integrator`]: radiance along a ray (free flights, NEE, dielectric boundary, roulette).
+//! * [`spectral`]: hero-channel spectral MIS for RGB extinction.
+//! * [`phase`]: Henyey–Greenstein sampling and evaluation.
+//! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
+//! * [`render`]: parallel, reproducible image rendering.
+//! * [`rng`]: seeded per-pixel random streams.
+
+pub mod fresnel;
+pub mod integrator;
+pub mod phase;
+pub mod render;
+pub mod rng;
+pub mod spectral;
+
+pub use integrator::{ChannelSampling, VolpathScene, VolpathSettings, radiance};
+pub use render::{RenderSettings, render_image};

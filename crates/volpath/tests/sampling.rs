@@ -1,0 +1,104 @@
+//! χ² tests for every sampler the volumetric path tracer uses: Henyey–Greenstein direction
+//! sampling, free-flight distance sampling and the pixel (camera) jitter.
+
+use glam::Vec3;
+use testkit::chi2_test;
+use volpath::phase::HenyeyGreenstein;
+use volpath::render::pixel_jitter;
+use volpath::rng::Sampler;
+use volpath::spectral::SpectralWeight;
+
+/// Significance level of every χ² test: the probability that a correct sampler fails is 1e-3
+/// (fixed seeds make each run deterministic).
+const ALPHA: f64 = 1e-3;
+
+/// ∫ f over [a, b] by composite Simpson with `n` (even) intervals.
+fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for i in 1..n {
+        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
+#[test]
+fn henyey_greenstein_sampling_matches_its_density() {
+    let n_theta = 24;
+    let n_phi = 12;
+    let n = 240_000;
+    // A non-axis-aligned incoming direction exercises the frame construction too.
+    let d_in = Vec3::new(0.3, -0.8, 0.52).normalize();
+    let frame = geometry::Frame::from_normal(d_in);
+    for (k, g) in [0.0f32, 0.3, -0.6, 0.9].into_iter().enumerate() {
+        let hg = HenyeyGreenstein { g };
+        let mut s = Sampler::new(11, k as u64, 0, 0);
+        let mut obs = vec![0.0; n_theta * n_phi];
+        for _ in 0..n {
+            let (u1, u2) = (s.next_f32(), s.next_f32());
+            let w = hg.sample(d_in, u1, u2);
+            assert!((w.length() - 1.0).abs() < 1e-4);
+            let l = frame.to_local(w);
+            let cos_t = l.z.clamp(-1.0, 1.0) as f64;
+            let phi = (l.y as f64).atan2(l.x as f64).rem_euclid(2.0 * std::f64::consts::PI);
+            let i = (((cos_t + 1.0) / 2.0 * n_theta as f64) as usize).min(n_theta - 1);
+            let j = ((phi / (2.0 * std::f64::consts::PI) * n_phi as f64) as usize).min(n_phi - 1);
+            obs[i * n_phi + j] += 1.0;
+        }
+        let mut exp = vec![0.0; n_theta * n_phi];
+        for i in 0..n_theta {
+            let a = -1.0 + 2.0 * i as f64 / n_theta as f64;
+            let b = a + 2.0 / n_theta as f64;
+            // ∫ p(μ) dμ dφ over the bin = 2π/n_phi · ∫ p(μ) dμ.
+            let p = simpson(|mu| hg.eval_cos(mu as f32) as f64, a, b, 400) * 2.0 * std::f64::consts::PI / n_phi as f64;
+            for j in 0..n_phi {
+                exp[i * n_phi + j] = p * n as f64;
+            }
+        }
+        let total: f64 = exp.iter().sum();
+        assert!((total / n as f64 - 1.0).abs() < 1e-3, "HG density does not integrate to 1 for g={g}: {total}");
+        let r = chi2_test(&obs, &exp, 5.0);
+        assert!(r.p_value > ALPHA, "HG g={g}: χ²={} dof={} p={}", r.statistic, r.dof, r.p_value);
+    }
+}
+
+#[test]
+fn free_flight_sampling_is_exponential_for_the_hero_channel() {
+    let sigma_t = [30.0f32, 55.0, 100.0];
+    let bins = 40;
+    let n = 200_000;
+    for hero in 0..3 {
+        let w = SpectralWeight::new(hero);
+        let mut s = Sampler::new(12, hero as u64, 0, 0);
+        let mut obs = vec![0.0; bins];
+        // Bins equally spaced in the CDF 1 − e^{−σ t} ⇒ equal expected counts.
+        for _ in 0..n {
+            let t = w.sample_distance(&sigma_t, s.next_f32()) as f64;
+            let cdf = 1.0 - (-(sigma_t[hero] as f64) * t).exp();
+            obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
+        }
+        let exp = vec![n as f64 / bins as f64; bins];
+        let r = chi2_test(&obs, &exp, 5.0);
+        assert!(r.p_value > ALPHA, "free flight hero {hero}: χ²={} p={}", r.statistic, r.p_value);
+    }
+}
+
+#[test]
+fn pixel_jitter_is_uniform_over_the_pixel() {
+    let grid = 8;
+    let n = 64_000;
+    for (case, key) in [0u64, 0xDEAD_BEEF, 12345].into_iter().enumerate() {
+        let mut s = Sampler::new(13, case as u64, 0, 0);
+        let mut obs = vec![0.0; grid * grid];
+        for i in 0..n {
+            // Past 2^16 the jitter switches to PCG; cover both regimes.
+            let idx = if i < n / 2 { i } else { (1 << 16) + i };
+            let (x, y) = pixel_jitter(idx, key, &mut s);
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+            obs[(y * grid as f32) as usize * grid + (x * grid as f32) as usize] += 1.0;
+        }
+        let exp = vec![n as f64 / (grid * grid) as f64; grid * grid];
+        let r = chi2_test(&obs, &exp, 5.0);
+        assert!(r.p_value > ALPHA, "pixel jitter key {key}: χ²={} p={}", r.statistic, r.p_value);
+    }
+}
