@@ -23,7 +23,12 @@ pub fn progress(len: u64, msg: &str) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let pb = ProgressBar::new(len);
-    pb.set_style(ProgressStyle::with_template("{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} ({eta} left)").unwrap());
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} ({eta} left)",
+        )
+        .unwrap(),
+    );
     pb.set_message(msg.to_string());
     pb
 }
@@ -34,7 +39,9 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     match v {
         Ok(v) if v.len() == 1 => Ok([v[0]; 3]),
         Ok(v) if v.len() == 3 => Ok([v[0], v[1], v[2]]),
-        Ok(_) => Err(format!("expected one value or three comma-separated values, got '{s}'")),
+        Ok(_) => Err(format!(
+            "expected one value or three comma-separated values, got '{s}'"
+        )),
         Err(e) => Err(format!("'{s}': {e}")),
     }
 }
@@ -52,25 +59,50 @@ pub struct RenderReport {
 }
 
 /// Render every view with the volumetric path tracer; one progress bar over all rows.
-pub fn render_views(accel: &Accel, medium: &Medium, views: &[ViewJob], spp: u32, seed: u64, settings: &VolpathSettings) -> RenderReport {
+pub fn render_views(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewJob],
+    spp: u32,
+    seed: u64,
+    settings: &VolpathSettings,
+) -> RenderReport {
     let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
     let pb = progress(rows, "volpath");
     let mut images = Vec::with_capacity(views.len());
     let mut secs = Vec::with_capacity(views.len());
     for (i, v) in views.iter().enumerate() {
-        let scene = VolpathScene { accel, medium: *medium, light: Some(v.light), environment: None };
-        let rs = RenderSettings { spp, seed, view: i as u64 };
+        let scene = VolpathScene {
+            accel,
+            medium: *medium,
+            light: Some(v.light),
+            environment: None,
+        };
+        let rs = RenderSettings {
+            spp,
+            seed,
+            view: i as u64,
+        };
         let t0 = Instant::now();
         images.push(render_image(&scene, settings, &v.camera, &rs, Some(&pb)));
         secs.push(t0.elapsed().as_secs_f64());
     }
     pb.finish_and_clear();
-    RenderReport { images, seconds_per_view: secs }
+    RenderReport {
+        images,
+        seconds_per_view: secs,
+    }
 }
 
 /// Write `name.exr` and `name.png` into `dir` with a shared exposure.
-pub fn write_outputs(dir: &Path, names: &[String], images: &[Image], overwrite: bool) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create output folder", dir.display()))?;
+pub fn write_outputs(
+    dir: &Path,
+    names: &[String],
+    images: &[Image],
+    overwrite: bool,
+) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create output folder", dir.display()))?;
     let exposure = scene::image::auto_exposure(images);
     for (name, img) in names.iter().zip(images) {
         img.write_exr(&dir.join(format!("{name}.exr")), overwrite)?;
@@ -88,7 +120,10 @@ pub fn check_output_free(dir: &Path, names: &[String], overwrite: bool) -> Resul
         for ext in ["exr", "png"] {
             let p = dir.join(format!("{n}.{ext}"));
             if p.exists() {
-                bail!("{} already exists; pass --overwrite to replace it (or choose another --out)", p.display());
+                bail!(
+                    "{} already exists; pass --overwrite to replace it (or choose another --out)",
+                    p.display()
+                );
             }
         }
     }
@@ -102,6 +137,10 @@ pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], wha
     }
     let t0 = Instant::now();
     let accel = Accel::new(mesh);
-    tracing::debug!("{what}: BVH over {} triangles in {:.1} ms", accel.mesh().triangle_count(), t0.elapsed().as_secs_f64() * 1e3);
+    tracing::debug!(
+        "{what}: BVH over {} triangles in {:.1} ms",
+        accel.mesh().triangle_count(),
+        t0.elapsed().as_secs_f64() * 1e3
+    );
     accel
 }

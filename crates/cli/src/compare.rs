@@ -23,7 +23,13 @@ pub struct PairStats {
 /// Compare `a` against reference `b` (same size required).
 pub fn pair_stats(a: &Image, b: &Image) -> Result<PairStats> {
     if a.width != b.width || a.height != b.height {
-        bail!("image sizes differ: {}×{} vs {}×{}", a.width, a.height, b.width, b.height);
+        bail!(
+            "image sizes differ: {}×{} vs {}×{}",
+            a.width,
+            a.height,
+            b.width,
+            b.height
+        );
     }
     let (ma, mb) = (a.mean(), b.mean());
     let n = a.data.len().max(1) as f64;
@@ -36,7 +42,15 @@ pub fn pair_stats(a: &Image, b: &Image) -> Result<PairStats> {
             rel_den[c] += (pb[c] as f64).powi(2) + 1e-2 * mb[c] * mb[c];
         }
     }
-    let ratio = |x: f64, y: f64| if y != 0.0 { x / y } else if x == 0.0 { 1.0 } else { f64::INFINITY };
+    let ratio = |x: f64, y: f64| {
+        if y != 0.0 {
+            x / y
+        } else if x == 0.0 {
+            1.0
+        } else {
+            f64::INFINITY
+        }
+    };
     let rmse = se.map(|s| (s / n).sqrt());
     Ok(PairStats {
         mean_a: ma,
@@ -70,7 +84,12 @@ pub fn exr_list(path: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// Run the command: prints a table, writes diff PNGs into `diff_dir` when given.
-pub fn run(a: &Path, b: &Path, diff_dir: Option<&Path>, overwrite: bool) -> Result<Vec<(String, PairStats)>> {
+pub fn run(
+    a: &Path,
+    b: &Path,
+    diff_dir: Option<&Path>,
+    overwrite: bool,
+) -> Result<Vec<(String, PairStats)>> {
     let la = exr_list(a)?;
     let lb = exr_list(b)?;
     let pairs: Vec<(PathBuf, PathBuf)> = if la.len() == 1 && lb.len() == 1 {
@@ -83,24 +102,43 @@ pub fn run(a: &Path, b: &Path, diff_dir: Option<&Path>, overwrite: bool) -> Resu
             let pb = lb.iter().find(|p| p.file_name() == Some(name));
             match pb {
                 Some(pb) => v.push((pa.clone(), pb.clone())),
-                None => bail!("{}: no image named {:?} in {}", pa.display(), name, b.display()),
+                None => bail!(
+                    "{}: no image named {:?} in {}",
+                    pa.display(),
+                    name,
+                    b.display()
+                ),
             }
         }
         v
     };
     if let Some(d) = diff_dir {
-        std::fs::create_dir_all(d).with_context(|| format!("{}: cannot create folder", d.display()))?;
+        std::fs::create_dir_all(d)
+            .with_context(|| format!("{}: cannot create folder", d.display()))?;
     }
-    println!("{:<16} {:>26} {:>26} {:>26}", "image", "mean ratio A/B (R G B)", "relative RMSE (R G B)", "relMSE (R G B)");
+    println!(
+        "{:<16} {:>26} {:>26} {:>26}",
+        "image", "mean ratio A/B (R G B)", "relative RMSE (R G B)", "relMSE (R G B)"
+    );
     let mut out = Vec::new();
     for (pa, pb) in pairs {
         let ia = Image::read_exr(&pa)?;
         let ib = Image::read_exr(&pb)?;
-        let st = pair_stats(&ia, &ib).with_context(|| format!("comparing {} with {}", pa.display(), pb.display()))?;
+        let st = pair_stats(&ia, &ib)
+            .with_context(|| format!("comparing {} with {}", pa.display(), pb.display()))?;
         let name = pa.file_stem().unwrap().to_string_lossy().to_string();
         println!(
             "{:<16} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8.4} {:>8.2e} {:>8.2e} {:>8.2e}",
-            name, st.mean_ratio[0], st.mean_ratio[1], st.mean_ratio[2], st.rel_rmse[0], st.rel_rmse[1], st.rel_rmse[2], st.rel_mse[0], st.rel_mse[1], st.rel_mse[2]
+            name,
+            st.mean_ratio[0],
+            st.mean_ratio[1],
+            st.mean_ratio[2],
+            st.rel_rmse[0],
+            st.rel_rmse[1],
+            st.rel_rmse[2],
+            st.rel_mse[0],
+            st.rel_mse[1],
+            st.rel_mse[2]
         );
         if let Some(d) = diff_dir {
             let diff = Image::false_colour_diff(&ia, &ib)?;

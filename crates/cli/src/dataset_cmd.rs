@@ -63,19 +63,32 @@ impl RigArgs {
         }
         Ok(match &self.mesh {
             Some(p) => MeshSource::File(p.clone()),
-            None => MeshSource::Shape(Shape::from_name(self.shape.as_deref().unwrap_or("blob"))?.scaled(self.scale)),
+            None => MeshSource::Shape(
+                Shape::from_name(self.shape.as_deref().unwrap_or("blob"))?.scaled(self.scale),
+            ),
         })
     }
 
     pub fn rig(&self) -> Result<Rig> {
         let v3 = |s: &str, flag: &str| -> Result<Vec3> {
-            let p: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>()).collect::<Result<_, _>>().with_context(|| format!("{flag} '{s}': expected x,y,z"))?;
-            anyhow::ensure!(p.len() == 3, "{flag} '{s}': expected three comma-separated numbers x,y,z");
+            let p: Vec<f32> = s
+                .split(',')
+                .map(|x| x.trim().parse::<f32>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("{flag} '{s}': expected x,y,z"))?;
+            anyhow::ensure!(
+                p.len() == 3,
+                "{flag} '{s}': expected three comma-separated numbers x,y,z"
+            );
             Ok(Vec3::new(p[0], p[1], p[2]))
         };
         let light = match self.light.as_str() {
-            "fixed" => RigLight::Fixed { position: v3(&self.light_position, "--light-position")? },
-            _ => RigLight::Attached { offset: v3(&self.light_offset, "--light-offset")? },
+            "fixed" => RigLight::Fixed {
+                position: v3(&self.light_position, "--light-position")?,
+            },
+            _ => RigLight::Attached {
+                offset: v3(&self.light_offset, "--light-offset")?,
+            },
         };
         let rig = Rig {
             views: self.views,
@@ -89,8 +102,14 @@ impl RigArgs {
             elevation_deg: (-90.0, 90.0),
         };
         rig.validate("command line")?;
-        anyhow::ensure!(self.res > 0 && self.res <= 16384, "--res must be between 1 and 16384");
-        anyhow::ensure!(self.fov > 0.0 && self.fov < 180.0, "--fov must be in (0, 180) degrees");
+        anyhow::ensure!(
+            self.res > 0 && self.res <= 16384,
+            "--res must be between 1 and 16384"
+        );
+        anyhow::ensure!(
+            self.fov > 0.0 && self.fov < 180.0,
+            "--fov must be in (0, 180) degrees"
+        );
         Ok(rig)
     }
 }
@@ -117,7 +136,16 @@ pub struct MediumArgs {
 
 impl MediumArgs {
     pub fn medium(&self, seed: u64) -> Result<Medium> {
-        let m = if self.random_medium { random_medium(seed) } else { Medium { sigma_t: self.sigma_t, albedo: self.albedo, g: self.g, eta: self.eta } };
+        let m = if self.random_medium {
+            random_medium(seed)
+        } else {
+            Medium {
+                sigma_t: self.sigma_t,
+                albedo: self.albedo,
+                g: self.g,
+                eta: self.eta,
+            }
+        };
         m.validate("command line: medium")?;
         Ok(m)
     }
@@ -128,7 +156,12 @@ pub fn random_medium(seed: u64) -> Medium {
     let mut s = Sampler::new(seed, u64::MAX, 0, 0x6d65_6469_756d);
     let sigma_t = [0; 3].map(|_| 30.0 + 70.0 * s.next_f32());
     let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
-    Medium { sigma_t, albedo, g: 0.0, eta: 1.0 }
+    Medium {
+        sigma_t,
+        albedo,
+        g: 0.0,
+        eta: 1.0,
+    }
 }
 
 #[derive(Args)]
@@ -154,24 +187,65 @@ pub struct DatasetArgs {
     pub overwrite: bool,
 }
 
+/// Volumetric render settings of a dataset.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderOpts {
+    pub spp: u32,
+    pub seed: u64,
+    pub max_depth: u32,
+}
+
 /// Render a dataset and save it; returns it (with images).
-pub fn make_dataset(rig: &Rig, mesh: MeshSource, medium: Medium, spp: u32, seed: u64, max_depth: u32, out: &std::path::Path, overwrite: bool) -> Result<Dataset> {
+pub fn make_dataset(
+    rig: &Rig,
+    mesh: MeshSource,
+    medium: Medium,
+    opts: RenderOpts,
+    out: &std::path::Path,
+    overwrite: bool,
+) -> Result<Dataset> {
+    let RenderOpts {
+        spp,
+        seed,
+        max_depth,
+    } = opts;
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
     anyhow::ensure!(max_depth > 0, "--max-depth must be at least 1");
     if !overwrite && out.join("dataset.json").exists() {
-        bail!("{} already holds a dataset; pass --overwrite to replace it", out.display());
+        bail!(
+            "{} already holds a dataset; pass --overwrite to replace it",
+            out.display()
+        );
     }
     let desc = SceneDesc {
         mesh,
         medium,
         views: rig.build(),
-        render: RenderInfo { spp: Some(spp), max_depth: Some(max_depth), seed: Some(seed), renderer: Some(format!("translucent {} volpath (spectral MIS)", env!("CARGO_PKG_VERSION"))) },
+        render: RenderInfo {
+            spp: Some(spp),
+            max_depth: Some(max_depth),
+            seed: Some(seed),
+            renderer: Some(format!(
+                "translucent {} volpath (spectral MIS)",
+                env!("CARGO_PKG_VERSION")
+            )),
+        },
         path: out.join("dataset.json"),
     };
     let (mesh, warnings) = desc.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
-    let views: Vec<ViewJob> = desc.views.iter().map(|v| ViewJob { camera: v.camera.clone(), light: v.light }).collect();
-    let settings = VolpathSettings { max_depth, ..Default::default() };
+    let views: Vec<ViewJob> = desc
+        .views
+        .iter()
+        .map(|v| ViewJob {
+            camera: v.camera.clone(),
+            light: v.light,
+        })
+        .collect();
+    let settings = VolpathSettings {
+        max_depth,
+        ..Default::default()
+    };
     let t0 = Instant::now();
     let rep = render_views(&accel, &medium, &views, spp, seed, &settings);
     let mut ds = Dataset::from_scene(&desc);
@@ -179,15 +253,47 @@ pub fn make_dataset(rig: &Rig, mesh: MeshSource, medium: Medium, spp: u32, seed:
         v.image = Some(img);
     }
     ds.save(out, overwrite)?;
-    tracing::info!("rendered {} views in {:.1} s", views.len(), t0.elapsed().as_secs_f64());
+    tracing::info!(
+        "rendered {} views in {:.1} s",
+        views.len(),
+        t0.elapsed().as_secs_f64()
+    );
     Ok(ds)
 }
 
 pub fn run(a: &DatasetArgs) -> Result<()> {
     let rig = a.rig.rig()?;
     let medium = a.medium.medium(a.seed)?;
-    let ds = make_dataset(&rig, a.rig.mesh_source()?, medium, a.spp, a.seed, a.max_depth, &a.out, a.overwrite)?;
-    println!("dataset: {} views of {}×{} at {} spp -> {}", ds.views.len(), a.rig.res, a.rig.res, a.spp, a.out.display());
-    println!("truth: σ_t = ({:.3}, {:.3}, {:.3}), α = ({:.4}, {:.4}, {:.4}), g = {}, η = {}", medium.sigma_t[0], medium.sigma_t[1], medium.sigma_t[2], medium.albedo[0], medium.albedo[1], medium.albedo[2], medium.g, medium.eta);
+    let ds = make_dataset(
+        &rig,
+        a.rig.mesh_source()?,
+        medium,
+        RenderOpts {
+            spp: a.spp,
+            seed: a.seed,
+            max_depth: a.max_depth,
+        },
+        &a.out,
+        a.overwrite,
+    )?;
+    println!(
+        "dataset: {} views of {}×{} at {} spp -> {}",
+        ds.views.len(),
+        a.rig.res,
+        a.rig.res,
+        a.spp,
+        a.out.display()
+    );
+    println!(
+        "truth: σ_t = ({:.3}, {:.3}, {:.3}), α = ({:.4}, {:.4}, {:.4}), g = {}, η = {}",
+        medium.sigma_t[0],
+        medium.sigma_t[1],
+        medium.sigma_t[2],
+        medium.albedo[0],
+        medium.albedo[1],
+        medium.albedo[2],
+        medium.g,
+        medium.eta
+    );
     Ok(())
 }

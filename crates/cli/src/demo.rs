@@ -12,7 +12,7 @@ use glam::Vec3;
 use scene::MeshSource;
 use scene::rig::{Rig, RigLight};
 
-use crate::dataset_cmd::{make_dataset, random_medium};
+use crate::dataset_cmd::{RenderOpts, make_dataset, random_medium};
 
 /// Marker file identifying a folder written by `translucent demo` (safe to overwrite).
 const MARKER: &str = ".translucent-demo";
@@ -37,9 +37,28 @@ pub struct DemoArgs {
 }
 
 pub fn run(a: &DemoArgs) -> Result<()> {
+    // Only a missing or empty folder, or one the demo wrote before, may be written.
     let ours = a.out.join(MARKER).exists();
-    if a.out.join("dataset.json").exists() && !ours {
-        anyhow::bail!("{} holds a dataset not written by the demo; choose another --out", a.out.display());
+    let empty = std::fs::read_dir(&a.out)
+        .map(|mut d| d.next().is_none())
+        .unwrap_or(true);
+    if !ours && !empty {
+        anyhow::bail!(
+            "{} already holds files not written by `translucent demo`; choose another --out",
+            a.out.display()
+        );
+    }
+    if ours {
+        // Remove the previous demo's images so a run with fewer views leaves no stale ones.
+        for e in std::fs::read_dir(&a.out)?.flatten() {
+            let p = e.path();
+            let stale = p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                n.starts_with("view_") && (n.ends_with(".exr") || n.ends_with(".png"))
+            });
+            if stale {
+                std::fs::remove_file(&p)?;
+            }
+        }
     }
     let medium = random_medium(a.seed);
     let rig = Rig {
@@ -49,21 +68,55 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         fov_x_deg: 35.0,
         width: a.res,
         height: a.res,
-        light: RigLight::Attached { offset: Vec3::new(0.8, 0.8, 0.0) },
+        light: RigLight::Attached {
+            offset: Vec3::new(0.8, 0.8, 0.0),
+        },
         intensity: [12.0; 3],
         elevation_deg: (-90.0, 90.0),
     };
     rig.validate("demo")?;
-    println!("translucent demo: bumpy blob, {} views {}×{} at {} spp (volumetric path tracer)", a.views, a.res, a.res, a.spp);
-    let ds = make_dataset(&rig, MeshSource::Shape(Shape::from_name("blob")?), medium, a.spp, a.seed, 32, &a.out, true)?;
-    std::fs::write(a.out.join(MARKER), "written by `translucent demo`; the demo may overwrite this folder\n")?;
-    println!("medium (paper ranges, seed {}): σ_t = ({:.2}, {:.2}, {:.2}) 1/unit, α = ({:.4}, {:.4}, {:.4})", a.seed, medium.sigma_t[0], medium.sigma_t[1], medium.sigma_t[2], medium.albedo[0], medium.albedo[1], medium.albedo[2]);
+    println!(
+        "translucent demo: bumpy blob, {} views {}×{} at {} spp (volumetric path tracer)",
+        a.views, a.res, a.res, a.spp
+    );
+    let ds = make_dataset(
+        &rig,
+        MeshSource::Shape(Shape::from_name("blob")?),
+        medium,
+        RenderOpts {
+            spp: a.spp,
+            seed: a.seed,
+            max_depth: 32,
+        },
+        &a.out,
+        true,
+    )?;
+    std::fs::write(
+        a.out.join(MARKER),
+        "written by `translucent demo`; the demo may overwrite this folder\n",
+    )?;
+    println!(
+        "medium (paper ranges, seed {}): σ_t = ({:.2}, {:.2}, {:.2}) 1/unit, α = ({:.4}, {:.4}, {:.4})",
+        a.seed,
+        medium.sigma_t[0],
+        medium.sigma_t[1],
+        medium.sigma_t[2],
+        medium.albedo[0],
+        medium.albedo[1],
+        medium.albedo[2]
+    );
     for (i, v) in ds.views.iter().enumerate() {
         if let Some(img) = &v.image {
             let m = img.mean();
-            println!("  view_{i:03}: mean RGB = ({:.5}, {:.5}, {:.5})", m[0], m[1], m[2]);
+            println!(
+                "  view_{i:03}: mean RGB = ({:.5}, {:.5}, {:.5})",
+                m[0], m[1], m[2]
+            );
         }
     }
-    println!("wrote {} (dataset.json, view_XXX.exr + .png)", a.out.display());
+    println!(
+        "wrote {} (dataset.json, view_XXX.exr + .png)",
+        a.out.display()
+    );
     Ok(())
 }

@@ -2,6 +2,7 @@
 //!
 //! This binary is the only place that uses `anyhow`; the library crates return typed errors.
 
+mod bench;
 mod common;
 mod compare;
 mod dataset_cmd;
@@ -48,6 +49,9 @@ enum Command {
     /// volumetric path tracer and check per-view means against Mitsuba's.
     #[command(name = "validate-mitsuba")]
     ValidateMitsuba(validate::ValidateArgs),
+    /// Speed measurements (results go into BENCHMARKS.md).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 #[derive(Args)]
@@ -66,8 +70,16 @@ struct CompareArgs {
 
 fn main() {
     let cli = Cli::parse();
-    let filter = tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if cli.quiet { "warn" } else { "info" }));
-    tracing_subscriber::fmt().with_env_filter(filter).with_target(false).without_time().with_writer(std::io::stderr).init();
+    let filter =
+        tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new(if cli.quiet { "warn" } else { "info" })
+        });
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_target(false)
+        .without_time()
+        .with_writer(std::io::stderr)
+        .init();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");
         std::process::exit(1);
@@ -77,7 +89,9 @@ fn main() {
 fn run(cli: Cli) -> Result<()> {
     if let Some(n) = cli.threads {
         anyhow::ensure!(n > 0, "--threads must be at least 1");
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()?;
     }
     common::set_quiet(cli.quiet);
     match cli.command {
@@ -86,5 +100,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Dataset(a) => dataset_cmd::run(&a),
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
+        Command::Bench(b) => bench::run(&b),
     }
 }

@@ -3,16 +3,17 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
-use scene::SceneDesc;
+use scene::{Dataset, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{ViewJob, build_accel, check_output_free, render_views, write_outputs};
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file (.toml or .json; format in SCENE.md).
+    /// Scene file (.toml or .json; format in SCENE.md), or a dataset folder (dataset.json or a
+    /// Mitsuba reference folder with scene.json: its truth medium is rendered).
     pub scene: PathBuf,
     /// Output folder (created if needed).
     #[arg(long, default_value = "out/render")]
@@ -39,29 +40,74 @@ pub struct RenderArgs {
 }
 
 pub fn run(a: &RenderArgs) -> Result<()> {
-    let desc = SceneDesc::load(&a.scene)?;
+    let desc = load_scene_or_dataset(&a.scene)?;
     let spp = a.spp.or(desc.render.spp).unwrap_or(64);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
     let seed = a.seed.or(desc.render.seed).unwrap_or(0);
     let max_depth = a.max_depth.or(desc.render.max_depth).unwrap_or(32);
     anyhow::ensure!(max_depth > 0, "--max-depth must be at least 1");
-    let names: Vec<String> = (0..desc.views.len()).map(|i| format!("view_{i:03}")).collect();
+    let names: Vec<String> = (0..desc.views.len())
+        .map(|i| format!("view_{i:03}"))
+        .collect();
     check_output_free(&a.out, &names, a.overwrite)?;
-    let (mesh, warnings) = desc.load_mesh().with_context(|| format!("loading the mesh of {}", a.scene.display()))?;
+    let (mesh, warnings) = desc
+        .load_mesh()
+        .with_context(|| format!("loading the mesh of {}", a.scene.display()))?;
     let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
-    let views: Vec<ViewJob> = desc.views.iter().map(|v| ViewJob { camera: v.camera.clone(), light: v.light }).collect();
+    let views: Vec<ViewJob> = desc
+        .views
+        .iter()
+        .map(|v| ViewJob {
+            camera: v.camera.clone(),
+            light: v.light,
+        })
+        .collect();
     let settings = VolpathSettings {
         max_depth,
-        channel_sampling: if a.single_channel { ChannelSampling::SingleChannel } else { ChannelSampling::SpectralMis },
+        channel_sampling: if a.single_channel {
+            ChannelSampling::SingleChannel
+        } else {
+            ChannelSampling::SpectralMis
+        },
         ..Default::default()
     };
     let rep = render_views(&accel, &desc.medium, &views, spp, seed, &settings);
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
     let total: f64 = rep.seconds_per_view.iter().sum();
-    println!("rendered {} view(s) at {spp} spp in {total:.2} s ({:.3} s/view) -> {}", views.len(), total / views.len().max(1) as f64, a.out.display());
+    println!(
+        "rendered {} view(s) at {spp} spp in {total:.2} s ({:.3} s/view) -> {}",
+        views.len(),
+        total / views.len().max(1) as f64,
+        a.out.display()
+    );
     for (n, img) in names.iter().zip(&rep.images) {
         let m = img.mean();
         println!("  {n}: mean RGB = ({:.5}, {:.5}, {:.5})", m[0], m[1], m[2]);
     }
     Ok(())
+}
+
+/// A scene file, or the truth of a dataset: folders and `dataset.json` are datasets; a file named
+/// `scene.json` is read as a scene file first and, if that fails, as a Mitsuba reference folder's
+/// description (the error of the scene-file reading is the one reported when both fail).
+fn load_scene_or_dataset(path: &std::path::Path) -> Result<SceneDesc> {
+    let dataset = |p: &std::path::Path| -> Result<SceneDesc> {
+        let ds = Dataset::load(p)?;
+        let Some(truth) = ds.truth else {
+            bail!(
+                "{}: the dataset records no medium (truth) to render",
+                p.display()
+            )
+        };
+        Ok(ds.scene(truth))
+    };
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    if path.is_dir() || name == "dataset.json" {
+        return dataset(path);
+    }
+    match SceneDesc::load(path) {
+        Ok(d) => Ok(d),
+        Err(e) if name == "scene.json" => dataset(path).map_err(|_| e.into()),
+        Err(e) => Err(e.into()),
+    }
 }

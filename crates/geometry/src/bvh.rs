@@ -38,7 +38,9 @@ pub struct Hit {
     pub bary: Vec2,
     /// Hit position.
     pub p: Vec3,
-    /// Unit geometric normal, pointing OUT of the medium (CCW convention).
+    /// Unit geometric normal, pointing OUT of the medium (CCW convention). When the ray lies in
+    /// the triangle's plane up to rounding (edge-on hit at a vertex or edge), it is tilted by
+    /// ~1e-5 rad so that [`Hit::entering`] agrees with the facing the triangle test decided.
     pub ng: Vec3,
     /// Unit shading normal (interpolated vertex normals, or `ng` when the mesh has none), made to
     /// lie in the same hemisphere as `ng`.
@@ -101,7 +103,11 @@ impl BoxRay {
         #[inline(always)]
         fn rcp(d: f32) -> f32 {
             const TINY: f32 = 1e-18;
-            if d.abs() < TINY { 1.0 / TINY.copysign(d) } else { 1.0 / d }
+            if d.abs() < TINY {
+                1.0 / TINY.copysign(d)
+            } else {
+                1.0 / d
+            }
         }
         let inv = Vec3A::new(rcp(dir.x), rcp(dir.y), rcp(dir.z));
         BoxRay {
@@ -126,7 +132,12 @@ impl BoxRay {
 
         #[inline(always)]
         fn q4(v: &[u8; 8], i: usize) -> Vec4 {
-            Vec4::new(v[i] as f32, v[i + 1] as f32, v[i + 2] as f32, v[i + 3] as f32)
+            Vec4::new(
+                v[i] as f32,
+                v[i + 1] as f32,
+                v[i + 2] as f32,
+                v[i + 3] as f32,
+            )
         }
         #[inline(always)]
         fn near_far(lo: &[u8; 8], hi: &[u8; 8], i: usize, neg: bool) -> (Vec4, Vec4) {
@@ -164,8 +175,9 @@ impl BoxRay {
 pub struct Accel {
     mesh: Mesh,
     bvh: CwBvh,
-    /// Triangle corners in BVH order (`tris[k]` is mesh triangle `prim_tri[k]`).
-    tris: Vec<[Vec3A; 3]>,
+    /// Triangle corners in BVH order (`tris[k]` is mesh triangle `prim_tri[k]`); 36 bytes each
+    /// (`Vec3`, not `Vec3A`: traversal is memory bound).
+    tris: Vec<[Vec3; 3]>,
     /// BVH order → original triangle index (obvhs `primitive_indices`).
     prim_tri: Vec<u32>,
 }
@@ -176,8 +188,8 @@ const CONTAINS_DIR: Vec3 = Vec3::new(0.548_546_7, 0.627_302_6, 0.552_787_9);
 impl Accel {
     /// Build the BVH (parallel) over a validated mesh.
     pub fn new(mesh: Mesh) -> Self {
-        let corners: Vec<[Vec3A; 3]> = (0..mesh.triangle_count())
-            .map(|i| mesh.triangle(i).map(Vec3A::from))
+        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count())
+            .map(|i| mesh.triangle(i))
             .collect();
         if corners.is_empty() {
             return Accel {
@@ -189,14 +201,19 @@ impl Accel {
         }
         let obvhs_tris: Vec<Triangle> = corners
             .iter()
-            .map(|&[v0, v1, v2]| Triangle { v0, v1, v2 })
+            .map(|&[v0, v1, v2]| Triangle {
+                v0: v0.into(),
+                v1: v1.into(),
+                v2: v2.into(),
+            })
             .collect();
-        let bvh = build_cwbvh_from_tris(
+        let mut bvh = build_cwbvh_from_tris(
             &obvhs_tris,
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
-        let prim_tri = bvh.primitive_indices.clone();
+        // Traversal indexes the reordered `tris` directly; the map is only needed for results.
+        let prim_tri = std::mem::take(&mut bvh.primitive_indices);
         let tris = prim_tri.iter().map(|&i| corners[i as usize]).collect();
         Accel {
             mesh,
@@ -235,14 +252,20 @@ impl Accel {
         let mut best: Option<(u32, TriHit)> = None;
         let mut state = self.bvh.new_traversal(d);
         let mut node: &CwBvhNode;
-        obvhs::traverse!(self.bvh, node, state, br.intersect(node, state.oct_inv4, best_t), {
-            let prim = state.primitive_id;
-            let [v0, v1, v2] = self.tris[prim as usize];
-            if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, best_t) {
-                best_t = th.t;
-                best = Some((prim, th));
+        obvhs::traverse!(
+            self.bvh,
+            node,
+            state,
+            br.intersect(node, state.oct_inv4, best_t),
+            {
+                let prim = state.primitive_id;
+                let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
+                if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, best_t) {
+                    best_t = th.t;
+                    best = Some((prim, th));
+                }
             }
-        });
+        );
         best
     }
 
@@ -260,20 +283,33 @@ impl Accel {
         let mut node: &CwBvhNode;
         // A plain `break` would only leave the macro's inner primitive loop.
         'outer: {
-            obvhs::traverse!(self.bvh, node, state, br.intersect(node, state.oct_inv4, tmax), {
-                let [v0, v1, v2] = self.tris[state.primitive_id as usize];
-                if wr.intersect(v0, v1, v2, tmin, tmax).is_some() {
-                    hit = true;
-                    break 'outer;
+            obvhs::traverse!(
+                self.bvh,
+                node,
+                state,
+                br.intersect(node, state.oct_inv4, tmax),
+                {
+                    let [v0, v1, v2] = self.tris[state.primitive_id as usize].map(Vec3A::from);
+                    if wr.intersect(v0, v1, v2, tmin, tmax).is_some() {
+                        hit = true;
+                        break 'outer;
+                    }
                 }
-            });
+            );
         }
         hit
     }
 
     /// Call `f(prim, hit)` for every hit with `tmin < t < tmax`, in traversal order.
     #[inline]
-    fn for_each_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32, mut f: impl FnMut(u32, TriHit)) {
+    fn for_each_hit(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        mut f: impl FnMut(u32, TriHit),
+    ) {
         if !valid_ray(dir, tmin, tmax) || self.tris.is_empty() {
             return;
         }
@@ -282,13 +318,19 @@ impl Accel {
         let br = BoxRay::new(o, d, tmin);
         let mut state = self.bvh.new_traversal(d);
         let mut node: &CwBvhNode;
-        obvhs::traverse!(self.bvh, node, state, br.intersect(node, state.oct_inv4, tmax), {
-            let prim = state.primitive_id;
-            let [v0, v1, v2] = self.tris[prim as usize];
-            if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, tmax) {
-                f(prim, th);
+        obvhs::traverse!(
+            self.bvh,
+            node,
+            state,
+            br.intersect(node, state.oct_inv4, tmax),
+            {
+                let prim = state.primitive_id;
+                let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
+                if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, tmax) {
+                    f(prim, th);
+                }
             }
-        });
+        );
     }
 
     /// All hits with `tmin < t < tmax`, appended to `out` sorted by `t` (`out` is cleared first;
@@ -296,8 +338,10 @@ impl Accel {
     ///
     /// Each crossing of the surface is reported once, also through shared edges and vertices (the
     /// tie-break of [`crate::triangle`]), so no de-duplication is needed or done: hits at equal `t`
-    /// are distinct crossings (e.g. entering and leaving at a silhouette edge). Equal `t` are ordered
-    /// by triangle index.
+    /// are distinct crossings (e.g. entering and leaving at a silhouette edge). Along a full line
+    /// through a closed mesh the numbers of entering and leaving hits ([`Hit::entering`]) are
+    /// exactly equal. Equal `t` are ordered by triangle index; hits whose `t` differ by rounding
+    /// only (a ray grazing a vertex) may come out in either order.
     pub fn all_hits(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32, out: &mut Vec<Hit>) {
         out.clear();
         self.for_each_hit(origin, dir, tmin, tmax, |prim, th| {
@@ -307,10 +351,15 @@ impl Accel {
     }
 
     /// Total length of the segment `a → b` that lies inside the closed mesh. Whether `a` is inside
-    /// is decided by the facing of the first hit along the ray from `a` through `b` (a back-face
-    /// hit means inside); every crossing toggles.
+    /// is decided by the crossings along the ray from `a` through `b`: the number of leaving minus
+    /// entering hits on the whole ray (to infinity) is 1 inside and 0 outside, exactly, for a
+    /// closed mesh (the triangle test reports each crossing once with an exactly consistent
+    /// facing); when that count is neither (open mesh) the facing of the first hit decides (a
+    /// back-face hit means inside). Every crossing on the segment then toggles.
     ///
-    /// Allocation-free for up to 32 crossings on the segment (a heap buffer is used beyond).
+    /// Computed without sorting as `s(a)·L + Σ δᵢ·(L − tᵢ)` over the crossings `tᵢ < L` (δ = +1
+    /// entering, −1 leaving), clamped to [0, L], so two crossings whose order is decided by
+    /// rounding (a ray grazing a vertex) cost at most their distance. Allocation-free.
     pub fn inside_length(&self, a: Vec3, b: Vec3) -> f32 {
         let seg = b - a;
         let len = seg.length();
@@ -318,45 +367,53 @@ impl Accel {
             return 0.0;
         }
         let dir = seg / len;
-        let mut buf = CrossingBuf::new();
-        self.for_each_hit(a, dir, 0.0, len, |_, th| buf.push(th.t, th.front));
-        let crossings = buf.sorted();
-        let mut inside = match crossings.first() {
-            Some(&(_, entering)) => !entering,
-            None => {
-                // No crossing on the segment: the first hit beyond decides.
-                return match self.closest_prim(a, dir, 0.0, f32::INFINITY) {
-                    Some((_, th)) if !th.front => len,
-                    _ => 0.0,
-                };
+        let lenf = len as f64;
+        let mut winding = 0i32; // leaving − entering on (0, ∞)
+        let mut first = (f32::INFINITY, false); // (t, front) of the first hit
+        let mut sum = 0.0f64; // Σ δᵢ (L − tᵢ) over tᵢ < L
+        self.for_each_hit(a, dir, 0.0, f32::INFINITY, |_, th| {
+            winding += if th.front { -1 } else { 1 };
+            if th.t < first.0 {
+                first = (th.t, th.front);
             }
+            if th.t < len {
+                let delta = if th.front { 1.0 } else { -1.0 };
+                sum += delta * (lenf - th.t as f64);
+            }
+        });
+        let inside_a = match winding {
+            0 => 0.0,
+            1 => 1.0,
+            _ => (first.0.is_finite() && !first.1) as u8 as f64,
         };
-        let mut total = 0.0f32;
-        let mut last = 0.0f32;
-        for &(t, _) in crossings {
-            if inside {
-                total += t - last;
-            }
-            inside = !inside;
-            last = t;
-        }
-        if inside {
-            total += len - last;
-        }
-        total.clamp(0.0, len)
+        (inside_a * lenf + sum).clamp(0.0, lenf) as f32
     }
 
-    /// True when `p` is inside the closed mesh (facing of the first hit along a fixed direction).
+    /// True when `p` is inside the closed mesh: leaving minus entering hits along a fixed direction
+    /// is 1 (exact for closed meshes, see [`inside_length`](Self::inside_length)); falls back to
+    /// the facing of the first hit along that direction when the count is neither 0 nor 1.
     pub fn contains(&self, p: Vec3) -> bool {
         let dir = CONTAINS_DIR.normalize();
-        matches!(self.closest_prim(p, dir, 0.0, f32::INFINITY), Some((_, th)) if !th.front)
+        let mut winding = 0i32;
+        let mut first = (f32::INFINITY, false);
+        self.for_each_hit(p, dir, 0.0, f32::INFINITY, |_, th| {
+            winding += if th.front { -1 } else { 1 };
+            if th.t < first.0 {
+                first = (th.t, th.front);
+            }
+        });
+        match winding {
+            0 => false,
+            1 => true,
+            _ => first.0.is_finite() && !first.1,
+        }
     }
 
     /// Full hit record from a BVH-order primitive and the test's results.
     #[inline]
     fn make_hit(&self, prim: u32, th: TriHit, dir: Vec3) -> Hit {
         let TriHit { t, b1, b2, front } = th;
-        let [v0, v1, v2] = self.tris[prim as usize];
+        let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
         let b0 = 1.0 - b1 - b2;
         let p = Vec3::from(v0 * b0 + v1 * b1 + v2 * b2);
         let raw = (v1 - v0).cross(v2 - v0);
@@ -375,8 +432,14 @@ impl Accel {
         let ns = match &self.mesh.normals {
             Some(normals) => {
                 let [i0, i1, i2] = self.mesh.indices[tri as usize];
-                match (normals.get(i0 as usize), normals.get(i1 as usize), normals.get(i2 as usize)) {
-                    (Some(&n0), Some(&n1), Some(&n2)) => shading_normal(n0 * b0 + n1 * b1 + n2 * b2, ng),
+                match (
+                    normals.get(i0 as usize),
+                    normals.get(i1 as usize),
+                    normals.get(i2 as usize),
+                ) {
+                    (Some(&n0), Some(&n1), Some(&n2)) => {
+                        shading_normal(n0 * b0 + n1 * b1 + n2 * b2, ng)
+                    }
                     _ => ng,
                 }
             }
@@ -410,7 +473,9 @@ fn consistent_normal(ng: Vec3, dir: Vec3, front: bool) -> Vec3 {
 /// it about the tangent plane (keeps its tangential tilt); falls back to `ng`.
 #[inline]
 pub(crate) fn shading_normal(n: Vec3, ng: Vec3) -> Vec3 {
-    let Some(n) = n.try_normalize() else { return ng };
+    let Some(n) = n.try_normalize() else {
+        return ng;
+    };
     let c = n.dot(ng);
     if c >= 0.0 {
         n
@@ -425,47 +490,6 @@ fn valid_ray(dir: Vec3, tmin: f32, tmax: f32) -> bool {
     l2 > 0.0 && l2.is_finite() && tmin < tmax
 }
 
-/// Crossings (t, entering) of one segment: inline storage, heap only beyond 32.
-struct CrossingBuf {
-    inline: [(f32, bool); 32],
-    len: usize,
-    spill: Vec<(f32, bool)>,
-}
-
-impl CrossingBuf {
-    #[inline]
-    fn new() -> Self {
-        CrossingBuf {
-            inline: [(0.0, false); 32],
-            len: 0,
-            spill: Vec::new(),
-        }
-    }
-    #[inline]
-    fn push(&mut self, t: f32, entering: bool) {
-        if self.len < self.inline.len() {
-            self.inline[self.len] = (t, entering);
-            self.len += 1;
-        } else {
-            if self.spill.is_empty() {
-                self.spill.extend_from_slice(&self.inline);
-            }
-            self.spill.push((t, entering));
-        }
-    }
-    /// Sorted by t (ties: entering first is not assumed; order by facing for determinism).
-    #[inline]
-    fn sorted(&mut self) -> &[(f32, bool)] {
-        let s: &mut [(f32, bool)] = if self.spill.is_empty() {
-            &mut self.inline[..self.len]
-        } else {
-            &mut self.spill
-        };
-        s.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        s
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -473,7 +497,11 @@ mod tests {
     #[test]
     fn offset_origin_moves_to_the_right_side() {
         let ng = Vec3::new(0.3, -0.5, 0.8).normalize();
-        for p in [Vec3::new(0.7, -1.3, 2.5), Vec3::new(1e-3, 0.02, -0.01), Vec3::new(-300.0, 1e4, 0.5)] {
+        for p in [
+            Vec3::new(0.7, -1.3, 2.5),
+            Vec3::new(1e-3, 0.02, -0.01),
+            Vec3::new(-300.0, 1e4, 0.5),
+        ] {
             for dir in [ng, -ng, Vec3::new(0.9, 0.1, 0.0).normalize()] {
                 let q = offset_origin(p, ng, dir);
                 let side = (q - p).dot(ng);
@@ -486,7 +514,11 @@ mod tests {
     #[test]
     fn empty_mesh_never_hits() {
         let accel = Accel::new(Mesh::default());
-        assert!(accel.closest(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
+        assert!(
+            accel
+                .closest(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
+                .is_none()
+        );
         assert!(!accel.occluded(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY));
         assert!(!accel.contains(Vec3::ZERO));
         assert_eq!(accel.inside_length(Vec3::ZERO, Vec3::X), 0.0);
@@ -498,20 +530,34 @@ mod tests {
     #[test]
     fn single_triangle_and_degenerate_rays() {
         let mesh = Mesh {
-            positions: vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)],
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
             normals: None,
             indices: vec![[0, 1, 2]],
         };
         let accel = Accel::new(mesh);
-        let h = accel.closest(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let h = accel
+            .closest(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, 0.0, f32::INFINITY)
+            .unwrap();
         assert_eq!(h.t, 1.0);
         assert_eq!(h.tri, 0);
         assert_eq!(h.ng, Vec3::Z);
         assert_eq!(h.ns, Vec3::Z);
         assert!(h.entering(-Vec3::Z));
         assert!((h.p - Vec3::new(0.25, 0.25, 0.0)).length() < 1e-7);
-        assert!(accel.closest(Vec3::new(0.25, 0.25, 1.0), Vec3::ZERO, 0.0, f32::INFINITY).is_none());
-        assert!(accel.closest(Vec3::new(0.25, 0.25, 1.0), Vec3::NAN, 0.0, f32::INFINITY).is_none());
+        assert!(
+            accel
+                .closest(Vec3::new(0.25, 0.25, 1.0), Vec3::ZERO, 0.0, f32::INFINITY)
+                .is_none()
+        );
+        assert!(
+            accel
+                .closest(Vec3::new(0.25, 0.25, 1.0), Vec3::NAN, 0.0, f32::INFINITY)
+                .is_none()
+        );
         assert!(!accel.occluded(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, 0.0, 0.5));
         assert!(accel.occluded(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, 0.0, 1.5));
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum GeometryError {
     /// The file could not be opened or read.
-    #[error("{path}: cannot read mesh file: {source}")]
+    #[error("{path}: cannot read mesh file")]
     Io {
         path: PathBuf,
         #[source]

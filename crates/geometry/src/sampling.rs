@@ -43,7 +43,10 @@ impl AreaSampler {
                 acc
             })
             .collect();
-        AreaSampler { cdf, total_area: acc }
+        AreaSampler {
+            cdf,
+            total_area: acc,
+        }
     }
     pub fn total_area(&self) -> f64 {
         self.total_area
@@ -52,8 +55,16 @@ impl AreaSampler {
     #[inline]
     pub fn pick_triangle(&self, u0: f32) -> usize {
         let x = (u0 as f64).clamp(0.0, 1.0) * self.total_area;
-        // First i with cdf[i] > x (zero-area triangles are never chosen).
-        self.cdf.partition_point(|&c| c <= x).min(self.cdf.len().saturating_sub(1))
+        // First i with cdf[i] > x: zero-area triangles are never chosen.
+        let i = self.cdf.partition_point(|&c| c <= x);
+        if i < self.cdf.len() {
+            i
+        } else {
+            // u0 = 1: the last triangle of positive area (first to reach the total).
+            self.cdf
+                .partition_point(|&c| c < self.total_area)
+                .min(self.cdf.len().saturating_sub(1))
+        }
     }
     /// Probability of picking triangle `i` (its share of the area).
     pub fn triangle_probability(&self, i: usize) -> f64 {
@@ -66,7 +77,7 @@ impl AreaSampler {
     /// sample at the origin with `pdf = 0`.
     #[inline]
     pub fn sample(&self, mesh: &Mesh, u: [f32; 3]) -> SurfaceSample {
-        if self.cdf.is_empty() || !(self.total_area > 0.0) {
+        if self.cdf.is_empty() || self.total_area.is_nan() || self.total_area <= 0.0 {
             return SurfaceSample {
                 p: Vec3::ZERO,
                 ng: Vec3::Z,
@@ -90,8 +101,14 @@ impl AreaSampler {
         let ns = match &mesh.normals {
             Some(normals) => {
                 let [i0, i1, i2] = mesh.indices[i];
-                match (normals.get(i0 as usize), normals.get(i1 as usize), normals.get(i2 as usize)) {
-                    (Some(&n0), Some(&n1), Some(&n2)) => shading_normal(n0 * b0 + n1 * b1 + n2 * b2, ng),
+                match (
+                    normals.get(i0 as usize),
+                    normals.get(i1 as usize),
+                    normals.get(i2 as usize),
+                ) {
+                    (Some(&n0), Some(&n1), Some(&n2)) => {
+                        shading_normal(n0 * b0 + n1 * b1 + n2 * b2, ng)
+                    }
                     _ => ng,
                 }
             }
@@ -104,5 +121,32 @@ impl AreaSampler {
             tri: i as u32,
             pdf: (1.0 / self.total_area) as f32,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn never_picks_zero_area_triangles() {
+        let z = Vec3::ZERO;
+        let mesh = Mesh {
+            positions: vec![z, Vec3::X, Vec3::Y, Vec3::X * 2.0],
+            normals: None,
+            // zero-area, unit/2, zero-area, zero-area
+            indices: vec![[0, 1, 3], [0, 1, 2], [0, 3, 1], [0, 0, 2]],
+        };
+        let s = AreaSampler::new(&mesh);
+        assert_eq!(s.total_area(), 0.5);
+        for u0 in [0.0, 0.3, 0.999_999_94, 1.0] {
+            assert_eq!(s.pick_triangle(u0), 1, "u0 {u0}");
+            let smp = s.sample(&mesh, [u0, 0.5, 0.5]);
+            assert_eq!(smp.tri, 1);
+            assert_eq!(smp.pdf, 2.0);
+            assert_eq!(smp.ng, Vec3::Z);
+        }
+        let empty = AreaSampler::new(&Mesh::default());
+        assert_eq!(empty.sample(&Mesh::default(), [0.5; 3]).pdf, 0.0);
     }
 }

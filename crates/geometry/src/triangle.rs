@@ -112,8 +112,16 @@ impl WatertightRay {
     /// Returns `(t, b1, b2)` (hit point = (1 − b1 − b2)·v0 + b1·v1 + b2·v2) when the ray hits the
     /// triangle with `tmin < t < tmax`.
     #[inline]
-    pub fn intersect(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-        self.intersect_hit(v0, v1, v2, tmin, tmax).map(|h| (h.t, h.b1, h.b2))
+    pub fn intersect(
+        &self,
+        v0: Vec3A,
+        v1: Vec3A,
+        v2: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
+        self.intersect_hit(v0, v1, v2, tmin, tmax)
+            .map(|h| (h.t, h.b1, h.b2))
     }
 
     /// Like [`intersect`](Self::intersect), also reporting which face was hit as decided by the
@@ -122,7 +130,14 @@ impl WatertightRay {
     /// crossings: for a triangle seen exactly edge-on the sign of `dir · n` is rounding noise,
     /// while `front` is exactly consistent with which triangles were reported.
     #[inline]
-    pub fn intersect_hit(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> Option<TriHit> {
+    pub fn intersect_hit(
+        &self,
+        v0: Vec3A,
+        v1: Vec3A,
+        v2: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<TriHit> {
         let a = self.shear * (v0 - self.org);
         let b = self.shear * (v1 - self.org);
         let c = self.shear * (v2 - self.org);
@@ -228,12 +243,19 @@ mod tests {
 
     #[test]
     fn hits_both_faces_with_barycentrics() {
-        let (v0, v1, v2) = (vec3a(0.0, 0.0, 0.0), vec3a(1.0, 0.0, 0.0), vec3a(0.0, 1.0, 0.0));
+        let (v0, v1, v2) = (
+            vec3a(0.0, 0.0, 0.0),
+            vec3a(1.0, 0.0, 0.0),
+            vec3a(0.0, 1.0, 0.0),
+        );
         let down = WatertightRay::new(vec3a(0.25, 0.5, 2.0), vec3a(0.0, 0.0, -1.0));
         let (t, b1, b2) = down.intersect(v0, v1, v2, 0.0, f32::INFINITY).unwrap();
         assert_eq!((t, b1, b2), (2.0, 0.25, 0.5));
         let up = WatertightRay::new(vec3a(0.25, 0.5, -3.0), vec3a(0.0, 0.0, 1.0));
-        assert_eq!(up.intersect(v0, v1, v2, 0.0, f32::INFINITY), Some((3.0, 0.25, 0.5)));
+        assert_eq!(
+            up.intersect(v0, v1, v2, 0.0, f32::INFINITY),
+            Some((3.0, 0.25, 0.5))
+        );
         // Interval is open on both ends.
         assert!(down.intersect(v0, v1, v2, 2.0, 10.0).is_none());
         assert!(down.intersect(v0, v1, v2, 0.0, 2.0).is_none());
@@ -247,14 +269,27 @@ mod tests {
     #[test]
     fn shared_edge_and_vertex_reported_once() {
         // A square split along its diagonal, and a fan of 6 triangles around the origin.
-        let sq = [vec3a(0.0, 0.0, 0.0), vec3a(1.0, 0.0, 0.0), vec3a(1.0, 1.0, 0.0), vec3a(0.0, 1.0, 0.0)];
+        let sq = [
+            vec3a(0.0, 0.0, 0.0),
+            vec3a(1.0, 0.0, 0.0),
+            vec3a(1.0, 1.0, 0.0),
+            vec3a(0.0, 1.0, 0.0),
+        ];
         let tris = [[sq[0], sq[1], sq[2]], [sq[0], sq[2], sq[3]]];
-        for o in [vec3a(0.5, 0.5, 1.0), vec3a(0.0, 0.0, 1.0), vec3a(0.0, 0.5, 1.0), vec3a(0.3, 0.3, 1.0)] {
+        for o in [
+            vec3a(0.5, 0.5, 1.0),
+            vec3a(0.0, 0.0, 1.0),
+            vec3a(0.0, 0.5, 1.0),
+            vec3a(0.3, 0.3, 1.0),
+        ] {
             for dz in [-1.0f32, 1.0] {
                 let r = WatertightRay::new(o * vec3a(1.0, 1.0, -dz), vec3a(0.0, 0.0, dz));
                 let n = tris
                     .iter()
-                    .filter(|t| r.intersect(t[0], t[1], t[2], f32::NEG_INFINITY, f32::INFINITY).is_some())
+                    .filter(|t| {
+                        r.intersect(t[0], t[1], t[2], f32::NEG_INFINITY, f32::INFINITY)
+                            .is_some()
+                    })
                     .count();
                 assert_eq!(n, 1, "origin {o} dz {dz}");
             }
@@ -269,8 +304,14 @@ mod tests {
             let r = WatertightRay::new(vec3a(0.0, 0.0, -dz), vec3a(0.0, 0.0, dz));
             let n = (0..6)
                 .filter(|&i| {
-                    r.intersect(Vec3A::ZERO, ring[i], ring[(i + 1) % 6], f32::NEG_INFINITY, f32::INFINITY)
-                        .is_some()
+                    r.intersect(
+                        Vec3A::ZERO,
+                        ring[i],
+                        ring[(i + 1) % 6],
+                        f32::NEG_INFINITY,
+                        f32::INFINITY,
+                    )
+                    .is_some()
                 })
                 .count();
             assert_eq!(n, 1);
@@ -280,7 +321,13 @@ mod tests {
     #[test]
     fn degenerate_ray_hits_nothing() {
         let r = WatertightRay::new(vec3a(0.2, 0.2, 1.0), Vec3A::ZERO);
-        let hit = r.intersect(vec3a(0.0, 0.0, 0.0), vec3a(1.0, 0.0, 0.0), vec3a(0.0, 1.0, 0.0), 0.0, f32::INFINITY);
+        let hit = r.intersect(
+            vec3a(0.0, 0.0, 0.0),
+            vec3a(1.0, 0.0, 0.0),
+            vec3a(0.0, 1.0, 0.0),
+            0.0,
+            f32::INFINITY,
+        );
         assert!(hit.is_none());
     }
 }

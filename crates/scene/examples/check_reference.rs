@@ -25,6 +25,18 @@ fn main() {
         ds.truth
     );
     println!("render {:?}", ds.render);
+    match ds.load_mesh() {
+        Ok((mesh, warnings)) => println!(
+            "mesh: {} triangles, signed volume {:.6}, warnings {:?}",
+            mesh.triangle_count(),
+            mesh.signed_volume(),
+            warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>()
+        ),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(1);
+        }
+    }
     let mut worst = 0.0f64;
     for (i, v) in ds.views.iter().enumerate() {
         let img = v.image.as_ref().expect("images are loaded");

@@ -111,7 +111,7 @@ impl Camera {
 
     /// Check the camera: resolution > 0 (at most 65536 per side), fov in (0°, 180°), finite
     /// origin, rotation orthonormal and right-handed (tolerance 1e-3). `context` (e.g.
-    /// "dataset.json: views[3].camera") goes into the error.
+    /// "dataset.json: views\[3\].camera") goes into the error.
     pub fn validate(&self, context: &str) -> Result<(), SceneError> {
         self.validate_named(context, "fov")
     }

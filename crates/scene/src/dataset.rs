@@ -1589,7 +1589,10 @@ render = { spp = 64, max_depth = 32, seed = 3 }
             "view 1 looks at the origin"
         );
         assert_eq!(b.height, 48);
-        assert_eq!(ds.views[1].light.intensity, [0.7853982; 3]);
+        assert_eq!(
+            ds.views[1].light.intensity,
+            [std::f32::consts::FRAC_PI_4; 3]
+        );
         assert_eq!(ds.render.max_depth, Some(32));
     }
 

@@ -4,14 +4,14 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{path}: {source}")]
+    #[error("{path}: cannot read or write this file")]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
     /// A field has an invalid value. `location` is "file: field.path".
-    #[error("{location}: {reason}")]
+    #[error("{}", join_location(location, reason))]
     Invalid { location: String, reason: String },
     /// The file does not parse.
     #[error("{path}: {reason}")]
@@ -21,4 +21,14 @@ pub enum SceneError {
     Exists { path: PathBuf },
     #[error(transparent)]
     Geometry(#[from] geometry::GeometryError),
+}
+
+/// "file: field = value: reason" when the reason starts with the value ("= …"), else
+/// "file: field: reason".
+fn join_location(location: &str, reason: &str) -> String {
+    if reason.starts_with("= ") {
+        format!("{location} {reason}")
+    } else {
+        format!("{location}: {reason}")
+    }
 }

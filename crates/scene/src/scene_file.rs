@@ -1222,6 +1222,62 @@ intensity = [1, 1, 1]
         assert!(msg.contains("render.spp"), "{msg}");
     }
 
+    #[test]
+    fn load_mesh_builds_shapes_and_reads_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let rig = r#"rig = { views = 1, radius = 3, width = 4, height = 4, light = "attached", intensity = 1 }
+medium = { sigma_t = 1, albedo = 0.5 }
+"#;
+        let s = SceneDesc::parse(
+            &format!("shape = {{ name = \"sphere\", subdivisions = 1 }}\n{rig}"),
+            &dir.path().join("a.toml"),
+        )
+        .unwrap();
+        let (mesh, warnings) = s.load_mesh().unwrap();
+        assert_eq!(mesh.triangle_count(), 80);
+        assert!(warnings.is_empty());
+        // A tetrahedron with inward-facing triangles: loads, flipped, with a warning.
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
+        let inward = {
+            // Orient every face outward, then reverse them all.
+            let p = [
+                [0.0f32, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ]
+            .map(Vec3::from_array);
+            let centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+            let mut text: String = obj
+                .lines()
+                .filter(|l| l.starts_with('v'))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            for f in [[0usize, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]] {
+                let n = (p[f[1]] - p[f[0]]).cross(p[f[2]] - p[f[0]]);
+                let out = n.dot(p[f[0]] - centre) > 0.0;
+                let f = if out { [f[0], f[2], f[1]] } else { f };
+                text.push_str(&format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1));
+            }
+            text
+        };
+        std::fs::write(dir.path().join("tet.obj"), inward).unwrap();
+        let s = SceneDesc::parse(
+            &format!("mesh = \"tet.obj\"\n{rig}"),
+            &dir.path().join("b.toml"),
+        )
+        .unwrap();
+        let (mesh, warnings) = s.load_mesh().unwrap();
+        assert_eq!(mesh.triangle_count(), 4);
+        assert!(mesh.signed_volume() > 0.0);
+        assert!(
+            warnings
+                .iter()
+                .any(|w| matches!(w, geometry::MeshWarning::Flipped { .. })),
+            "{warnings:?}"
+        );
+    }
+
     /// The fenced blocks of a markdown file with the given language tag.
     pub(crate) fn code_blocks(md: &str, lang: &str) -> Vec<String> {
         let mut out = Vec::new();

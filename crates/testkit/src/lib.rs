@@ -122,7 +122,11 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2R
     }
     assert!(bins >= 2, "chi2_test: fewer than two usable bins");
     let dof = bins - 1;
-    Chi2Result { statistic: stat, dof, p_value: gamma_q(dof as f64 / 2.0, stat / 2.0) }
+    Chi2Result {
+        statistic: stat,
+        dof,
+        p_value: gamma_q(dof as f64 / 2.0, stat / 2.0),
+    }
 }
 
 /// Running mean and standard error of i.i.d. samples (Welford).
@@ -147,7 +151,11 @@ impl MeanEstimate {
         self.mean
     }
     pub fn variance(&self) -> f64 {
-        if self.n < 2 { 0.0 } else { self.m2 / (self.n - 1) as f64 }
+        if self.n < 2 {
+            0.0
+        } else {
+            self.m2 / (self.n - 1) as f64
+        }
     }
     /// Standard error of the mean.
     pub fn std_error(&self) -> f64 {
@@ -157,7 +165,11 @@ impl MeanEstimate {
     pub fn z_score(&self, expected: f64) -> f64 {
         let se = self.std_error();
         if se == 0.0 {
-            if (self.mean - expected).abs() < 1e-12 { 0.0 } else { f64::INFINITY }
+            if (self.mean - expected).abs() < 1e-12 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
         } else {
             (self.mean - expected).abs() / se
         }
@@ -175,7 +187,7 @@ mod tests {
         assert!((gamma_q(5.0, 18.307_038 / 2.0) - 0.05).abs() < 1e-6);
         // Q(1, x) = e^{-x}.
         for x in [0.1, 1.0, 5.0, 30.0] {
-            assert!((gamma_q(1.0, x) - (-x as f64).exp()).abs() < 1e-12);
+            assert!((gamma_q(1.0, x) - (-x).exp()).abs() < 1e-12);
         }
         assert!((ln_gamma(5.0) - 24f64.ln()).abs() < 1e-12);
     }
@@ -183,8 +195,12 @@ mod tests {
     #[test]
     fn chi2_rejects_wrong_and_accepts_right() {
         let expected = vec![100.0; 10];
-        let good = vec![95.0, 105.0, 98.0, 102.0, 100.0, 97.0, 103.0, 99.0, 101.0, 100.0];
-        let bad = vec![150.0, 50.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0];
+        let good = vec![
+            95.0, 105.0, 98.0, 102.0, 100.0, 97.0, 103.0, 99.0, 101.0, 100.0,
+        ];
+        let bad = vec![
+            150.0, 50.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0,
+        ];
         assert!(chi2_test(&good, &expected, 5.0).p_value > 0.5);
         assert!(chi2_test(&bad, &expected, 5.0).p_value < 1e-6);
     }

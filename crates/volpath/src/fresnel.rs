@@ -31,7 +31,11 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 #[inline]
 pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     // Orient the normal against the incoming direction.
-    let (n, cos_i) = if d.dot(n) < 0.0 { (n, -d.dot(n)) } else { (-n, d.dot(n)) };
+    let (n, cos_i) = if d.dot(n) < 0.0 {
+        (n, -d.dot(n))
+    } else {
+        (-n, d.dot(n))
+    };
     let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
     if sin2_t >= 1.0 {
         return None;

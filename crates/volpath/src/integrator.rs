@@ -51,7 +51,11 @@ pub struct VolpathSettings {
 
 impl Default for VolpathSettings {
     fn default() -> Self {
-        VolpathSettings { max_depth: 32, rr_depth: 5, channel_sampling: ChannelSampling::SpectralMis }
+        VolpathSettings {
+            max_depth: 32,
+            rr_depth: 5,
+            channel_sampling: ChannelSampling::SpectralMis,
+        }
     }
 }
 
@@ -68,7 +72,13 @@ pub struct VolpathScene<'a> {
 const MAX_INTERFACE_EVENTS: u32 = 1024;
 
 /// Estimate the radiance arriving at `origin` along `-dir` (one sample, RGB).
-pub fn radiance(scene: &VolpathScene, settings: &VolpathSettings, origin: Vec3, dir: Vec3, s: &mut Sampler) -> [f32; 3] {
+pub fn radiance(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    origin: Vec3,
+    dir: Vec3,
+    s: &mut Sampler,
+) -> [f32; 3] {
     let m = &scene.medium;
     let phase = HenyeyGreenstein { g: m.g };
     let hero = s.next_below(3) as usize;
@@ -89,7 +99,9 @@ pub fn radiance(scene: &VolpathScene, settings: &VolpathSettings, origin: Vec3, 
             if let Some(hit) = scene.accel.closest(o, d, 0.0, t) {
                 w.pass(&m.sigma_t, hit.t);
                 interface_events += 1;
-                if interface_events > MAX_INTERFACE_EVENTS || !cross_interface(m.eta, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
+                if interface_events > MAX_INTERFACE_EVENTS
+                    || !cross_interface(m.eta, &hit, &mut o, &mut d, &mut inside, &mut w, s)
+                {
                     break;
                 }
                 continue;
@@ -101,10 +113,10 @@ pub fn radiance(scene: &VolpathScene, settings: &VolpathSettings, origin: Vec3, 
             if depth >= settings.max_depth {
                 break;
             }
-            if let Some(light) = &scene.light {
-                if m.eta == 1.0 {
-                    next_event(scene, &phase, light, o, d, &w, &mut l);
-                }
+            if let Some(light) = &scene.light
+                && m.eta == 1.0
+            {
+                next_event(scene, &phase, light, o, d, &w, &mut l);
             }
             if depth > settings.rr_depth {
                 // Roulette only paths whose weight fell below 1 (pbrt-v4): survival q = max β.
@@ -124,15 +136,17 @@ pub fn radiance(scene: &VolpathScene, settings: &VolpathSettings, origin: Vec3, 
             match scene.accel.closest(o, d, 0.0, f32::INFINITY) {
                 None => {
                     if let Some(env) = &scene.environment {
-                        for c in 0..3 {
-                            l[c] += w.beta[c] * env.radiance[c];
+                        for ((l, b), e) in l.iter_mut().zip(w.beta).zip(env.radiance) {
+                            *l += b * e;
                         }
                     }
                     break;
                 }
                 Some(hit) => {
                     interface_events += 1;
-                    if interface_events > MAX_INTERFACE_EVENTS || !cross_interface(m.eta, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
+                    if interface_events > MAX_INTERFACE_EVENTS
+                        || !cross_interface(m.eta, &hit, &mut o, &mut d, &mut inside, &mut w, s)
+                    {
                         break;
                     }
                 }
@@ -150,7 +164,15 @@ pub fn radiance(scene: &VolpathScene, settings: &VolpathSettings, origin: Vec3, 
 /// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
 /// β · f_p(d, ω_l) · exp(−σ_t ℓ_inside) · I / r².
 #[inline]
-fn next_event(scene: &VolpathScene, phase: &HenyeyGreenstein, light: &PointLight, p: Vec3, d: Vec3, w: &SpectralWeight, l: &mut [f32; 3]) {
+fn next_event(
+    scene: &VolpathScene,
+    phase: &HenyeyGreenstein,
+    light: &PointLight,
+    p: Vec3,
+    d: Vec3,
+    w: &SpectralWeight,
+    l: &mut [f32; 3],
+) {
     let to_l = light.position - p;
     let r2 = to_l.length_squared();
     if r2 <= 0.0 {
@@ -159,8 +181,8 @@ fn next_event(scene: &VolpathScene, phase: &HenyeyGreenstein, light: &PointLight
     let dir_l = to_l / r2.sqrt();
     let f = phase.eval(d, dir_l) / r2;
     let len_in = scene.accel.inside_length(p, light.position);
-    for c in 0..3 {
-        l[c] += w.beta[c] * f * (-scene.medium.sigma_t[c] * len_in).exp() * light.intensity[c];
+    for (c, l) in l.iter_mut().enumerate() {
+        *l += w.beta[c] * f * (-scene.medium.sigma_t[c] * len_in).exp() * light.intensity[c];
     }
 }
 
@@ -169,7 +191,15 @@ fn next_event(scene: &VolpathScene, phase: &HenyeyGreenstein, light: &PointLight
 /// 1/η_rel². Updates position (offset off the surface), direction and the inside flag.
 /// Returns false when the path must end (shading-normal inconsistency).
 #[inline]
-fn cross_interface(eta: f32, hit: &Hit, o: &mut Vec3, d: &mut Vec3, inside: &mut bool, w: &mut SpectralWeight, s: &mut Sampler) -> bool {
+fn cross_interface(
+    eta: f32,
+    hit: &Hit,
+    o: &mut Vec3,
+    d: &mut Vec3,
+    inside: &mut bool,
+    w: &mut SpectralWeight,
+    s: &mut Sampler,
+) -> bool {
     let entering = hit.entering(*d);
     if eta == 1.0 {
         *inside = entering;
@@ -190,7 +220,9 @@ fn cross_interface(eta: f32, hit: &Hit, o: &mut Vec3, d: &mut Vec3, inside: &mut
         *o = offset_origin(hit.p, hit.ng, r);
         *inside = !entering;
     } else {
-        let Some(t) = refract(*d, n, eta_rel) else { return false };
+        let Some(t) = refract(*d, n, eta_rel) else {
+            return false;
+        };
         if t.dot(hit.ng) * side_in <= 0.0 {
             return false;
         }

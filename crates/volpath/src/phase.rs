@@ -50,6 +50,7 @@ impl HenyeyGreenstein {
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let phi = 2.0 * std::f32::consts::PI * u2;
         let f = Frame::from_normal(d_in);
-        f.to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)).normalize()
+        f.to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
+            .normalize()
     }
 }

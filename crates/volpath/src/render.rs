@@ -24,36 +24,48 @@ pub struct RenderSettings {
 pub fn pixel_jitter(i: u32, key: u64, s: &mut Sampler) -> (f32, f32) {
     if i < (1 << 16) {
         let seed = key as u32;
-        (sobol_burley::sample(i, 0, seed), sobol_burley::sample(i, 1, seed))
+        (
+            sobol_burley::sample(i, 0, seed),
+            sobol_burley::sample(i, 1, seed),
+        )
     } else {
         (s.next_f32(), s.next_f32())
     }
 }
 
 /// Render one view. `progress` is advanced by one per finished row.
-pub fn render_image(scene: &VolpathScene, settings: &VolpathSettings, camera: &Camera, rs: &RenderSettings, progress: Option<&ProgressBar>) -> Image {
+pub fn render_image(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    camera: &Camera,
+    rs: &RenderSettings,
+    progress: Option<&ProgressBar>,
+) -> Image {
     let (w, h) = (camera.width, camera.height);
     let mut img = Image::new(w, h);
-    img.data.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
-        for (x, px) in row.iter_mut().enumerate() {
-            let pixel = y as u64 * w as u64 + x as u64;
-            let mut s = Sampler::new(rs.seed, rs.view, pixel, 0);
-            let key = hash_key(&[rs.seed, rs.view, pixel, 1]);
-            let mut acc = [0.0f64; 3];
-            for i in 0..rs.spp {
-                let (jx, jy) = pixel_jitter(i, key, &mut s);
-                let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
-                let l = radiance(scene, settings, o, d, &mut s);
-                for c in 0..3 {
-                    acc[c] += l[c] as f64;
+    img.data
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, px) in row.iter_mut().enumerate() {
+                let pixel = y as u64 * w as u64 + x as u64;
+                let mut s = Sampler::new(rs.seed, rs.view, pixel, 0);
+                let key = hash_key(&[rs.seed, rs.view, pixel, 1]);
+                let mut acc = [0.0f64; 3];
+                for i in 0..rs.spp {
+                    let (jx, jy) = pixel_jitter(i, key, &mut s);
+                    let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
+                    let l = radiance(scene, settings, o, d, &mut s);
+                    for c in 0..3 {
+                        acc[c] += l[c] as f64;
+                    }
                 }
+                let inv = 1.0 / rs.spp.max(1) as f64;
+                *px = acc.map(|v| (v * inv) as f32);
             }
-            let inv = 1.0 / rs.spp.max(1) as f64;
-            *px = acc.map(|v| (v * inv) as f32);
-        }
-        if let Some(pb) = progress {
-            pb.inc(1);
-        }
-    });
+            if let Some(pb) = progress {
+                pb.inc(1);
+            }
+        });
     img
 }

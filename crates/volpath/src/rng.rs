@@ -16,7 +16,9 @@ pub fn mix64(mut z: u64) -> u64 {
 /// Hash a list of integers into one 64-bit key.
 #[inline]
 pub fn hash_key(parts: &[u64]) -> u64 {
-    parts.iter().fold(0x5851_F42D_4C95_7F2D, |h, &p| mix64(h ^ mix64(p)))
+    parts
+        .iter()
+        .fold(0x5851_F42D_4C95_7F2D, |h, &p| mix64(h ^ mix64(p)))
 }
 
 /// A per-pixel (or per-task) uniform random stream: PCG32 seeded from a hashed key.
@@ -27,7 +29,9 @@ pub struct Sampler {
 impl Sampler {
     /// Stream for `(seed, view, pixel)`; `purpose` separates independent uses of the same pixel.
     pub fn new(seed: u64, view: u64, pixel: u64, purpose: u64) -> Self {
-        Sampler { rng: Pcg32::seed_from_u64(hash_key(&[seed, view, pixel, purpose])) }
+        Sampler {
+            rng: Pcg32::seed_from_u64(hash_key(&[seed, view, pixel, purpose])),
+        }
     }
 
     /// Uniform in [0, 1) with 24 bits of resolution.

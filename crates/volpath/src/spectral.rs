@@ -31,13 +31,23 @@ impl SpectralWeight {
     /// A fresh path with the given hero channel (chosen uniformly by the caller) and unit weight,
     /// using the balance heuristic over channels.
     pub fn new(hero: usize) -> Self {
-        SpectralWeight { hero, beta: [1.0; 3], r: [1.0; 3], mis: true }
+        SpectralWeight {
+            hero,
+            beta: [1.0; 3],
+            r: [1.0; 3],
+            mis: true,
+        }
     }
 
     /// Like [`SpectralWeight::new`] but with plain single-channel sampling: β_k = f_k / p_h, as
     /// Mitsuba 3's RGB `volpath` does (unbiased, higher variance). For comparisons.
     pub fn new_single_channel(hero: usize) -> Self {
-        SpectralWeight { hero, beta: [1.0; 3], r: [1.0; 3], mis: false }
+        SpectralWeight {
+            hero,
+            beta: [1.0; 3],
+            r: [1.0; 3],
+            mis: false,
+        }
     }
 
     /// Sample a free-flight distance with the hero channel's extinction: t = −ln(1 − u)/σ_t[h].
@@ -136,7 +146,11 @@ mod tests {
             let mean = sum[k] / n as f64;
             let var = sum2[k] / n as f64 - mean * mean;
             let se = (var / n as f64).sqrt();
-            assert!((mean - albedo[k] as f64).abs() < 5.0 * se + 1e-6, "channel {k}: {mean} vs {}", albedo[k]);
+            assert!(
+                (mean - albedo[k] as f64).abs() < 5.0 * se + 1e-6,
+                "channel {k}: {mean} vs {}",
+                albedo[k]
+            );
         }
     }
 
@@ -165,7 +179,10 @@ mod tests {
             let var = sum2[k] / n as f64 - mean * mean;
             let se = (var / n as f64).sqrt();
             let expect = (-sigma_t[k] as f64 * l as f64).exp();
-            assert!((mean - expect).abs() < 5.0 * se, "channel {k}: {mean} vs {expect}");
+            assert!(
+                (mean - expect).abs() < 5.0 * se,
+                "channel {k}: {mean} vs {expect}"
+            );
         }
     }
 }

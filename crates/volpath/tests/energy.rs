@@ -27,26 +27,53 @@ use volpath::rng::{Sampler, hash_key};
 use volpath::{VolpathScene, VolpathSettings, radiance};
 
 fn sphere(radius: f32, subdivisions: u32) -> Accel {
-    Accel::new(Shape::Sphere { radius, subdivisions }.build().expect("sphere"))
+    Accel::new(
+        Shape::Sphere {
+            radius,
+            subdivisions,
+        }
+        .build()
+        .expect("sphere"),
+    )
 }
 
 /// A spherical shell: outer sphere plus an inward-facing inner sphere (the cavity).
 fn shell(outer: f32, inner: f32) -> Accel {
-    let mut mesh = Shape::Sphere { radius: outer, subdivisions: 5 }.build().unwrap();
-    let cavity = Shape::Sphere { radius: inner, subdivisions: 4 }.build().unwrap();
+    let mut mesh = Shape::Sphere {
+        radius: outer,
+        subdivisions: 5,
+    }
+    .build()
+    .unwrap();
+    let cavity = Shape::Sphere {
+        radius: inner,
+        subdivisions: 4,
+    }
+    .build()
+    .unwrap();
     let base = mesh.positions.len() as u32;
     mesh.positions.extend(&cavity.positions);
     if let (Some(n), Some(cn)) = (mesh.normals.as_mut(), cavity.normals.as_ref()) {
         n.extend(cn.iter().map(|v| -*v));
     }
-    mesh.indices.extend(cavity.indices.iter().map(|[a, b, c]| [base + a, base + c, base + b]));
+    mesh.indices.extend(
+        cavity
+            .indices
+            .iter()
+            .map(|[a, b, c]| [base + a, base + c, base + b]),
+    );
     let warnings = geometry::mesh::validate(&mut mesh, "shell").unwrap();
     assert!(warnings.is_empty(), "{warnings:?}");
     Accel::new(mesh)
 }
 
 /// Run `f(sample value, film cos θ)` over `spp` jittered samples of every pixel.
-fn for_each_sample(camera: &Camera, spp: u32, seed: u64, mut f: impl FnMut(Vec3, Vec3, &mut Sampler)) {
+fn for_each_sample(
+    camera: &Camera,
+    spp: u32,
+    seed: u64,
+    mut f: impl FnMut(Vec3, Vec3, &mut Sampler),
+) {
     for y in 0..camera.height {
         for x in 0..camera.width {
             let pixel = (y * camera.width + x) as u64;
@@ -64,16 +91,32 @@ fn for_each_sample(camera: &Camera, spp: u32, seed: u64, mut f: impl FnMut(Vec3,
 const Z_MAX: f64 = 4.5;
 
 fn unlimited() -> VolpathSettings {
-    VolpathSettings { max_depth: u32::MAX, ..Default::default() }
+    VolpathSettings {
+        max_depth: u32::MAX,
+        ..Default::default()
+    }
 }
 
 #[test]
 fn white_furnace_environment_any_eta() {
     let accel = sphere(0.5, 4);
     let cam = Camera::look_at(Vec3::new(0.0, 0.4, 2.0), Vec3::ZERO, Vec3::Y, 35.0, 16, 16);
-    for (case, (eta, g)) in [(1.0f32, 0.0f32), (1.0, 0.6), (1.5, 0.0), (1.33, -0.3)].into_iter().enumerate() {
-        let medium = Medium { sigma_t: [3.0, 8.0, 15.0], albedo: [1.0; 3], g, eta };
-        let scene = VolpathScene { accel: &accel, medium, light: None, environment: Some(Environment { radiance: [1.0; 3] }) };
+    for (case, (eta, g)) in [(1.0f32, 0.0f32), (1.0, 0.6), (1.5, 0.0), (1.33, -0.3)]
+        .into_iter()
+        .enumerate()
+    {
+        let medium = Medium {
+            sigma_t: [3.0, 8.0, 15.0],
+            albedo: [1.0; 3],
+            g,
+            eta,
+        };
+        let scene = VolpathScene {
+            accel: &accel,
+            medium,
+            light: None,
+            environment: Some(Environment { radiance: [1.0; 3] }),
+        };
         let mut est = [MeanEstimate::default(); 3];
         for_each_sample(&cam, 256, 100 + case as u64, |o, d, s| {
             let l = radiance(&scene, &unlimited(), o, d, s);
@@ -82,8 +125,17 @@ fn white_furnace_environment_any_eta() {
             }
         });
         for c in 0..3 {
-            eprintln!("furnace η={eta} g={g} channel {c}: {:.5} ± {:.5}", est[c].mean(), est[c].std_error());
-            assert!(est[c].z_score(1.0) < Z_MAX, "furnace η={eta} g={g} channel {c}: mean {} ± {}", est[c].mean(), est[c].std_error());
+            eprintln!(
+                "furnace η={eta} g={g} channel {c}: {:.5} ± {:.5}",
+                est[c].mean(),
+                est[c].std_error()
+            );
+            assert!(
+                est[c].z_score(1.0) < Z_MAX,
+                "furnace η={eta} g={g} channel {c}: mean {} ± {}",
+                est[c].mean(),
+                est[c].std_error()
+            );
         }
     }
 }
@@ -92,8 +144,21 @@ fn white_furnace_environment_any_eta() {
 fn point_light_in_sphere_conserves_energy() {
     let accel = shell(0.5, 0.2);
     let intensity = [1.0f32, 2.0, 0.5];
-    let medium = Medium { sigma_t: [2.0, 4.0, 8.0], albedo: [1.0; 3], g: 0.0, eta: 1.0 };
-    let scene = VolpathScene { accel: &accel, medium, light: Some(PointLight { position: Vec3::ZERO, intensity }), environment: None };
+    let medium = Medium {
+        sigma_t: [2.0, 4.0, 8.0],
+        albedo: [1.0; 3],
+        g: 0.0,
+        eta: 1.0,
+    };
+    let scene = VolpathScene {
+        accel: &accel,
+        medium,
+        light: Some(PointLight {
+            position: Vec3::ZERO,
+            intensity,
+        }),
+        environment: None,
+    };
     let dist = 3.0f32;
     let cam_pos = Vec3::new(0.0, 0.0, dist);
     let cam = Camera::look_at(cam_pos, Vec3::ZERO, Vec3::Y, 24.0, 24, 24);
@@ -110,19 +175,39 @@ fn point_light_in_sphere_conserves_energy() {
         }
     });
     for c in 0..3 {
-        let expect = intensity[c] as f64 * (1.0 - (-(medium.sigma_t[c] as f64) * chord).exp()) / (dist as f64 * dist as f64);
+        let expect = intensity[c] as f64 * (1.0 - (-(medium.sigma_t[c] as f64) * chord).exp())
+            / (dist as f64 * dist as f64);
         let z = est[c].z_score(expect);
         let rel = (est[c].mean() - expect).abs() / expect;
-        eprintln!("point light channel {c}: E = {:.6} ± {:.6}, closed form {expect:.6}", est[c].mean(), est[c].std_error());
-        assert!(z < Z_MAX || rel < 1e-3, "channel {c}: E = {} ± {} expected {expect} (z = {z:.2})", est[c].mean(), est[c].std_error());
+        eprintln!(
+            "point light channel {c}: E = {:.6} ± {:.6}, closed form {expect:.6}",
+            est[c].mean(),
+            est[c].std_error()
+        );
+        assert!(
+            z < Z_MAX || rel < 1e-3,
+            "channel {c}: E = {} ± {} expected {expect} (z = {z:.2})",
+            est[c].mean(),
+            est[c].std_error()
+        );
     }
 }
 
 #[test]
 fn dielectric_absorber_shows_fresnel_reflectance() {
     let accel = sphere(0.5, 4);
-    let medium = Medium { sigma_t: [1e5; 3], albedo: [0.0; 3], g: 0.0, eta: 1.5 };
-    let scene = VolpathScene { accel: &accel, medium, light: None, environment: Some(Environment { radiance: [1.0; 3] }) };
+    let medium = Medium {
+        sigma_t: [1e5; 3],
+        albedo: [0.0; 3],
+        g: 0.0,
+        eta: 1.5,
+    };
+    let scene = VolpathScene {
+        accel: &accel,
+        medium,
+        light: None,
+        environment: Some(Environment { radiance: [1.0; 3] }),
+    };
     let cam = Camera::look_at(Vec3::new(0.0, 0.0, 2.5), Vec3::ZERO, Vec3::Y, 30.0, 24, 24);
     // Per sample: value − F(cos θ) at the shading normal hit (0 for missed rays, value 1).
     let mut diff = MeanEstimate::default();
@@ -139,14 +224,29 @@ fn dielectric_absorber_shows_fresnel_reflectance() {
         diff.push(l[0] as f64 - expect);
     });
     assert!(hits > 1000);
-    assert!(diff.z_score(0.0) < Z_MAX, "mean(L − F) = {} ± {}", diff.mean(), diff.std_error());
+    assert!(
+        diff.z_score(0.0) < Z_MAX,
+        "mean(L − F) = {} ± {}",
+        diff.mean(),
+        diff.std_error()
+    );
 }
 
 #[test]
 fn clear_glass_ball_transmits_everything() {
     let accel = sphere(0.5, 4);
-    let medium = Medium { sigma_t: [1e-6; 3], albedo: [0.5; 3], g: 0.0, eta: 1.5 };
-    let scene = VolpathScene { accel: &accel, medium, light: None, environment: Some(Environment { radiance: [1.0; 3] }) };
+    let medium = Medium {
+        sigma_t: [1e-6; 3],
+        albedo: [0.5; 3],
+        g: 0.0,
+        eta: 1.5,
+    };
+    let scene = VolpathScene {
+        accel: &accel,
+        medium,
+        light: None,
+        environment: Some(Environment { radiance: [1.0; 3] }),
+    };
     let cam = Camera::look_at(Vec3::new(0.0, 0.0, 2.5), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
     let mut est = MeanEstimate::default();
     for_each_sample(&cam, 16, 22, |o, d, s| {
@@ -154,5 +254,9 @@ fn clear_glass_ball_transmits_everything() {
     });
     // Every path carries exactly 1: reflection/refraction are chosen with probability F / 1 − F
     // and the entering (1/η²) and leaving (η²) radiance factors cancel; absorption ≈ 1e-6.
-    assert!((est.mean() - 1.0).abs() < 1e-4, "glass ball mean {}", est.mean());
+    assert!(
+        (est.mean() - 1.0).abs() < 1e-4,
+        "glass ball mean {}",
+        est.mean()
+    );
 }

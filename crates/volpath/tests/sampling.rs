@@ -40,7 +40,9 @@ fn henyey_greenstein_sampling_matches_its_density() {
             assert!((w.length() - 1.0).abs() < 1e-4);
             let l = frame.to_local(w);
             let cos_t = l.z.clamp(-1.0, 1.0) as f64;
-            let phi = (l.y as f64).atan2(l.x as f64).rem_euclid(2.0 * std::f64::consts::PI);
+            let phi = (l.y as f64)
+                .atan2(l.x as f64)
+                .rem_euclid(2.0 * std::f64::consts::PI);
             let i = (((cos_t + 1.0) / 2.0 * n_theta as f64) as usize).min(n_theta - 1);
             let j = ((phi / (2.0 * std::f64::consts::PI) * n_phi as f64) as usize).min(n_phi - 1);
             obs[i * n_phi + j] += 1.0;
@@ -50,15 +52,26 @@ fn henyey_greenstein_sampling_matches_its_density() {
             let a = -1.0 + 2.0 * i as f64 / n_theta as f64;
             let b = a + 2.0 / n_theta as f64;
             // ∫ p(μ) dμ dφ over the bin = 2π/n_phi · ∫ p(μ) dμ.
-            let p = simpson(|mu| hg.eval_cos(mu as f32) as f64, a, b, 400) * 2.0 * std::f64::consts::PI / n_phi as f64;
+            let p =
+                simpson(|mu| hg.eval_cos(mu as f32) as f64, a, b, 400) * 2.0 * std::f64::consts::PI
+                    / n_phi as f64;
             for j in 0..n_phi {
                 exp[i * n_phi + j] = p * n as f64;
             }
         }
         let total: f64 = exp.iter().sum();
-        assert!((total / n as f64 - 1.0).abs() < 1e-3, "HG density does not integrate to 1 for g={g}: {total}");
+        assert!(
+            (total / n as f64 - 1.0).abs() < 1e-3,
+            "HG density does not integrate to 1 for g={g}: {total}"
+        );
         let r = chi2_test(&obs, &exp, 5.0);
-        assert!(r.p_value > ALPHA, "HG g={g}: χ²={} dof={} p={}", r.statistic, r.dof, r.p_value);
+        assert!(
+            r.p_value > ALPHA,
+            "HG g={g}: χ²={} dof={} p={}",
+            r.statistic,
+            r.dof,
+            r.p_value
+        );
     }
 }
 
@@ -79,7 +92,12 @@ fn free_flight_sampling_is_exponential_for_the_hero_channel() {
         }
         let exp = vec![n as f64 / bins as f64; bins];
         let r = chi2_test(&obs, &exp, 5.0);
-        assert!(r.p_value > ALPHA, "free flight hero {hero}: χ²={} p={}", r.statistic, r.p_value);
+        assert!(
+            r.p_value > ALPHA,
+            "free flight hero {hero}: χ²={} p={}",
+            r.statistic,
+            r.p_value
+        );
     }
 }
 
@@ -99,6 +117,11 @@ fn pixel_jitter_is_uniform_over_the_pixel() {
         }
         let exp = vec![n as f64 / (grid * grid) as f64; grid * grid];
         let r = chi2_test(&obs, &exp, 5.0);
-        assert!(r.p_value > ALPHA, "pixel jitter key {key}: χ²={} p={}", r.statistic, r.p_value);
+        assert!(
+            r.p_value > ALPHA,
+            "pixel jitter key {key}: χ²={} p={}",
+            r.statistic,
+            r.p_value
+        );
     }
 }

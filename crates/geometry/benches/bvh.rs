@@ -1,0 +1,233 @@
+//! BVH build time and ray throughput on a noisy icosphere (level 7: 327,680 triangles).
+//!
+//! `cargo bench -p translucent-geometry --bench bvh`
+//!
+//! Ray sets (100k rays each, fixed seed):
+//! * `out`: origin on the sphere of radius 3, aimed at a uniform point of the unit ball;
+//! * `in`: origin uniform in the ball of radius 0.8 (inside the object, whose radius is
+//!   0.85–1.15), uniform direction (the random-walk case);
+//! * occlusion `in` uses a random `tmax` in [0, 1]; occlusion `out` an infinite one;
+//! * `inside_length`: from a point inside to a point on the sphere of radius 3 (the NEE shadow
+//!   segment of the volumetric path tracer).
+//!
+//! Every ray benchmark traces the whole batch on an explicit rayon pool of 1 or 2 threads
+//! (`args`), and reports the throughput in rays/s (divan "item/s"); Mrays/s = item/s / 1e6.
+
+use std::sync::LazyLock;
+
+use divan::counter::ItemsCount;
+use geometry::{Accel, Mesh, Vec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+
+fn main() {
+    divan::main();
+}
+
+const RAYS: usize = 100_000;
+const CHUNK: usize = 256;
+
+/// Unit icosphere with `level` subdivisions, CCW outward.
+fn icosphere(level: u32) -> Mesh {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut indices: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::with_capacity(indices.len() * 4);
+        for &[a, b, c] in &indices {
+            let mut m = |x: u32, y: u32| -> u32 {
+                *mid.entry((x.min(y), x.max(y))).or_insert_with(|| {
+                    positions
+                        .push(((positions[x as usize] + positions[y as usize]) * 0.5).normalize());
+                    (positions.len() - 1) as u32
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        indices = next;
+    }
+    let mut mesh = Mesh {
+        positions,
+        normals: None,
+        indices,
+    };
+    // Make the triangles CCW seen from outside (positive signed volume).
+    let volume: f32 = (0..mesh.triangle_count())
+        .map(|i| {
+            let [a, b, c] = mesh.triangle(i);
+            a.dot(b.cross(c))
+        })
+        .sum();
+    if volume < 0.0 {
+        for t in &mut mesh.indices {
+            t.swap(1, 2);
+        }
+    }
+    mesh
+}
+
+/// Level-7 icosphere with radial noise (radius 0.85–1.15): smooth bumps plus per-vertex jitter.
+static MESH: LazyLock<Mesh> = LazyLock::new(|| {
+    let mut mesh = icosphere(7);
+    let mut rng = Pcg32::seed_from_u64(7);
+    for p in &mut mesh.positions {
+        let d = *p;
+        let bump = (5.0 * d.x + 1.0).sin() * (4.0 * d.y + 2.0).sin() * (6.0 * d.z + 0.5).sin();
+        *p = d * (1.0 + 0.1 * bump + 0.05 * (2.0 * rng.random::<f32>() - 1.0));
+    }
+    mesh
+});
+
+static ACCEL: LazyLock<Accel> = LazyLock::new(|| Accel::new(MESH.clone()));
+
+fn unit_vector(rng: &mut Pcg32) -> Vec3 {
+    let z = 2.0 * rng.random::<f32>() - 1.0;
+    let phi = std::f32::consts::TAU * rng.random::<f32>();
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+fn in_ball(rng: &mut Pcg32, radius: f32) -> Vec3 {
+    unit_vector(rng) * radius * rng.random::<f32>().cbrt()
+}
+
+/// (origin, unit direction, tmax)
+type Ray = (Vec3, Vec3, f32);
+
+static RAYS_OUT: LazyLock<Vec<Ray>> = LazyLock::new(|| {
+    let mut rng = Pcg32::seed_from_u64(100);
+    (0..RAYS)
+        .map(|_| {
+            let o = unit_vector(&mut rng) * 3.0;
+            (o, (in_ball(&mut rng, 1.0) - o).normalize(), f32::INFINITY)
+        })
+        .collect()
+});
+
+static RAYS_IN: LazyLock<Vec<Ray>> = LazyLock::new(|| {
+    let mut rng = Pcg32::seed_from_u64(200);
+    (0..RAYS)
+        .map(|_| {
+            (
+                in_ball(&mut rng, 0.8),
+                unit_vector(&mut rng),
+                rng.random::<f32>(),
+            )
+        })
+        .collect()
+});
+
+static SEGMENTS: LazyLock<Vec<(Vec3, Vec3)>> = LazyLock::new(|| {
+    let mut rng = Pcg32::seed_from_u64(300);
+    (0..RAYS)
+        .map(|_| (in_ball(&mut rng, 0.8), unit_vector(&mut rng) * 3.0))
+        .collect()
+});
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
+/// Trace `rays` with `f` on a pool of `threads`, returning a checksum (kept alive by divan).
+fn run<T: Sync>(bencher: divan::Bencher, threads: usize, rays: &[T], f: impl Fn(&T) -> u32 + Sync) {
+    let pool = pool(threads);
+    LazyLock::force(&ACCEL);
+    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
+        pool.install(|| {
+            rays.par_chunks(CHUNK)
+                .map(|c| c.iter().map(&f).sum::<u32>())
+                .sum::<u32>()
+        })
+    });
+}
+
+#[divan::bench(sample_count = 5, sample_size = 1)]
+fn build(bencher: divan::Bencher) {
+    let mesh = MESH.clone();
+    bencher
+        .counter(ItemsCount::new(mesh.triangle_count()))
+        .with_inputs(|| mesh.clone())
+        .bench_values(Accel::new);
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn closest_out(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &RAYS_OUT, |&(o, d, _)| {
+        ACCEL
+            .closest(o, d, 0.0, f32::INFINITY)
+            .map_or(0, |h| h.tri & 1)
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn closest_in(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &RAYS_IN, |&(o, d, _)| {
+        ACCEL
+            .closest(o, d, 0.0, f32::INFINITY)
+            .map_or(0, |h| h.tri & 1)
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn occluded_out(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &RAYS_OUT, |&(o, d, tmax)| {
+        ACCEL.occluded(o, d, 0.0, tmax) as u32
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn occluded_in(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &RAYS_IN, |&(o, d, tmax)| {
+        ACCEL.occluded(o, d, 0.0, tmax) as u32
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn inside_length(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &SEGMENTS, |&(a, b)| {
+        (ACCEL.inside_length(a, b) > 0.5) as u32
+    });
+}
