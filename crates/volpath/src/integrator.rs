@@ -15,10 +15,10 @@
 //! (re-entries included). Boundary crossings do not count as depth.
 //!
 //! With η > 1 the camera side is exact (Fresnel reflection/refraction chosen with probability F,
-//! total internal reflection, radiance scaled by 1/η_rel² across the interface); a point light
-//! seen through a smooth dielectric cannot be reached by a shadow ray (the connection would need
-//! a refraction at the boundary), so, like Mitsuba 3's `volpath`, the tracer gets point-light
-//! illumination only through index-matched boundaries; environment light is handled for every η.
+//! total internal reflection, radiance scaled by 1/η_rel² across the interface). A point light
+//! behind a smooth dielectric cannot be reached by a shadow ray (Mitsuba 3's `volpath` renders
+//! such scenes black); we connect through the refraction by manifold NEE ([`crate::manifold`]),
+//! which is exact for convex objects (see its limitations). Environment light works for every η.
 //!
 //! Limitations: the camera must be outside the object; the mesh must be closed.
 
@@ -27,6 +27,7 @@ use glam::Vec3;
 use scene::{Environment, Medium, PointLight};
 
 use crate::fresnel::{fresnel_dielectric, reflect, refract};
+use crate::manifold;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
 use crate::spectral::SpectralWeight;
@@ -113,10 +114,12 @@ pub fn radiance(
             if depth >= settings.max_depth {
                 break;
             }
-            if let Some(light) = &scene.light
-                && m.eta == 1.0
-            {
-                next_event(scene, &phase, light, o, d, &w, &mut l);
+            if let Some(light) = &scene.light {
+                if m.eta == 1.0 {
+                    next_event(scene, &phase, light, o, d, &w, &mut l);
+                } else {
+                    next_event_refracted(scene, &phase, light, o, d, &w, &mut l);
+                }
             }
             if depth > settings.rr_depth {
                 // Roulette only paths whose weight fell below 1 (pbrt-v4): survival q = max β.
@@ -183,6 +186,28 @@ fn next_event(
     let len_in = scene.accel.inside_length(p, light.position);
     for (c, l) in l.iter_mut().enumerate() {
         *l += w.beta[c] * f * (-scene.medium.sigma_t[c] * len_in).exp() * light.intensity[c];
+    }
+}
+
+/// NEE to a point light through the dielectric boundary (η ≠ 1) by manifold NEE
+/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥.
+#[inline]
+fn next_event_refracted(
+    scene: &VolpathScene,
+    phase: &HenyeyGreenstein,
+    light: &PointLight,
+    p: Vec3,
+    d: Vec3,
+    w: &SpectralWeight,
+    l: &mut [f32; 3],
+) {
+    let Some(c) = manifold::connect(scene.accel, p, light.position, scene.medium.eta) else {
+        return;
+    };
+    let f = phase.eval(d, c.dir) * c.transmittance * c.flux_factor;
+    for (k, l) in l.iter_mut().enumerate() {
+        *l +=
+            w.beta[k] * f * (-scene.medium.sigma_t[k] * c.inside_length).exp() * light.intensity[k];
     }
 }
 

@@ -8,11 +8,13 @@
 //! * [`spectral`]: hero-channel spectral MIS for RGB extinction.
 //! * [`phase`]: Henyey–Greenstein sampling and evaluation.
 //! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
+//! * [`manifold`]: next-event estimation through one refraction (η > 1 with point lights).
 //! * [`render`]: parallel, reproducible image rendering.
 //! * [`rng`]: seeded per-pixel random streams.
 
 pub mod fresnel;
 pub mod integrator;
+pub mod manifold;
 pub mod phase;
 pub mod render;
 pub mod rng;
