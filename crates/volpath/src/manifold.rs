@@ -49,7 +49,6 @@ const TUBE_STEP: f32 = 5e-4; // radians, for the flux tube (central differences)
 /// Boundary point hit from inside along `dir`, with the outgoing refracted direction.
 struct Exit {
     y: Vec3,
-    ng: Vec3,
     t: f32,
     out: Vec3,
     cos_in: f32,
@@ -176,12 +175,11 @@ fn flux_factor(accel: &Accel, x: Vec3, dir: Vec3, e: &Exit, light: Vec3, eta: f3
         let s = (x - h.p).dot(plane_n) / denom;
         Some((h.p + s * v, h.p))
     };
-    let (p0, y0) = land(u0)?;
+    let (_, y0) = land(u0)?;
     // Visibility of y from the light: the first hit must be y itself.
     if (y0 - e.y).length() > 1e-4 * dist.max(1e-3) {
         return None;
     }
-    let _ = p0;
     let f = Frame::from_normal(u0);
     let (ps, _) = land((u0 + TUBE_STEP * f.s).normalize())?;
     let (ms, _) = land((u0 - TUBE_STEP * f.s).normalize())?;
@@ -267,7 +265,8 @@ mod tests {
         for &eta in &[1.0001f32, 1.33, 1.5] {
             for &(rx, z) in &[(0.3f32, 0.05f32), (1.0, 0.2), (2.5, 0.5), (0.01, 0.1)] {
                 let x = Vec3::new(rx * 0.6, -z, rx * 0.8);
-                let c = connect(&accel, x, light, eta).unwrap_or_else(|| panic!("no convergence η={eta} ρ={rx} z={z}"));
+                let c = connect(&accel, x, light, eta)
+                    .unwrap_or_else(|| panic!("no convergence η={eta} ρ={rx} z={z}"));
                 let (t1, expect) = flat_interface(2.0, z as f64, rx as f64, eta as f64);
                 let rel = (c.flux_factor as f64 - expect).abs() / expect;
                 assert!(

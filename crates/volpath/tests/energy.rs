@@ -269,10 +269,23 @@ fn clear_glass_ball_transmits_everything() {
 fn refracted_nee_reduces_to_shadow_rays_as_eta_tends_to_one() {
     let accel = sphere(0.5, 4);
     let cam = Camera::look_at(Vec3::new(0.3, 0.5, 2.2), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
-    let light = PointLight { position: Vec3::new(1.0, 1.5, 1.2), intensity: [3.0; 3] };
+    let light = PointLight {
+        position: Vec3::new(1.0, 1.5, 1.2),
+        intensity: [3.0; 3],
+    };
     let run = |eta: f32, seed: u64| {
-        let medium = Medium { sigma_t: [8.0, 15.0, 25.0], albedo: [0.9, 0.8, 0.95], g: 0.3, eta };
-        let scene = VolpathScene { accel: &accel, medium, light: Some(light), environment: None };
+        let medium = Medium {
+            sigma_t: [8.0, 15.0, 25.0],
+            albedo: [0.9, 0.8, 0.95],
+            g: 0.3,
+            eta,
+        };
+        let scene = VolpathScene {
+            accel: &accel,
+            medium,
+            light: Some(light),
+            environment: None,
+        };
         let mut est = [MeanEstimate::default(); 3];
         for_each_sample(&cam, 64, seed, |o, d, s| {
             let l = radiance(&scene, &VolpathSettings::default(), o, d, s);
@@ -287,7 +300,13 @@ fn refracted_nee_reduces_to_shadow_rays_as_eta_tends_to_one() {
     for c in 0..3 {
         let se = (a[c].std_error().powi(2) + b[c].std_error().powi(2)).sqrt();
         let z = (a[c].mean() - b[c].mean()).abs() / se;
-        eprintln!("channel {c}: η=1 {:.5} ± {:.5}, η=1+1e-4 {:.5} ± {:.5}", a[c].mean(), a[c].std_error(), b[c].mean(), b[c].std_error());
+        eprintln!(
+            "channel {c}: η=1 {:.5} ± {:.5}, η=1+1e-4 {:.5} ± {:.5}",
+            a[c].mean(),
+            a[c].std_error(),
+            b[c].mean(),
+            b[c].std_error()
+        );
         assert!(a[c].mean() > 0.01);
         assert!(z < Z_MAX, "channel {c}: z = {z:.2}");
     }
