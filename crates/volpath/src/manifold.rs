@@ -66,7 +66,6 @@ fn exit(accel: &Accel, x: Vec3, dir: Vec3, eta: f32) -> Option<Exit> {
     }
     Some(Exit {
         y: h.p,
-        ng: h.ng,
         t: h.t,
         out,
         cos_in: dir.dot(h.ns).abs(),
