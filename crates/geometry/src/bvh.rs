@@ -100,16 +100,9 @@ const BOX_SLACK: f32 = 4.0 * f32::EPSILON;
 impl BoxRay {
     #[inline(always)]
     fn new(org: Vec3A, dir: Vec3A, tmin: f32) -> Self {
-        #[inline(always)]
-        fn rcp(d: f32) -> f32 {
-            const TINY: f32 = 1e-18;
-            if d.abs() < TINY {
-                1.0 / TINY.copysign(d)
-            } else {
-                1.0 / d
-            }
-        }
-        let inv = Vec3A::new(rcp(dir.x), rcp(dir.y), rcp(dir.z));
+        const TINY: f32 = 1e-18;
+        let small = dir.abs().cmplt(Vec3A::splat(TINY));
+        let inv = Vec3A::select(small, Vec3A::splat(TINY).copysign(dir), dir).recip();
         BoxRay {
             org,
             inv,

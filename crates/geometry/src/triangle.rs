@@ -85,18 +85,30 @@ impl WatertightRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // (k_x, k_y) = (k_z + 1, k_z + 2) mod 3, swapped when d[k_z] < 0.
+        let neg = dir[kz] < 0.0;
+        let (kx, ky) = match (kz, neg) {
+            (0, false) => (1, 2),
+            (0, true) => (2, 1),
+            (1, false) => (2, 0),
+            (1, true) => (0, 2),
+            (_, false) => (0, 1),
+            (_, true) => (1, 0),
+        };
         let sz = 1.0 / dir[kz];
         let sx = dir[kx] * sz;
         let sy = dir[ky] * sz;
-        let mut cols = [Vec3A::ZERO; 3];
-        cols[kx] = Vec3A::X;
-        cols[ky] = Vec3A::Y;
-        cols[kz] = Vec3A::new(-sx, -sy, sz);
+        // Column j of the shear is d(output)/d(v_j): unit x for k_x, unit y for k_y.
+        let k = Vec3A::new(-sx, -sy, sz);
+        let (x, y) = (Vec3A::X, Vec3A::Y);
+        let shear = match (kz, neg) {
+            (0, false) => Mat3A::from_cols(k, x, y),
+            (0, true) => Mat3A::from_cols(k, y, x),
+            (1, false) => Mat3A::from_cols(y, k, x),
+            (1, true) => Mat3A::from_cols(x, k, y),
+            (_, false) => Mat3A::from_cols(x, y, k),
+            (_, true) => Mat3A::from_cols(y, x, k),
+        };
         WatertightRay {
             org,
             kx,
@@ -105,7 +117,7 @@ impl WatertightRay {
             sx,
             sy,
             sz,
-            shear: Mat3A::from_cols(cols[0], cols[1], cols[2]),
+            shear,
         }
     }
 
