@@ -27,6 +27,9 @@ pub struct RenderArgs {
     /// Maximum depth, Mitsuba volpath semantics (default: the scene's, else 32).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Russian roulette starts after this many scattering events.
+    #[arg(long, default_value_t = 5)]
+    pub rr_depth: u32,
     /// Render method. Only `volpath` exists so far.
     #[arg(long, default_value = "volpath", value_parser = ["volpath"])]
     pub method: String,
@@ -64,12 +67,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .collect();
     let settings = VolpathSettings {
         max_depth,
+        rr_depth: a.rr_depth,
         channel_sampling: if a.single_channel {
             ChannelSampling::SingleChannel
         } else {
             ChannelSampling::SpectralMis
         },
-        ..Default::default()
     };
     let rep = render_views(&accel, &desc.medium, &views, spp, seed, &settings);
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;

@@ -25,9 +25,10 @@ pub struct ValidateArgs {
     /// Output folder for our renders (view_XXX.exr/.png, same names as the reference).
     #[arg(long, default_value = "out/validate-mitsuba")]
     pub out: PathBuf,
-    /// Samples per pixel of our renders.
-    #[arg(long, default_value_t = 256)]
-    pub spp: u32,
+    /// Samples per pixel of our renders (the reference's own spp by default, so both renders
+    /// carry comparable noise).
+    #[arg(long)]
+    pub spp: Option<u32>,
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -63,7 +64,6 @@ fn mitsuba_seconds(dir: &std::path::Path) -> Option<(f64, u32)> {
 }
 
 pub fn run(a: &ValidateArgs) -> Result<()> {
-    anyhow::ensure!(a.spp > 0, "--spp must be at least 1");
     let ds = Dataset::load_reference(&a.dir)
         .with_context(|| format!("reading the reference folder {}", a.dir.display()))?;
     for w in &ds.warnings {
@@ -109,7 +109,9 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         })
         .collect();
     let t0 = Instant::now();
-    let rep = render_views(&accel, &medium, &views, a.spp, a.seed, &settings);
+    let spp = a.spp.or(ds.render.spp).unwrap_or(1024);
+    anyhow::ensure!(spp > 0, "--spp must be at least 1");
+    let rep = render_views(&accel, &medium, &views, spp, a.seed, &settings);
     let total = t0.elapsed().as_secs_f64();
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
 
@@ -120,7 +122,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         views.len(),
         views[0].camera.width,
         views[0].camera.height,
-        a.spp,
+        spp,
         settings.max_depth,
         medium.sigma_t,
         medium.albedo,
@@ -176,9 +178,9 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     match mitsuba_seconds(&a.dir) {
         Some((ms, mspp)) => println!(
             "time: ours {per_view:.3} s/view at {} spp; Mitsuba 3 {ms:.3} s/view at {mspp} spp (scene.json)",
-            a.spp
+            spp
         ),
-        None => println!("time: ours {per_view:.3} s/view at {} spp", a.spp),
+        None => println!("time: ours {per_view:.3} s/view at {spp} spp"),
     }
     println!("wrote {}", a.out.display());
     if failures > 0 {
