@@ -1,0 +1,22 @@
+//! # translucent-bssrdf
+//!
+//! The learned shape-adaptive BSSRDF of Vicini, Koltun and Jakob 2019 (VKJ19) as used by Son et
+//! al. 2024 (SON24), following `model-spec.md` of the design notes:
+//!
+//! * [`medium`]: reduced parameters, effective albedo, the kernel scale σ_n (model-spec §2).
+//! * [`polynomial`]: the cubic implicit polynomial (20 monomials), its evaluation, gradient and
+//!   exact rotation into another frame (§3.1, §3.3).
+//! * [`fit`]: the surface point cloud with its k-d tree and the weighted least-squares cubic fit
+//!   per vertex (§3.2, §3.4).
+//! * [`nn`]: batched, allocation-free MLP inference (feature MLP, absorption MLP, decoder) and the
+//!   input derivative of the absorption output (§4).
+//! * [`model`]: our model file format (safetensors + JSON metadata) and its validation.
+//! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
+//!   dependency).
+
+pub mod fit;
+pub mod medium;
+pub mod model;
+pub mod nn;
+pub mod polynomial;
+pub mod son24;
