@@ -8,7 +8,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use geometry::Accel;
 use indicatif::{ProgressBar, ProgressStyle};
-use scene::{Camera, Image, Medium, PointLight};
+use scene::scene_file::ViewDesc;
+use scene::{Image, Medium};
 use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image};
 
 static QUIET: AtomicBool = AtomicBool::new(false);
@@ -46,12 +47,6 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
-/// One view to render.
-pub struct ViewJob {
-    pub camera: Camera,
-    pub light: PointLight,
-}
-
 /// Timing of a render.
 pub struct RenderReport {
     pub images: Vec<Image>,
@@ -62,7 +57,7 @@ pub struct RenderReport {
 pub fn render_views(
     accel: &Accel,
     medium: &Medium,
-    views: &[ViewJob],
+    views: &[ViewDesc],
     spp: u32,
     seed: u64,
     settings: &VolpathSettings,

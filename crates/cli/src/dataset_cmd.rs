@@ -16,7 +16,7 @@ use scene::{Dataset, Medium, MeshSource, SceneDesc};
 use volpath::VolpathSettings;
 use volpath::rng::Sampler;
 
-use crate::common::{ViewJob, build_accel, parse_rgb, render_views};
+use crate::common::{build_accel, parse_rgb, render_views};
 
 /// Where the object comes from and how it is viewed and lit.
 #[derive(Args, Clone)]
@@ -234,20 +234,13 @@ pub fn make_dataset(
     };
     let (mesh, warnings) = desc.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
-    let views: Vec<ViewJob> = desc
-        .views
-        .iter()
-        .map(|v| ViewJob {
-            camera: v.camera.clone(),
-            light: v.light,
-        })
-        .collect();
+    let views = &desc.views;
     let settings = VolpathSettings {
         max_depth,
         ..Default::default()
     };
     let t0 = Instant::now();
-    let rep = render_views(&accel, &medium, &views, spp, seed, &settings);
+    let rep = render_views(&accel, &medium, views, spp, seed, &settings);
     let mut ds = Dataset::from_scene(&desc);
     for (v, img) in ds.views.iter_mut().zip(rep.images) {
         v.image = Some(img);

@@ -8,7 +8,7 @@ use clap::Args;
 use scene::{Dataset, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
-use crate::common::{ViewJob, build_accel, check_output_free, render_views, write_outputs};
+use crate::common::{build_accel, check_output_free, render_views, write_outputs};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -57,14 +57,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .load_mesh()
         .with_context(|| format!("loading the mesh of {}", a.scene.display()))?;
     let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
-    let views: Vec<ViewJob> = desc
-        .views
-        .iter()
-        .map(|v| ViewJob {
-            camera: v.camera.clone(),
-            light: v.light,
-        })
-        .collect();
+    let views = &desc.views;
     let settings = VolpathSettings {
         max_depth,
         rr_depth: a.rr_depth,
@@ -74,7 +67,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             ChannelSampling::SpectralMis
         },
     };
-    let rep = render_views(&accel, &desc.medium, &views, spp, seed, &settings);
+    let rep = render_views(&accel, &desc.medium, views, spp, seed, &settings);
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
     let total: f64 = rep.seconds_per_view.iter().sum();
     println!(

@@ -12,10 +12,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use scene::scene_file::ViewDesc;
 use scene::{Dataset, Image};
 use volpath::VolpathSettings;
 
-use crate::common::{ViewJob, build_accel, check_output_free, render_views, write_outputs};
+use crate::common::{build_accel, check_output_free, render_views, write_outputs};
 use crate::compare::pair_stats;
 
 #[derive(Args)]
@@ -100,14 +101,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         max_depth: ds.render.max_depth.unwrap_or(32),
         ..Default::default()
     };
-    let views: Vec<ViewJob> = ds
-        .views
-        .iter()
-        .map(|v| ViewJob {
-            camera: v.camera.clone(),
-            light: v.light,
-        })
-        .collect();
+    let views: Vec<ViewDesc> = ds.views.iter().map(|v| v.desc()).collect();
     let t0 = Instant::now();
     let spp = a.spp.or(ds.render.spp).unwrap_or(1024);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");

@@ -185,6 +185,7 @@ mod tests {
         // χ² survival with 1 dof at 3.841 is 0.05; with 10 dof at 18.307 is 0.05.
         assert!((gamma_q(0.5, 3.841_458_8 / 2.0) - 0.05).abs() < 1e-6);
         assert!((gamma_q(5.0, 18.307_038 / 2.0) - 0.05).abs() < 1e-6);
+        assert!((gamma_q(49.5, 123.225_2 / 2.0) - 0.05).abs() < 1e-5);
         // Q(1, x) = e^{-x}.
         for x in [0.1, 1.0, 5.0, 30.0] {
             assert!((gamma_q(1.0, x) - (-x).exp()).abs() < 1e-12);
