@@ -1,1 +1,438 @@
-//! (being written)
+//! The cubic implicit polynomial of the local shape descriptor (model-spec §3.1, §3.3, §3.5).
+//!
+//! A [`Poly3`] holds the 20 coefficients of `p(u) = Σ_k c_k m_k(u)`, a full cubic in the three
+//! coordinates `u = (x, y, z)`. The monomials are ordered by total degree `d`, then by decreasing
+//! power of x, then decreasing power of y (VKJ19 `powerToIndex`, model-spec §3.1):
+//!
+//! ```text
+//! 0:1 | 1:x 2:y 3:z | 4:x² 5:xy 6:xz 7:y² 8:yz 9:z² |
+//! 10:x³ 11:x²y 12:x²z 13:xy² 14:xyz 15:xz² 16:y³ 17:y²z 18:yz² 19:z³
+//! ```
+//!
+//! `index(a, b, c) = i(i+1)/2 + j + d(d+1)(d+2)/6` with `d = a+b+c`, `i = d − a`, `j = c`.
+//!
+//! Coordinates are SCALED, `u = (q − p_ref)/σ_n`, in whatever axes the coefficients refer to
+//! (world axes for stored fits, light space for the network). Sign convention: `c_0 = 0`, the
+//! gradient approximates the outward unit normal, `p < 0` inside the medium.
+
+use geometry::Frame;
+use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+use std::ops::{Add, Mul};
+
+/// Number of coefficients of a full cubic in 3 variables.
+pub const N_COEFFS: usize = 20;
+
+/// Exponents `(a, b, c)` of monomial `k` = `x^a y^b z^c`, in coefficient order (model-spec §3.1).
+pub const POWERS: [[u8; 3]; N_COEFFS] = build_powers();
+
+/// Coefficient index of `x^a y^b z^c` (`a + b + c ≤ 3`): `i(i+1)/2 + j + d(d+1)(d+2)/6` with
+/// `d = a+b+c`, `i = d − a`, `j = c` (model-spec §3.1).
+pub const fn power_to_index(a: usize, b: usize, c: usize) -> usize {
+    let d = a + b + c;
+    let i = d - a;
+    let j = c;
+    i * (i + 1) / 2 + j + d * (d + 1) * (d + 2) / 6
+}
+
+const fn build_powers() -> [[u8; 3]; N_COEFFS] {
+    let mut out = [[0u8; 3]; N_COEFFS];
+    let mut d: i32 = 0;
+    while d <= 3 {
+        // decreasing power of x, then decreasing power of y
+        let mut a = d;
+        while a >= 0 {
+            let mut b = d - a;
+            while b >= 0 {
+                let c = d - a - b;
+                let (au, bu, cu) = (a as usize, b as usize, c as usize);
+                out[power_to_index(au, bu, cu)] = [au as u8, bu as u8, cu as u8];
+                b -= 1;
+            }
+            a -= 1;
+        }
+        d += 1;
+    }
+    out
+}
+
+/// For `axis` and monomial `k`: `∂m_k/∂u_axis = DERIV[axis][k].0 · m_{DERIV[axis][k].1}`
+/// (factor 0 when the monomial does not contain that variable).
+const DERIV: [[(u8, u8); N_COEFFS]; 3] = build_deriv();
+
+const fn build_deriv() -> [[(u8, u8); N_COEFFS]; 3] {
+    let mut out = [[(0u8, 0u8); N_COEFFS]; 3];
+    let mut axis = 0;
+    while axis < 3 {
+        let mut k = 0;
+        while k < N_COEFFS {
+            let p = POWERS[k];
+            if p[axis] > 0 {
+                let mut q = [p[0] as usize, p[1] as usize, p[2] as usize];
+                q[axis] -= 1;
+                out[axis][k] = (p[axis], power_to_index(q[0], q[1], q[2]) as u8);
+            }
+            k += 1;
+        }
+        axis += 1;
+    }
+    out
+}
+
+#[inline]
+fn monomials_generic<T: Copy + Mul<Output = T> + From<u8>>(x: T, y: T, z: T) -> [T; N_COEFFS] {
+    let (xx, xy, xz, yy, yz, zz) = (x * x, x * y, x * z, y * y, y * z, z * z);
+    [
+        T::from(1u8),
+        x,
+        y,
+        z,
+        xx,
+        xy,
+        xz,
+        yy,
+        yz,
+        zz,
+        xx * x,
+        xx * y,
+        xx * z,
+        xy * y,
+        xy * z,
+        xz * z,
+        yy * y,
+        yy * z,
+        yz * z,
+        zz * z,
+    ]
+}
+
+#[inline]
+fn monomial_gradients_generic<T: Copy + Mul<Output = T> + From<u8>>(
+    m: &[T; N_COEFFS],
+) -> [[T; N_COEFFS]; 3] {
+    let zero = T::from(0u8);
+    let mut g = [[zero; N_COEFFS]; 3];
+    for axis in 0..3 {
+        for k in 0..N_COEFFS {
+            let (f, src) = DERIV[axis][k];
+            if f > 0 {
+                g[axis][k] = T::from(f) * m[src as usize];
+            }
+        }
+    }
+    g
+}
+
+/// The 20 monomials `m_k(u)` in coefficient order.
+#[inline]
+pub fn monomials(u: Vec3) -> [f32; N_COEFFS] {
+    monomials_generic(u.x, u.y, u.z)
+}
+
+/// The 20 monomials in `f64`.
+#[inline]
+pub fn monomials_f64(u: [f64; 3]) -> [f64; N_COEFFS] {
+    monomials_generic(u[0], u[1], u[2])
+}
+
+/// Partial derivatives of the monomials: `out[axis][k] = ∂m_k/∂u_axis (u)`.
+#[inline]
+pub fn monomial_gradients(u: Vec3) -> [[f32; N_COEFFS]; 3] {
+    monomial_gradients_generic(&monomials(u))
+}
+
+/// Partial derivatives of the monomials in `f64`: `out[axis][k] = ∂m_k/∂u_axis (u)`.
+#[inline]
+pub fn monomial_gradients_f64(u: [f64; 3]) -> [[f64; N_COEFFS]; 3] {
+    monomial_gradients_generic(&monomials_f64(u))
+}
+
+/// Local index, inside its degree block, of the monomial `x^a y^b z^c`: `i(i+1)/2 + j`.
+#[inline]
+const fn local_index(p: [u8; 3]) -> usize {
+    let i = (p[1] + p[2]) as usize;
+    i * (i + 1) / 2 + p[2] as usize
+}
+
+/// Multiply a homogeneous polynomial of degree `d` (coefficients in local block order, `N` of
+/// them) by the linear form `l·u`, giving a homogeneous polynomial of degree `d + 1` (`M` coeffs).
+#[inline]
+fn mul_linear<const N: usize, const M: usize>(h: &[f64; N], first: usize, l: [f64; 3]) -> [f64; M] {
+    let mut out = [0.0; M];
+    for (local, &coef) in h.iter().enumerate() {
+        if coef == 0.0 {
+            continue;
+        }
+        let p = POWERS[first + local];
+        for axis in 0..3 {
+            let mut q = p;
+            q[axis] += 1;
+            out[local_index(q)] += coef * l[axis];
+        }
+    }
+    out
+}
+
+/// A full cubic implicit polynomial in scaled coordinates (see the module docs for the ordering).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Poly3(pub [f32; N_COEFFS]);
+
+impl Poly3 {
+    /// The zero polynomial.
+    pub const ZERO: Poly3 = Poly3([0.0; N_COEFFS]);
+
+    /// The plane through the origin with unit normal `n`: `p(u) = n·u`.
+    pub fn plane(n: Vec3) -> Poly3 {
+        let mut c = [0.0; N_COEFFS];
+        c[1] = n.x;
+        c[2] = n.y;
+        c[3] = n.z;
+        Poly3(c)
+    }
+
+    /// The coefficients.
+    #[inline]
+    pub fn coeffs(&self) -> &[f32; N_COEFFS] {
+        &self.0
+    }
+
+    /// `p(u) = Σ_k c_k m_k(u)`.
+    #[inline]
+    pub fn eval(&self, u: Vec3) -> f32 {
+        let m = monomials(u);
+        self.0.iter().zip(&m).map(|(c, m)| c * m).sum()
+    }
+
+    /// `p(u)` evaluated in `f64`.
+    #[inline]
+    pub fn eval_f64(&self, u: [f64; 3]) -> f64 {
+        let m = monomials_f64(u);
+        self.0.iter().zip(&m).map(|(&c, m)| c as f64 * m).sum()
+    }
+
+    /// `∇p(u)` with respect to the (scaled) coordinates u.
+    #[inline]
+    pub fn gradient(&self, u: Vec3) -> Vec3 {
+        self.eval_with_gradient(u).1
+    }
+
+    /// `(p(u), ∇p(u))`.
+    #[inline]
+    pub fn eval_with_gradient(&self, u: Vec3) -> (f32, Vec3) {
+        let m = monomials(u);
+        let c = &self.0;
+        let value = c.iter().zip(&m).map(|(c, m)| c * m).sum();
+        let mut g = [0.0f32; 3];
+        for (axis, ga) in g.iter_mut().enumerate() {
+            for k in 0..N_COEFFS {
+                let (f, src) = DERIV[axis][k];
+                if f > 0 {
+                    *ga += c[k] * f as f32 * m[src as usize];
+                }
+            }
+        }
+        (value, Vec3::from(g))
+    }
+
+    /// `∇p(u)` evaluated in `f64`.
+    pub fn gradient_f64(&self, u: [f64; 3]) -> [f64; 3] {
+        let g = monomial_gradients_f64(u);
+        let mut out = [0.0; 3];
+        for axis in 0..3 {
+            out[axis] = self
+                .0
+                .iter()
+                .zip(&g[axis])
+                .map(|(&c, m)| c as f64 * m)
+                .sum();
+        }
+        out
+    }
+
+    /// Unit normal at the reference point, `normalize(c_1, c_2, c_3)` (= normalised `∇p(0)`),
+    /// or `None` when the linear part vanishes or is not finite.
+    pub fn normal(&self) -> Option<Vec3> {
+        let g = DVec3::new(self.0[1] as f64, self.0[2] as f64, self.0[3] as f64);
+        let n = g.try_normalize()?;
+        Some(n.as_vec3())
+    }
+
+    /// Exact change of coordinates (model-spec §3.3): the polynomial `p'` with
+    /// `p'(u') = p(u'_1 e1 + u'_2 e2 + u'_3 e3)`.
+    ///
+    /// For an orthonormal frame (e1, e2, e3) expressed in the current axes, `p'` is the same
+    /// surface seen in that frame. The map is computed by substitution: every original variable is
+    /// the linear form `x_t = Σ_j (e_j)_t u'_j`, and each monomial is expanded by multiplying out
+    /// these forms (degree-0 unchanged, degree-1 = projections of (c_1, c_2, c_3), …). Works for
+    /// any 3×3 matrix, not only rotations; computed in `f64`.
+    pub fn rotate(&self, e1: Vec3, e2: Vec3, e3: Vec3) -> Poly3 {
+        let cols = [e1.as_dvec3(), e2.as_dvec3(), e3.as_dvec3()];
+        // l[t] = coefficients of the linear form giving original variable t.
+        let l: [[f64; 3]; 3] = std::array::from_fn(|t| std::array::from_fn(|j| cols[j][t]));
+        let c: [f64; N_COEFFS] = std::array::from_fn(|k| self.0[k] as f64);
+        let mut out = [0.0f64; N_COEFFS];
+        out[0] = c[0];
+        // degree 1
+        for t in 0..3 {
+            for j in 0..3 {
+                out[1 + j] += c[1 + t] * l[t][j];
+            }
+        }
+        // degree 2: products of two linear forms, one per quadratic monomial (first = 4)
+        let mut quad = [[0.0f64; 6]; 6];
+        for (local, q) in quad.iter_mut().enumerate() {
+            let (t1, t2) = factor_axes2(POWERS[4 + local]);
+            let lin: [f64; 3] = l[t1];
+            *q = mul_linear::<3, 6>(&lin, 1, l[t2]);
+            for (o, v) in out[4..10].iter_mut().zip(q.iter()) {
+                *o += c[4 + local] * v;
+            }
+        }
+        // degree 3: (product of the first two factors) × third factor
+        for local in 0..10 {
+            let k = 10 + local;
+            if c[k] == 0.0 {
+                continue;
+            }
+            let p = POWERS[k];
+            let (pair, t3) = split_cubic(p);
+            let cub = mul_linear::<6, 10>(&quad[pair], 4, l[t3]);
+            for (o, v) in out[10..20].iter_mut().zip(cub.iter()) {
+                *o += c[k] * v;
+            }
+        }
+        Poly3(out.map(|v| v as f32))
+    }
+
+    /// The polynomial in the light-space frame of the incident direction `d_in`
+    /// ([`light_space_frame`]): what the network sees (`mlsPolyLS3`, model-spec §3.3).
+    pub fn to_light_space(&self, d_in: Vec3) -> Poly3 {
+        let f = light_space_frame(d_in);
+        self.rotate(f.s, f.t, f.n)
+    }
+}
+
+impl Add for Poly3 {
+    type Output = Poly3;
+    fn add(self, o: Poly3) -> Poly3 {
+        Poly3(std::array::from_fn(|k| self.0[k] + o.0[k]))
+    }
+}
+
+impl Mul<f32> for Poly3 {
+    type Output = Poly3;
+    fn mul(self, s: f32) -> Poly3 {
+        Poly3(self.0.map(|c| c * s))
+    }
+}
+
+/// Axes of the two factors of a quadratic monomial, `t1 ≤ t2`.
+#[inline]
+fn factor_axes2(p: [u8; 3]) -> (usize, usize) {
+    let mut axes = [0usize; 2];
+    let mut n = 0;
+    for (axis, &e) in p.iter().enumerate() {
+        for _ in 0..e {
+            axes[n] = axis;
+            n += 1;
+        }
+    }
+    (axes[0], axes[1])
+}
+
+/// A cubic monomial as (local index of its quadratic factor over the two lowest axes, third axis).
+#[inline]
+fn split_cubic(p: [u8; 3]) -> (usize, usize) {
+    let mut axes = [0usize; 3];
+    let mut n = 0;
+    for (axis, &e) in p.iter().enumerate() {
+        for _ in 0..e {
+            axes[n] = axis;
+            n += 1;
+        }
+    }
+    let mut q = [0u8; 3];
+    q[axes[0]] += 1;
+    q[axes[1]] += 1;
+    (local_index(q), axes[2])
+}
+
+/// Light-space frame of the incident direction `d_in` (pointing INTO the medium), model-spec §3.3:
+/// `e3 = −normalize(d_in)` and `(e1, e2)` the Duff basis of `e3` ([`Frame::from_normal`]).
+/// Returned as a [`Frame`] `{ s: e1, t: e2, n: e3 }`.
+pub fn light_space_frame(d_in: Vec3) -> Frame {
+    let e3 = (-d_in).try_normalize().unwrap_or(Vec3::Z);
+    Frame::from_normal(e3)
+}
+
+/// Incident-direction alignment (model-spec §3.5, VKJ19 `adjustRayDirForPolynomialTracing`):
+/// rotate `d` by the rotation that maps the mesh normal `n_mesh` onto the polynomial normal
+/// `n_poly` (both normalised here; `n_poly` may be the raw `(c_1, c_2, c_3)`). The rotation has
+/// axis `n × n_p` and angle `acos(n·n_p)`; it is skipped (d returned unchanged) when
+/// `|n × n_p| < 1e-8` or either normal is zero/non-finite. Rodrigues' formula in `f64`:
+/// `d' = d cosθ + (a × d) + a (a·d)(1 − cosθ)/|a|²` with `a = n × n_p`, `|a| = sinθ`.
+pub fn align_direction(d: Vec3, n_mesh: Vec3, n_poly: Vec3) -> Vec3 {
+    let (Some(n), Some(np)) = (
+        n_mesh.as_dvec3().try_normalize(),
+        n_poly.as_dvec3().try_normalize(),
+    ) else {
+        return d;
+    };
+    let a = n.cross(np);
+    let s2 = a.length_squared();
+    if s2.sqrt() < 1e-8 {
+        return d;
+    }
+    let c = n.dot(np);
+    let d64 = d.as_dvec3();
+    (d64 * c + a.cross(d64) + a * (a.dot(d64) * (1.0 - c) / s2)).as_vec3()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ordering_matches_spec_table() {
+        let expected: [[u8; 3]; 20] = [
+            [0, 0, 0],
+            [1, 0, 0],
+            [0, 1, 0],
+            [0, 0, 1],
+            [2, 0, 0],
+            [1, 1, 0],
+            [1, 0, 1],
+            [0, 2, 0],
+            [0, 1, 1],
+            [0, 0, 2],
+            [3, 0, 0],
+            [2, 1, 0],
+            [2, 0, 1],
+            [1, 2, 0],
+            [1, 1, 1],
+            [1, 0, 2],
+            [0, 3, 0],
+            [0, 2, 1],
+            [0, 1, 2],
+            [0, 0, 3],
+        ];
+        assert_eq!(POWERS, expected);
+        for (k, p) in expected.iter().enumerate() {
+            assert_eq!(
+                power_to_index(p[0] as usize, p[1] as usize, p[2] as usize),
+                k
+            );
+        }
+    }
+
+    #[test]
+    fn monomials_match_powers() {
+        let u = [0.3f64, -1.7, 2.1];
+        let m = monomials_f64(u);
+        for k in 0..20 {
+            let p = POWERS[k];
+            let e = u[0].powi(p[0] as i32) * u[1].powi(p[1] as i32) * u[2].powi(p[2] as i32);
+            assert!((m[k] - e).abs() < 1e-12, "k {k}");
+        }
+    }
+}
