@@ -11,12 +11,20 @@
 //! * [`nn`]: batched, allocation-free MLP inference (feature MLP, absorption MLP, decoder) and the
 //!   input derivative of the absorption output (§4).
 //! * [`model`]: our model file format (safetensors + JSON metadata) and its validation.
+//! * [`projection`]: the projection Π of proposed points onto the mesh (§7, A5).
+//! * [`boundary`]: Fresnel transmittance, FM1 and the light-side factor Sw (§1).
+//! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
+//! * [`gaussian`]: standard normal samples by inversion.
 //! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
 //!   dependency).
 
+pub mod boundary;
 pub mod fit;
+pub mod gaussian;
 pub mod medium;
 pub mod model;
 pub mod nn;
 pub mod polynomial;
+pub mod projection;
+pub mod render;
 pub mod son24;

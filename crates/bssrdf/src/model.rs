@@ -1,1 +1,623 @@
-//! (being written)
+//! Our model file format: one `.safetensors` file with JSON metadata, and its validation.
+//!
+//! # Format (version 1)
+//!
+//! Tensors (all `F32`, little-endian; weights `[out, in]` so that `y = W x + b`):
+//!
+//! | name | shape | block |
+//! |---|---|---|
+//! | `feature.{k}.weight`, `feature.{k}.bias` | `[out, in]`, `[out]` | feature MLP, layer k (ReLU on every layer) |
+//! | `absorption.{k}.weight`, `.bias` | | absorption MLP (ReLU on hidden layers; the last output is a logit, Absorb = sigmoid) |
+//! | `decoder.{k}.weight`, `.bias` | | decoder, input `[z(4) ⊕ f]` (ReLU on hidden layers, last layer linear) |
+//! | `encoder.{k}.weight`, `.bias` | | encoder hidden layers, input `[x(3) ⊕ f]` (optional block) |
+//! | `encoder.mean.weight`, `.bias` / `encoder.logvar.weight`, `.bias` | `[4, H]`, `[4]` | encoder heads |
+//!
+//! The safetensors `__metadata__` map holds one key, [`METADATA_KEY`], whose value is a JSON
+//! document:
+//!
+//! ```json
+//! { "format": "translucent-bssrdf", "version": 1,
+//!   "architecture": { "input_dim": 23, "latent_dim": 4, "position_dim": 3, "feature_dim": 32,
+//!                     "activation": "relu", "absorption_output": "sigmoid",
+//!                     "feature": [23, 32, 32], "absorption": [32, 16, 1],
+//!                     "decoder": [36, 32, 32, 3], "encoder": [35, 32, 32] },
+//!   "normalisation": { "eff_albedo_mean": …, "eff_albedo_stdinv": …, "g_mean": …, "g_stdinv": …,
+//!                      "poly_mean": [20 values], "poly_stdinv": [20 values] },
+//!   "c19_quirk": true, "frame_convention": "vkj19" | "son24-compat",
+//!   "provenance": { free-form: data, seed, steps, time, metrics, source … } }
+//! ```
+//!
+//! Widths list `[n_in, hidden…, n_out]` of each block (`encoder`: its hidden layers only, or
+//! `null`; each head is `[latent_dim, last width]`). [`load`] checks everything: the file, the
+//! format name and version, the architecture's consistency, every tensor's presence, dtype,
+//! shape and finiteness, and that no unknown tensor is present.
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use safetensors::{Dtype, SafeTensors, tensor::TensorView};
+use serde::{Deserialize, Serialize};
+
+use crate::nn::{
+    Dense, Encoder, INPUT_DIM, LATENT_DIM, Mlp, Normalisation, POSITION_DIM, ShapeAdaptiveModel,
+};
+
+/// Format name stored in the metadata.
+pub const FORMAT_NAME: &str = "translucent-bssrdf";
+/// Format version written by this build (and the only one it reads).
+pub const FORMAT_VERSION: u64 = 1;
+/// Key of the JSON document in the safetensors `__metadata__` map.
+pub const METADATA_KEY: &str = "translucent-bssrdf";
+
+/// What to do when no model file is at hand (part of the "not found" error).
+pub const MODEL_FIX_HINT: &str = "train one with `translucent train` or use a shipped model from \
+     the repository's `models/` folder (to compare against the reference weights of Son et al. \
+     2024, create one with `translucent model import-son24 DIR OUT`)";
+
+/// Errors of model construction, inference batches, model files and the SON24 importer.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// The networks do not fit together (or a layer's buffers do not match its size).
+    #[error("invalid model architecture: {0}")]
+    Architecture(String),
+    /// A batch passed to an inference method has inconsistent lengths.
+    #[error("inference batch: {0}")]
+    Batch(String),
+    /// The model file does not exist.
+    #[error("model file {} does not exist; {MODEL_FIX_HINT}", .path.display())]
+    NotFound { path: PathBuf },
+    /// Reading or writing failed.
+    #[error("{}: {action}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not a safetensors file.
+    #[error(
+        "{} is not a safetensors model file ({reason}); pass a `.safetensors` file written by \
+         `translucent` (the reference weights folder of Son et al. is imported with \
+         `translucent model import-son24`)", .path.display()
+    )]
+    NotSafetensors { path: PathBuf, reason: String },
+    /// The file has no model metadata (e.g. a safetensors file from another tool).
+    #[error(
+        "{} has no `{METADATA_KEY}` entry in its safetensors metadata, so it is not a \
+         translucent BSSRDF model (files from other tools must be converted; the reference \
+         weights are imported with `translucent model import-son24`)", .path.display()
+    )]
+    MetadataMissing { path: PathBuf },
+    /// The metadata is malformed or contradicts itself or the tensors.
+    #[error("{}: invalid model metadata: {reason}", .path.display())]
+    MetadataInvalid { path: PathBuf, reason: String },
+    /// The file was written in another format version.
+    #[error(
+        "{} is a format version {found} model, this build reads version {FORMAT_VERSION}; \
+         re-create it with this build (retrain or re-import it)", .path.display()
+    )]
+    VersionMismatch { path: PathBuf, found: u64 },
+    /// A tensor required by the architecture is absent.
+    #[error(
+        "{}: tensor `{tensor}` is missing (the architecture in the metadata requires it); the \
+         file is incomplete, re-create it", .path.display()
+    )]
+    MissingTensor { path: PathBuf, tensor: String },
+    /// A tensor not described by the architecture is present.
+    #[error(
+        "{}: tensor `{tensor}` is not part of the architecture in the metadata (the metadata \
+         and the tensors disagree); re-create the file", .path.display()
+    )]
+    UnexpectedTensor { path: PathBuf, tensor: String },
+    /// A tensor has the wrong shape.
+    #[error(
+        "{}: tensor `{tensor}` has shape {got:?}, expected {expected:?} from the architecture in \
+         the metadata; re-create the file", .path.display()
+    )]
+    WrongShape {
+        path: PathBuf,
+        tensor: String,
+        expected: Vec<usize>,
+        got: Vec<usize>,
+    },
+    /// A tensor has a dtype other than F32.
+    #[error("{}: tensor `{tensor}` has dtype {dtype}, expected F32", .path.display())]
+    WrongDtype {
+        path: PathBuf,
+        tensor: String,
+        dtype: String,
+    },
+    /// A weight is NaN or infinite.
+    #[error(
+        "{}: tensor `{tensor}` holds the non-finite value {value} at flat index {index}; the \
+         model diverged or the file is damaged, retrain or restore it", .path.display()
+    )]
+    NonFinite {
+        path: PathBuf,
+        tensor: String,
+        index: usize,
+        value: f32,
+    },
+    /// A file of the SON24 reference weights folder is missing.
+    #[error(
+        "{} is missing: {what}; pass the folder that holds `variables/*.bin` and \
+         `data_stats.json` (a copy of spock-the-wizard/shapeAdaptiveIR's weights)", .path.display()
+    )]
+    Son24Missing { path: PathBuf, what: String },
+    /// A file of the SON24 reference weights folder is damaged.
+    #[error("{}: not a valid reference weights file: {reason}", .path.display())]
+    Son24Corrupt { path: PathBuf, reason: String },
+}
+
+/// Frame convention the model's inputs and outputs are meant for (model-spec §10 A4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FrameConvention {
+    /// VKJ19: refracted, polynomial-aligned incident direction; light-space frame (+e1, +e2,
+    /// −d_in) for both features and output.
+    #[serde(rename = "vkj19")]
+    Vkj19,
+    /// SON24's choices: features in (−e1, −e2, wi) built from the unrefracted wi, output in
+    /// the shading-normal frame.
+    #[serde(rename = "son24-compat")]
+    Son24Compat,
+}
+
+impl FrameConvention {
+    /// The name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Vkj19 => "vkj19",
+            Self::Son24Compat => "son24-compat",
+        }
+    }
+}
+
+/// Conventions and provenance of a model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelInfo {
+    /// Whether the training data dropped the z³ coefficient of the world-space fit (c_19 = 0,
+    /// model-spec §3.2 item 7); the renderer must then do the same.
+    pub c19_quirk: bool,
+    /// Frame convention of the inputs and outputs.
+    pub frame_convention: FrameConvention,
+    /// Free-form training provenance (data, seed, steps, time, metrics, source…).
+    pub provenance: serde_json::Value,
+}
+
+impl Default for ModelInfo {
+    fn default() -> Self {
+        Self {
+            c19_quirk: true,
+            frame_convention: FrameConvention::Vkj19,
+            provenance: serde_json::Value::Object(Default::default()),
+        }
+    }
+}
+
+/// Layer widths of every block, as stored in the metadata.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Architecture {
+    /// Number of network inputs (23).
+    pub input_dim: usize,
+    /// Latent dimension (4).
+    pub latent_dim: usize,
+    /// Position dimension (3).
+    pub position_dim: usize,
+    /// Feature width F.
+    pub feature_dim: usize,
+    /// Hidden activation (`"relu"`).
+    pub activation: String,
+    /// Output activation of the absorption block (`"sigmoid"`).
+    pub absorption_output: String,
+    /// `[23, hidden…, F]`.
+    pub feature: Vec<usize>,
+    /// `[F, hidden…, 1]`.
+    pub absorption: Vec<usize>,
+    /// `[4 + F, hidden…, 3]`.
+    pub decoder: Vec<usize>,
+    /// `[3 + F, hidden…]` (then two heads of `latent_dim`), or `None`.
+    pub encoder: Option<Vec<usize>>,
+}
+
+impl Architecture {
+    /// The architecture of a model.
+    pub fn of(model: &ShapeAdaptiveModel) -> Self {
+        Self {
+            input_dim: INPUT_DIM,
+            latent_dim: LATENT_DIM,
+            position_dim: POSITION_DIM,
+            feature_dim: model.feature_dim(),
+            activation: "relu".to_string(),
+            absorption_output: "sigmoid".to_string(),
+            feature: model.feature_mlp().widths(),
+            absorption: model.absorption_mlp().widths(),
+            decoder: model.decoder().widths(),
+            encoder: model.encoder().map(|e| e.hidden().widths()),
+        }
+    }
+
+    /// Checks the fixed dimensions and that the blocks fit together.
+    fn check(&self) -> Result<(), String> {
+        let mut p = Vec::new();
+        let fixed = [
+            ("input_dim", self.input_dim, INPUT_DIM),
+            ("latent_dim", self.latent_dim, LATENT_DIM),
+            ("position_dim", self.position_dim, POSITION_DIM),
+        ];
+        for (name, got, want) in fixed {
+            if got != want {
+                p.push(format!("{name} is {got}, this build supports only {want}"));
+            }
+        }
+        if self.activation != "relu" {
+            p.push(format!(
+                "activation `{}` is not supported (only `relu`)",
+                self.activation
+            ));
+        }
+        if self.absorption_output != "sigmoid" {
+            p.push(format!(
+                "absorption_output `{}` is not supported (only `sigmoid`)",
+                self.absorption_output
+            ));
+        }
+        let f = self.feature_dim;
+        let blocks: [(&str, &Vec<usize>, usize, Option<usize>); 3] = [
+            ("feature", &self.feature, INPUT_DIM, Some(f)),
+            ("absorption", &self.absorption, f, Some(1)),
+            ("decoder", &self.decoder, LATENT_DIM + f, Some(POSITION_DIM)),
+        ];
+        let enc = self
+            .encoder
+            .as_ref()
+            .map(|w| ("encoder", w, POSITION_DIM + f, None));
+        for (name, w, first, last) in blocks.into_iter().chain(enc) {
+            if w.len() < 2 {
+                p.push(format!(
+                    "{name} widths {w:?} need at least an input and an output"
+                ));
+                continue;
+            }
+            if w.contains(&0) {
+                p.push(format!("{name} widths {w:?} contain a zero"));
+            }
+            if w[0] != first {
+                p.push(format!("{name} takes {} inputs, expected {first}", w[0]));
+            }
+            if let Some(last) = last
+                && w[w.len() - 1] != last
+            {
+                p.push(format!(
+                    "{name} has {} outputs, expected {last}",
+                    w[w.len() - 1]
+                ));
+            }
+        }
+        if p.is_empty() {
+            Ok(())
+        } else {
+            Err(p.join("; "))
+        }
+    }
+}
+
+/// The metadata document.
+#[derive(Serialize, Deserialize)]
+struct Header {
+    format: String,
+    version: u64,
+    architecture: Architecture,
+    normalisation: Normalisation,
+    c19_quirk: bool,
+    frame_convention: FrameConvention,
+    provenance: serde_json::Value,
+}
+
+/// Named tensors of a model, in file order: (name, shape, values).
+pub fn tensors_of(model: &ShapeAdaptiveModel) -> Vec<(String, Vec<usize>, &[f32])> {
+    let mut t = Vec::new();
+    fn add<'a>(t: &mut Vec<(String, Vec<usize>, &'a [f32])>, name: &str, l: &'a Dense) {
+        t.push((
+            format!("{name}.weight"),
+            vec![l.n_out(), l.n_in()],
+            l.weights(),
+        ));
+        t.push((format!("{name}.bias"), vec![l.n_out()], l.bias()));
+    }
+    for (block, mlp) in [
+        ("feature", model.feature_mlp()),
+        ("absorption", model.absorption_mlp()),
+        ("decoder", model.decoder()),
+    ] {
+        for (k, l) in mlp.layers().iter().enumerate() {
+            add(&mut t, &format!("{block}.{k}"), l);
+        }
+    }
+    if let Some(e) = model.encoder() {
+        for (k, l) in e.hidden().layers().iter().enumerate() {
+            add(&mut t, &format!("encoder.{k}"), l);
+        }
+        add(&mut t, "encoder.mean", e.mean());
+        add(&mut t, "encoder.logvar", e.logvar());
+    }
+    t
+}
+
+/// Serialises a model into the bytes of a safetensors file.
+pub fn to_bytes(model: &ShapeAdaptiveModel) -> Result<Vec<u8>, ModelError> {
+    let header = Header {
+        format: FORMAT_NAME.to_string(),
+        version: FORMAT_VERSION,
+        architecture: Architecture::of(model),
+        normalisation: model.normalisation().clone(),
+        c19_quirk: model.info().c19_quirk,
+        frame_convention: model.info().frame_convention,
+        provenance: model.info().provenance.clone(),
+    };
+    let json = serde_json::to_string(&header)
+        .map_err(|e| ModelError::Architecture(format!("cannot encode the metadata: {e}")))?;
+    let tensors = tensors_of(model);
+    let bytes: Vec<(String, Vec<usize>, Vec<u8>)> = tensors
+        .into_iter()
+        .map(|(n, s, v)| (n, s, v.iter().flat_map(|x| x.to_le_bytes()).collect()))
+        .collect();
+    let views = bytes
+        .iter()
+        .map(|(n, s, b)| {
+            TensorView::new(Dtype::F32, s.clone(), b)
+                .map(|v| (n.as_str(), v))
+                .map_err(|e| ModelError::Architecture(format!("tensor `{n}`: {e}")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let meta = HashMap::from([(METADATA_KEY.to_string(), json)]);
+    safetensors::serialize(views, Some(meta))
+        .map_err(|e| ModelError::Architecture(format!("cannot serialise the model: {e}")))
+}
+
+impl ShapeAdaptiveModel {
+    /// Saves the model to `path` atomically (written to a temporary file in the same folder,
+    /// then renamed). Refuses non-finite weights.
+    pub fn save(&self, path: &Path) -> Result<(), ModelError> {
+        for (name, _, v) in tensors_of(self) {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(ModelError::NonFinite {
+                    path: path.to_path_buf(),
+                    tensor: name,
+                    index: i,
+                    value: v[i],
+                });
+            }
+        }
+        let bytes = to_bytes(self)?;
+        write_atomic(path, &bytes)
+    }
+
+    /// Loads and validates a model file (see [`load`]).
+    pub fn load(path: &Path) -> Result<Self, ModelError> {
+        load(path)
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary sibling file and a rename.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ModelError> {
+    let io = |action: &'static str| {
+        move |source| ModelError::Io {
+            path: path.to_path_buf(),
+            action,
+            source,
+        }
+    };
+    let file_name = path.file_name().ok_or_else(|| ModelError::Io {
+        path: path.to_path_buf(),
+        action: "cannot write",
+        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path"),
+    })?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let tmp = parent.join(format!(
+        ".{}.tmp-{}",
+        file_name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp).map_err(io("cannot create a temporary file"))?;
+        f.write_all(bytes).map_err(io("cannot write"))?;
+        f.sync_all().map_err(io("cannot write"))?;
+        drop(f);
+        std::fs::rename(&tmp, path).map_err(io("cannot move the temporary file into place"))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Loads and validates a model file.
+///
+/// Errors name the file, the tensor and what to do: missing file, not safetensors, metadata
+/// missing or malformed, version mismatch, inconsistent architecture, missing or unexpected
+/// tensor, wrong dtype or shape, non-finite value.
+pub fn load(path: &Path) -> Result<ShapeAdaptiveModel, ModelError> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(ModelError::NotFound {
+                path: path.to_path_buf(),
+            });
+        }
+        Err(source) => {
+            return Err(ModelError::Io {
+                path: path.to_path_buf(),
+                action: "cannot read",
+                source,
+            });
+        }
+    };
+    from_bytes(path, &bytes)
+}
+
+/// Parses and validates the bytes of a model file; `path` is used in error messages.
+pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<ShapeAdaptiveModel, ModelError> {
+    let p = || path.to_path_buf();
+    let st = SafeTensors::deserialize(bytes).map_err(|e| ModelError::NotSafetensors {
+        path: p(),
+        reason: e.to_string(),
+    })?;
+    let (_, meta) = SafeTensors::read_metadata(bytes).map_err(|e| ModelError::NotSafetensors {
+        path: p(),
+        reason: e.to_string(),
+    })?;
+    let json = meta
+        .metadata()
+        .as_ref()
+        .and_then(|m| m.get(METADATA_KEY))
+        .ok_or_else(|| ModelError::MetadataMissing { path: p() })?;
+    let invalid = |reason: String| ModelError::MetadataInvalid { path: p(), reason };
+    let value: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| invalid(format!("not JSON: {e}")))?;
+    match value.get("format").and_then(|v| v.as_str()) {
+        Some(FORMAT_NAME) => {}
+        other => {
+            return Err(invalid(format!(
+                "format is {other:?}, expected \"{FORMAT_NAME}\""
+            )));
+        }
+    }
+    let version = value
+        .get("version")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| invalid("no integer `version`".to_string()))?;
+    if version != FORMAT_VERSION {
+        return Err(ModelError::VersionMismatch {
+            path: p(),
+            found: version,
+        });
+    }
+    let header: Header = serde_json::from_value(value).map_err(|e| invalid(e.to_string()))?;
+    let arch = &header.architecture;
+    arch.check().map_err(invalid)?;
+
+    // Every expected tensor, then no other.
+    let mut expected: Vec<String> = Vec::new();
+    let mut read_layer = |name: String, n_in: usize, n_out: usize| -> Result<Dense, ModelError> {
+        let w = read_tensor(path, &st, &format!("{name}.weight"), &[n_out, n_in])?;
+        let b = read_tensor(path, &st, &format!("{name}.bias"), &[n_out])?;
+        expected.push(format!("{name}.weight"));
+        expected.push(format!("{name}.bias"));
+        Dense::new(n_in, n_out, w, b)
+    };
+    let mut read_block = |block: &str, widths: &[usize]| -> Result<Vec<Dense>, ModelError> {
+        widths
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| read_layer(format!("{block}.{k}"), w[0], w[1]))
+            .collect()
+    };
+    let feature = read_block("feature", &arch.feature)?;
+    let absorption = read_block("absorption", &arch.absorption)?;
+    let decoder = read_block("decoder", &arch.decoder)?;
+    let encoder_hidden = match &arch.encoder {
+        Some(w) => Some(read_block("encoder", w)?),
+        None => None,
+    };
+    let encoder = match (encoder_hidden, &arch.encoder) {
+        (Some(hidden), Some(w)) => {
+            let h = w[w.len() - 1];
+            let mean = read_layer("encoder.mean".to_string(), h, LATENT_DIM)?;
+            let logvar = read_layer("encoder.logvar".to_string(), h, LATENT_DIM)?;
+            Some(Encoder::new(hidden, mean, logvar).map_err(|e| invalid(e.to_string()))?)
+        }
+        _ => None,
+    };
+    let mut names = st.names();
+    names.sort_unstable();
+    if let Some(extra) = names.iter().find(|n| !expected.iter().any(|e| e == *n)) {
+        return Err(ModelError::UnexpectedTensor {
+            path: p(),
+            tensor: extra.to_string(),
+        });
+    }
+    if let Some((name, i, v)) = header.normalisation.first_non_finite() {
+        return Err(invalid(format!("normalisation {name}[{i}] is {v}")));
+    }
+    let info = ModelInfo {
+        c19_quirk: header.c19_quirk,
+        frame_convention: header.frame_convention,
+        provenance: header.provenance,
+    };
+    ShapeAdaptiveModel::new(
+        feature,
+        absorption,
+        decoder,
+        encoder,
+        header.normalisation,
+        info,
+    )
+    .map_err(|e| invalid(e.to_string()))
+}
+
+/// Reads one F32 tensor of the given shape, checking presence, dtype, shape and finiteness.
+fn read_tensor(
+    path: &Path,
+    st: &SafeTensors<'_>,
+    name: &str,
+    shape: &[usize],
+) -> Result<Vec<f32>, ModelError> {
+    let p = || path.to_path_buf();
+    let view = st.tensor(name).map_err(|_| ModelError::MissingTensor {
+        path: p(),
+        tensor: name.to_string(),
+    })?;
+    if view.dtype() != Dtype::F32 {
+        return Err(ModelError::WrongDtype {
+            path: p(),
+            tensor: name.to_string(),
+            dtype: format!("{:?}", view.dtype()),
+        });
+    }
+    if view.shape() != shape {
+        return Err(ModelError::WrongShape {
+            path: p(),
+            tensor: name.to_string(),
+            expected: shape.to_vec(),
+            got: view.shape().to_vec(),
+        });
+    }
+    // The data of a safetensors view need not be 4-byte aligned: decode byte by byte.
+    let values: Vec<f32> = view
+        .data()
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(ModelError::NonFinite {
+            path: p(),
+            tensor: name.to_string(),
+            index: i,
+            value: values[i],
+        });
+    }
+    Ok(values)
+}
+
+/// Parameter counts per block: (feature, absorption, decoder, encoder or 0).
+pub fn parameter_counts(model: &ShapeAdaptiveModel) -> [(&'static str, usize); 4] {
+    [
+        ("feature", model.feature_mlp().n_params()),
+        ("absorption", model.absorption_mlp().n_params()),
+        ("decoder", model.decoder().n_params()),
+        ("encoder", model.encoder().map_or(0, Encoder::n_params)),
+    ]
+}
+
+/// Convenience: an [`Mlp`]'s widths as a string like `23 -> 32 -> 32`.
+pub fn widths_string(mlp: &Mlp) -> String {
+    mlp.widths()
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(" -> ")
+}

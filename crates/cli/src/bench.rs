@@ -22,6 +22,9 @@ use crate::common::build_accel;
 pub enum BenchCommand {
     /// Paths per second of the volumetric path tracer on the reference sphere scene.
     Volpath(VolpathBenchArgs),
+    /// Accuracy of the learned BSSRDF (real and planar features) against the volumetric tracer.
+    #[command(name = "learned-vs-volpath")]
+    LearnedVsVolpath(crate::bench_learned::LearnedBenchArgs),
 }
 
 #[derive(Args)]
@@ -49,6 +52,7 @@ const MITSUBA_SECONDS: [(u32, f64); 2] = [(64, 0.064), (128, 0.25)];
 pub fn run(cmd: &BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Volpath(a) => volpath(a),
+        BenchCommand::LearnedVsVolpath(a) => crate::bench_learned::run(a),
     }
 }
 

@@ -139,3 +139,96 @@ pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], wha
     );
     accel
 }
+
+/// Which forward model renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Volumetric path tracer (ground truth).
+    Volpath,
+    /// Learned shape-adaptive BSSRDF (Vicini et al. 2019 as used by Son et al. 2024).
+    Learned,
+}
+
+/// Options of the learned BSSRDF, shared by the commands that render.
+#[derive(clap::Args, Clone, Debug)]
+pub struct LearnedArgs {
+    /// Model file (translucent safetensors format) for `--method learned`, e.g. one written by
+    /// `translucent model import-son24`.
+    #[arg(long)]
+    pub model: Option<std::path::PathBuf>,
+    /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
+    /// goes along −n(x_o).
+    #[arg(long)]
+    pub planar_features: bool,
+    /// Projection rule: `son24` (bounded, 2σ_n + 0.01, single pass) or `vkj19` (2σ_n², then
+    /// unbounded).
+    #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
+    pub projection: String,
+}
+
+impl LearnedArgs {
+    pub fn settings(&self) -> bssrdf::render::LearnedSettings {
+        bssrdf::render::LearnedSettings {
+            projection: match self.projection.as_str() {
+                "vkj19" => bssrdf::projection::ProjectionRule::Vkj19,
+                _ => bssrdf::projection::ProjectionRule::default(),
+            },
+            planar_features: self.planar_features,
+        }
+    }
+
+    pub fn load_model(&self) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
+        let Some(path) = &self.model else {
+            bail!(
+                "--method learned needs --model FILE (no trained model ships yet; import the \
+                 reference weights with `translucent model import-son24 DIR OUT`)"
+            )
+        };
+        Ok(bssrdf::model::load(path)?)
+    }
+}
+
+/// Render every view with the learned BSSRDF (vertex features fitted once for `medium`).
+pub fn render_views_learned(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    model: &bssrdf::nn::ShapeAdaptiveModel,
+    settings: bssrdf::render::LearnedSettings,
+) -> Result<RenderReport> {
+    let t0 = Instant::now();
+    let features =
+        bssrdf::render::VertexFeatures::fit(accel, medium, model.info().c19_quirk, seed)?;
+    tracing::info!(
+        "fitted vertex polynomials in {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let scene = bssrdf::render::LearnedScene::new(accel, model, &features, *medium, settings)?;
+    let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
+    let pb = progress(rows, "learned");
+    let mut images = Vec::with_capacity(views.len());
+    let mut secs = Vec::with_capacity(views.len());
+    for (i, v) in views.iter().enumerate() {
+        let rs = RenderSettings {
+            spp,
+            seed,
+            view: i as u64,
+        };
+        let t0 = Instant::now();
+        images.push(bssrdf::render::render_image(
+            &scene,
+            &v.camera,
+            &v.light,
+            &rs,
+            Some(&pb),
+        )?);
+        secs.push(t0.elapsed().as_secs_f64());
+    }
+    pb.finish_and_clear();
+    Ok(RenderReport {
+        images,
+        seconds_per_view: secs,
+    })
+}

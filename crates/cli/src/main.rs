@@ -3,10 +3,12 @@
 //! This binary is the only place that uses `anyhow`; the library crates return typed errors.
 
 mod bench;
+mod bench_learned;
 mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
+mod model_cmd;
 mod render_cmd;
 mod validate;
 
@@ -49,6 +51,9 @@ enum Command {
     /// volumetric path tracer and check per-view means against Mitsuba's.
     #[command(name = "validate-mitsuba")]
     ValidateMitsuba(validate::ValidateArgs),
+    /// Model files of the learned BSSRDF: import the reference weights, show a model.
+    #[command(subcommand)]
+    Model(model_cmd::ModelCommand),
     /// Speed measurements (results go into BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -109,5 +114,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
         Command::Bench(b) => bench::run(&b),
+        Command::Model(m) => model_cmd::run(&m),
     }
 }

@@ -8,7 +8,10 @@ use clap::Args;
 use scene::{Dataset, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
-use crate::common::{build_accel, check_output_free, render_views, write_outputs};
+use crate::common::{
+    LearnedArgs, Method, build_accel, check_output_free, render_views, render_views_learned,
+    write_outputs,
+};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -30,9 +33,11 @@ pub struct RenderArgs {
     /// Russian roulette starts after this many scattering events.
     #[arg(long, default_value_t = 5)]
     pub rr_depth: u32,
-    /// Render method. Only `volpath` exists so far.
-    #[arg(long, default_value = "volpath", value_parser = ["volpath"])]
-    pub method: String,
+    /// Forward model: the volumetric path tracer or the learned BSSRDF (needs --model).
+    #[arg(long, value_enum, default_value = "volpath")]
+    pub method: Method,
+    #[command(flatten)]
+    pub learned: LearnedArgs,
     /// Sample free flights with one channel and ratio weights (Mitsuba's RGB scheme) instead of
     /// spectral MIS. For comparisons only: noisier.
     #[arg(long)]
@@ -67,7 +72,21 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             ChannelSampling::SpectralMis
         },
     };
-    let rep = render_views(&accel, &desc.medium, views, spp, seed, &settings);
+    let rep = match a.method {
+        Method::Volpath => render_views(&accel, &desc.medium, views, spp, seed, &settings),
+        Method::Learned => {
+            let model = a.learned.load_model()?;
+            render_views_learned(
+                &accel,
+                &desc.medium,
+                views,
+                spp,
+                seed,
+                &model,
+                a.learned.settings(),
+            )?
+        }
+    };
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
     let total: f64 = rep.seconds_per_view.iter().sum();
     println!(

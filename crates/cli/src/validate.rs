@@ -16,7 +16,10 @@ use scene::scene_file::ViewDesc;
 use scene::{Dataset, Image};
 use volpath::VolpathSettings;
 
-use crate::common::{build_accel, check_output_free, render_views, write_outputs};
+use crate::common::{
+    LearnedArgs, Method, build_accel, check_output_free, render_views, render_views_learned,
+    write_outputs,
+};
 use crate::compare::pair_stats;
 
 #[derive(Args)]
@@ -33,9 +36,11 @@ pub struct ValidateArgs {
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Renderer to validate. Only `volpath` exists so far.
-    #[arg(long, default_value = "volpath", value_parser = ["volpath"])]
-    pub method: String,
+    /// Forward model: the volumetric path tracer or the learned BSSRDF (needs --model).
+    #[arg(long, value_enum, default_value = "volpath")]
+    pub method: Method,
+    #[command(flatten)]
+    pub learned: LearnedArgs,
     /// Tolerance on |mean ratio − 1| for lit views.
     #[arg(long, default_value_t = 0.01)]
     pub lit_tolerance: f64,
@@ -105,7 +110,21 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let t0 = Instant::now();
     let spp = a.spp.or(ds.render.spp).unwrap_or(1024);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
-    let rep = render_views(&accel, &medium, &views, spp, a.seed, &settings);
+    let rep = match a.method {
+        Method::Volpath => render_views(&accel, &medium, &views, spp, a.seed, &settings),
+        Method::Learned => {
+            let model = a.learned.load_model()?;
+            render_views_learned(
+                &accel,
+                &medium,
+                &views,
+                spp,
+                a.seed,
+                &model,
+                a.learned.settings(),
+            )?
+        }
+    };
     let total = t0.elapsed().as_secs_f64();
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
 
@@ -177,6 +196,13 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         None => println!("time: ours {per_view:.3} s/view at {spp} spp"),
     }
     println!("wrote {}", a.out.display());
+    if failures > 0 && a.method == Method::Learned {
+        println!(
+            "{failures} view(s) outside the volumetric tolerances (reported, not enforced for the \
+             learned BSSRDF, an approximate model)"
+        );
+        return Ok(());
+    }
     if failures > 0 {
         bail!("{failures} view(s) outside tolerance");
     }

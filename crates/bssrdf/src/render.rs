@@ -1,0 +1,406 @@
+//! Forward rendering with the learned shape-adaptive BSSRDF (model-spec §7.3; Son et al. 2024
+//! eq. 3–5).
+//!
+//! Per pixel sample: camera ray → x_o (front-facing hit, else 0); colour channel c uniform (the
+//! sample's value goes to channel c only, ×3, model-spec A13); refracted incident direction d_in
+//! (η); the vertex polynomials of channel c interpolated at x_o (world axes, scaled by 1/σ_n,c);
+//! d_in aligned to the polynomial normal (§3.5); light-space frame e3 = −d_in; the 23 normalised
+//! inputs → feature MLP → S_abs = 1 − Absorb (a scale factor, never roulette, A8); z ~ N(0, I₄)
+//! by inversion of the sample's uniforms; decoder → y; x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃);
+//! x_i = Π(x̃) ([`crate::projection`]); shadow ray to the point light;
+//!
+//!   C = 3·e_c · S_abs · (1 − F(cos θ_cam)) · Sw(w_l) · max(0, n_i·w_l) · V · I / r²  (§1, eq. 5).
+//!
+//! Invalid samples (projection miss, back-facing light, occlusion) count with value 0.
+//! Batched: one image row (width × spp samples) per network call, one feature evaluation per
+//! shading point; rows run in parallel (rayon), buffers are reused per worker thread, and every
+//! random number comes from the (seed, view, pixel) stream, so images do not depend on the thread
+//! count.
+//!
+//! Switches: [`LearnedSettings::planar_features`] replaces the shape descriptor by the plane
+//! p = u_z and projects along −n(x_o) (the "planar" ablation); the model's
+//! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
+//! unrefracted camera direction, outputs in the shading frame of x_o), see model-spec A4.
+
+use geometry::{Accel, Frame, bvh::offset_origin};
+use glam::Vec3;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use scene::{Camera, Image, Medium, PointLight};
+use volpath::fresnel::refract;
+use volpath::render::pixel_jitter;
+use volpath::rng::{Sampler, hash_key};
+
+use crate::boundary::{sw, transmittance};
+use crate::fit::{ConstraintCloud, FitError, interpolate};
+use crate::gaussian::probit;
+use crate::medium::{ReducedMedium, effective_albedo};
+use crate::model::FrameConvention;
+use crate::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM, ShapeAdaptiveModel, Workspace};
+use crate::polynomial::{Poly3, align_direction, light_space_frame};
+use crate::projection::{ProjectionRule, project};
+
+/// Errors of the learned renderer.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("medium: {0}")]
+    Medium(String),
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
+}
+
+/// Settings of the learned renderer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LearnedSettings {
+    pub projection: ProjectionRule,
+    /// Planar-features ablation: plane descriptor p = u_z, projection along −n(x_o).
+    pub planar_features: bool,
+}
+
+impl Default for LearnedSettings {
+    fn default() -> Self {
+        LearnedSettings {
+            projection: ProjectionRule::default(),
+            planar_features: false,
+        }
+    }
+}
+
+/// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
+/// (model-spec §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
+#[derive(Clone, Debug)]
+pub struct VertexFeatures {
+    /// `polys[c][v]`: channel c, vertex v.
+    pub polys: [Vec<Poly3>; 3],
+    /// The σ_n of each channel the fits were made with.
+    pub sigma_n: [f32; 3],
+}
+
+impl VertexFeatures {
+    /// Fit every vertex for each channel (channels with the same kernel share one fit).
+    pub fn fit(
+        accel: &Accel,
+        medium: &Medium,
+        quirk_c19: bool,
+        seed: u64,
+    ) -> Result<Self, RenderError> {
+        let sigma_n = channel_sigma_n(medium)?;
+        let mesh = accel.mesh();
+        let mut polys: [Vec<Poly3>; 3] = Default::default();
+        for c in 0..3 {
+            if let Some(prev) = (0..c).find(|&k| sigma_n[k] == sigma_n[c]) {
+                polys[c] = polys[prev].clone();
+                continue;
+            }
+            let eps = (sigma_n[c] as f64).powi(2);
+            let cloud = ConstraintCloud::from_mesh(mesh, eps, seed)?;
+            polys[c] = cloud.fit_vertices(mesh, eps, quirk_c19)?;
+        }
+        Ok(VertexFeatures { polys, sigma_n })
+    }
+}
+
+/// σ_n per channel (model-spec §2) with range checks.
+fn channel_sigma_n(m: &Medium) -> Result<[f32; 3], RenderError> {
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        let r = ReducedMedium::try_new(m.sigma_t[c] as f64, m.albedo[c] as f64, m.g as f64)
+            .map_err(|e| RenderError::Medium(format!("channel {c}: {e}")))?;
+        out[c] = r.sigma_n() as f32;
+    }
+    Ok(out)
+}
+
+/// Everything the learned renderer needs for one medium.
+pub struct LearnedScene<'a> {
+    pub accel: &'a Accel,
+    pub model: &'a ShapeAdaptiveModel,
+    pub features: &'a VertexFeatures,
+    pub medium: Medium,
+    pub settings: LearnedSettings,
+    /// σ_n per channel at the CURRENT medium (the features may be fitted at another one).
+    sigma_n: [f32; 3],
+    /// α_eff(α') per channel (network input).
+    eff_albedo: [f32; 3],
+}
+
+impl<'a> LearnedScene<'a> {
+    pub fn new(
+        accel: &'a Accel,
+        model: &'a ShapeAdaptiveModel,
+        features: &'a VertexFeatures,
+        medium: Medium,
+        settings: LearnedSettings,
+    ) -> Result<Self, RenderError> {
+        let sigma_n = channel_sigma_n(&medium)?;
+        let mut eff_albedo = [0.0; 3];
+        for c in 0..3 {
+            let r = ReducedMedium::new(
+                medium.sigma_t[c] as f64,
+                medium.albedo[c] as f64,
+                medium.g as f64,
+            );
+            eff_albedo[c] = effective_albedo(r.albedo_red) as f32;
+        }
+        if features
+            .polys
+            .iter()
+            .any(|p| p.len() != accel.mesh().positions.len())
+        {
+            return Err(RenderError::Medium(
+                "vertex features were fitted on another mesh".into(),
+            ));
+        }
+        Ok(LearnedScene {
+            accel,
+            model,
+            features,
+            medium,
+            settings,
+            sigma_n,
+            eff_albedo,
+        })
+    }
+}
+
+/// One BSSRDF sample between the batched network calls.
+#[derive(Clone, Copy)]
+struct Pending {
+    pixel: u32,
+    channel: u8,
+    x_o: Vec3,
+    /// Output frame (e1, e2, e3) in world axes.
+    out_frame: Frame,
+    /// Interpolated world polynomial (for the projection direction).
+    poly: Poly3,
+    /// Shading normal at x_o (planar projection direction).
+    n_o: Vec3,
+    /// (1 − F(cos θ_cam)).
+    t_cam: f32,
+}
+
+/// Reused per worker thread.
+#[derive(Default)]
+struct RowBuffers {
+    pending: Vec<Pending>,
+    inputs: Vec<[f32; INPUT_DIM]>,
+    feats: Vec<f32>,
+    absorb: Vec<f32>,
+    z: Vec<[f32; LATENT_DIM]>,
+    point: Vec<u32>,
+    y: Vec<[f32; POSITION_DIM]>,
+    sums: Vec<[f64; 3]>,
+    ws: Workspace,
+}
+
+/// Per-render settings (shared with the volumetric renderer).
+pub use volpath::RenderSettings;
+
+/// Render one view with the learned BSSRDF. `progress` advances by one per row.
+pub fn render_image(
+    scene: &LearnedScene,
+    camera: &Camera,
+    light: &PointLight,
+    rs: &RenderSettings,
+    progress: Option<&ProgressBar>,
+) -> Result<Image, RenderError> {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let mut img = Image::new(camera.width, camera.height);
+    let result: Result<(), RenderError> = img.data.par_chunks_mut(w).enumerate().try_for_each_init(
+        RowBuffers::default,
+        |buf, (y, row)| {
+            render_row(scene, camera, light, rs, y as u32, buf)?;
+            let inv = 1.0 / rs.spp.max(1) as f64;
+            for (px, s) in row.iter_mut().zip(&buf.sums) {
+                *px = s.map(|v| (v * inv) as f32);
+            }
+            if let Some(pb) = progress {
+                pb.inc(1);
+            }
+            Ok(())
+        },
+    );
+    result?;
+    debug_assert_eq!(img.data.len(), w * h);
+    Ok(img)
+}
+
+fn render_row(
+    scene: &LearnedScene,
+    camera: &Camera,
+    light: &PointLight,
+    rs: &RenderSettings,
+    y: u32,
+    buf: &mut RowBuffers,
+) -> Result<(), RenderError> {
+    let w = camera.width;
+    let m = &scene.medium;
+    let model = scene.model;
+    let norm = model.normalisation();
+    let convention = model.info().frame_convention;
+    let mesh = scene.accel.mesh();
+    buf.pending.clear();
+    buf.inputs.clear();
+    buf.z.clear();
+    buf.sums.clear();
+    buf.sums.resize(w as usize, [0.0; 3]);
+
+    // Stage 1: camera rays, channel choice, shape descriptor, network inputs, latent samples.
+    for x in 0..w {
+        let pixel = y as u64 * w as u64 + x as u64;
+        let mut s = Sampler::new(rs.seed, rs.view, pixel, 0);
+        let key = hash_key(&[rs.seed, rs.view, pixel, 1]);
+        for i in 0..rs.spp {
+            let (jx, jy) = pixel_jitter(i, key, &mut s);
+            let channel = s.next_below(3) as usize;
+            let z: [f32; LATENT_DIM] =
+                std::array::from_fn(|_| probit(s.next_f32() as f64 + 0.5 / 16_777_216.0) as f32);
+            let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
+            let Some(hit) = scene.accel.closest(o, d, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            if !hit.entering(d) {
+                continue;
+            }
+            let n_o = hit.ns;
+            let cos_cam = (-d).dot(n_o).max(0.0);
+            let t_cam = transmittance(cos_cam, m.eta);
+            let [i0, i1, i2] = mesh.indices[hit.tri as usize];
+            let b = [1.0 - hit.bary.x - hit.bary.y, hit.bary.x, hit.bary.y];
+            let polys = &scene.features.polys[channel];
+            let poly = interpolate(
+                [
+                    &polys[i0 as usize],
+                    &polys[i1 as usize],
+                    &polys[i2 as usize],
+                ],
+                b,
+            );
+            let (ls_poly, out_frame) = match convention {
+                FrameConvention::Vkj19 => {
+                    let d_in = if m.eta == 1.0 {
+                        d
+                    } else {
+                        refract(d, n_o, m.eta).unwrap_or(d)
+                    };
+                    let d_in = match poly.normal() {
+                        Some(n_p) => align_direction(d_in, n_o, n_p),
+                        None => d_in,
+                    };
+                    let f = light_space_frame(d_in);
+                    (poly.rotate(f.s, f.t, f.n), f)
+                }
+                FrameConvention::Son24Compat => {
+                    let wi = -d;
+                    let f = Frame::from_normal(wi);
+                    (poly.rotate(-f.s, -f.t, f.n), Frame::from_normal(n_o))
+                }
+            };
+            let coeffs = if scene.settings.planar_features {
+                Poly3::plane(Vec3::Z).0
+            } else {
+                ls_poly.0
+            };
+            buf.inputs
+                .push(norm.inputs(&coeffs, scene.eff_albedo[channel], m.g, m.eta));
+            buf.z.push(z);
+            buf.pending.push(Pending {
+                pixel: x,
+                channel: channel as u8,
+                x_o: hit.p,
+                out_frame,
+                poly,
+                n_o,
+                t_cam,
+            });
+        }
+    }
+    let n = buf.pending.len();
+    if n == 0 {
+        return Ok(());
+    }
+
+    // Stage 2: networks, batched over the row.
+    let f = model.feature_dim();
+    buf.feats.resize(n * f, 0.0);
+    buf.absorb.resize(n, 0.0);
+    buf.y.resize(n, [0.0; POSITION_DIM]);
+    buf.point.clear();
+    buf.point.extend(0..n as u32);
+    model.features_with(&buf.inputs, &mut buf.feats, &mut buf.ws)?;
+    model.absorb_with(&buf.feats, &mut buf.absorb, &mut buf.ws)?;
+    model.decode_with(&buf.feats, &buf.z, &buf.point, &mut buf.y, &mut buf.ws)?;
+
+    // Stage 3: placement, projection, light.
+    for k in 0..n {
+        let p = &buf.pending[k];
+        let c = p.channel as usize;
+        let sigma_n = scene.sigma_n[c];
+        let yk = buf.y[k];
+        let x_t = p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(yk[0], yk[1], yk[2]));
+        let hit = if scene.settings.planar_features {
+            project(
+                scene.accel,
+                scene.settings.projection,
+                x_t,
+                p.n_o,
+                1.0,
+                sigma_n,
+            )
+        } else {
+            let (value, grad) = p
+                .poly
+                .eval_with_gradient((x_t - p.x_o) / scene.features.sigma_n[c]);
+            project(
+                scene.accel,
+                scene.settings.projection,
+                x_t,
+                grad,
+                value,
+                sigma_n,
+            )
+        };
+        let Some(hit) = hit else { continue };
+        let v = light_contribution(scene, light, hit.p, hit.ns, hit.ng);
+        if v <= 0.0 {
+            continue;
+        }
+        let s_abs = 1.0 - buf.absorb[k];
+        let value = 3.0 * s_abs * p.t_cam * v * light.intensity[c];
+        if value.is_finite() {
+            buf.sums[p.pixel as usize][c] += value as f64;
+        }
+    }
+    Ok(())
+}
+
+/// Sw(w_l) · max(0, n_i·w_l) · V / r² at the entry point (without the intensity).
+#[inline]
+fn light_contribution(
+    scene: &LearnedScene,
+    light: &PointLight,
+    x_i: Vec3,
+    n_i: Vec3,
+    ng: Vec3,
+) -> f32 {
+    let to_l = light.position - x_i;
+    let r2 = to_l.length_squared();
+    if r2 <= 0.0 {
+        return 0.0;
+    }
+    let r = r2.sqrt();
+    let dir = to_l / r;
+    let cos_l = n_i.dot(dir);
+    if cos_l <= 0.0 || ng.dot(dir) <= 0.0 {
+        return 0.0;
+    }
+    if scene
+        .accel
+        .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
+    {
+        return 0.0;
+    }
+    sw(cos_l, scene.medium.eta) * cos_l / r2
+}

@@ -1,0 +1,187 @@
+//! `translucent bench learned-vs-volpath`: accuracy of the learned BSSRDF against the volumetric
+//! path tracer (issue #3 acceptance 4, issue #4 acceptance 2).
+//!
+//! For every shape × σ_t × α (η = 1, g = 0, objects about 1 unit across, camera rig at distance
+//! 2 with an attached light), render the views with volpath (≥ 1024 spp; cached as EXR under
+//! `OUT/volpath/<case>/` and reused by later runs with the same settings) and with each model,
+//! with real and with planar features. Per case: the relative error of the image mean
+//! (mean over views of mean(learned)/mean(volpath) − 1, channels averaged: the medium is grey)
+//! and the image relative RMSE (RMSE / mean of the volpath image, averaged over views). Writes
+//! `OUT/learned_vs_volpath.csv` and prints the table.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use geometry::Shape;
+use glam::Vec3;
+use scene::rig::{Rig, RigLight};
+use scene::{Image, Medium};
+use volpath::VolpathSettings;
+
+use crate::common::{build_accel, render_views, render_views_learned};
+use crate::compare::pair_stats;
+
+#[derive(Args)]
+pub struct LearnedBenchArgs {
+    /// Model files to evaluate (one or more, comma-separated), e.g. ours and the imported
+    /// reference model.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub model: Vec<PathBuf>,
+    /// Shapes (built-in names).
+    #[arg(long, value_delimiter = ',', default_value = "sphere,cone,torus,blob")]
+    pub shapes: Vec<String>,
+    /// Extinctions σ_t (1/unit).
+    #[arg(long, value_delimiter = ',', default_value = "30,60,100")]
+    pub sigma_t: Vec<f32>,
+    /// Albedos α.
+    #[arg(long, value_delimiter = ',', default_value = "0.8,0.9,0.98")]
+    pub albedo: Vec<f32>,
+    /// Views per case.
+    #[arg(long, default_value_t = 2)]
+    pub views: usize,
+    /// Image size.
+    #[arg(long, default_value_t = 64)]
+    pub res: u32,
+    /// Samples per pixel of the learned renders.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Samples per pixel of the volumetric reference.
+    #[arg(long, default_value_t = 1024)]
+    pub volpath_spp: u32,
+    /// Output folder (volpath cache, CSV).
+    #[arg(long, default_value = "out/bench-learned")]
+    pub out: PathBuf,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+/// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
+fn errors(a: &[Image], b: &[Image]) -> Result<(f64, f64)> {
+    let (mut me, mut rr) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        let st = pair_stats(x, y)?;
+        me += st.mean_ratio.iter().sum::<f64>() / 3.0 - 1.0;
+        rr += st.rel_rmse.iter().sum::<f64>() / 3.0;
+    }
+    let n = a.len().max(1) as f64;
+    Ok((me / n, rr / n))
+}
+
+pub fn run(a: &LearnedBenchArgs) -> Result<()> {
+    let models: Vec<_> = a
+        .model
+        .iter()
+        .map(|p| bssrdf::model::load(p).with_context(|| format!("model {}", p.display())))
+        .collect::<Result<_>>()?;
+    std::fs::create_dir_all(&a.out)?;
+    let csv_path = a.out.join("learned_vs_volpath.csv");
+    let mut csv = std::fs::File::create(&csv_path)?;
+    write!(csv, "shape,sigma_t,albedo")?;
+    for p in &a.model {
+        let name = p.file_stem().unwrap_or_default().to_string_lossy();
+        write!(
+            csv,
+            ",{name}_mean_err,{name}_rel_rmse,{name}_planar_mean_err,{name}_planar_rel_rmse"
+        )?;
+    }
+    writeln!(csv)?;
+    print!("{:<7} {:>5} {:>5}", "shape", "σ_t", "α");
+    for p in &a.model {
+        let name = p.file_stem().unwrap_or_default().to_string_lossy();
+        print!(
+            " | {:>22} {:>22}",
+            format!("{name}: mean err, rRMSE"),
+            "planar: mean err, rRMSE"
+        );
+    }
+    println!();
+    let t0 = Instant::now();
+    for shape_name in &a.shapes {
+        let shape = Shape::from_name(shape_name)?;
+        let accel = build_accel(shape.build()?, &[], shape_name);
+        let rig = Rig {
+            views: a.views,
+            radius: 2.0,
+            target: Vec3::ZERO,
+            fov_x_deg: 35.0,
+            width: a.res,
+            height: a.res,
+            light: RigLight::Attached {
+                offset: Vec3::new(0.8, 0.8, 0.0),
+            },
+            intensity: [12.0; 3],
+            elevation_deg: (-60.0, 60.0),
+        };
+        rig.validate("bench rig")?;
+        let views = rig.build();
+        for &st in &a.sigma_t {
+            for &al in &a.albedo {
+                let medium = Medium {
+                    sigma_t: [st; 3],
+                    albedo: [al; 3],
+                    g: 0.0,
+                    eta: 1.0,
+                };
+                medium.validate("bench medium")?;
+                let case = format!("{shape_name}_s{st}_a{al}");
+                let dir = a.out.join("volpath").join(format!(
+                    "{case}_{}v_{}px_{}spp_seed{}",
+                    a.views, a.res, a.volpath_spp, a.seed
+                ));
+                let names: Vec<String> = (0..views.len()).map(|i| format!("view_{i:03}")).collect();
+                let cached: Option<Vec<Image>> = names
+                    .iter()
+                    .map(|n| Image::read_exr(&dir.join(format!("{n}.exr"))).ok())
+                    .collect();
+                let reference = match cached {
+                    Some(v) => v,
+                    None => {
+                        let rep = render_views(
+                            &accel,
+                            &medium,
+                            &views,
+                            a.volpath_spp,
+                            a.seed,
+                            &VolpathSettings::default(),
+                        );
+                        crate::common::write_outputs(&dir, &names, &rep.images, true)?;
+                        rep.images
+                    }
+                };
+                print!("{shape_name:<7} {st:>5} {al:>5}");
+                write!(csv, "{shape_name},{st},{al}")?;
+                for model in &models {
+                    for planar in [false, true] {
+                        let settings = bssrdf::render::LearnedSettings {
+                            planar_features: planar,
+                            ..Default::default()
+                        };
+                        let rep = render_views_learned(
+                            &accel, &medium, &views, a.spp, a.seed, model, settings,
+                        )?;
+                        let (me, rr) = errors(&rep.images, &reference)?;
+                        print!(
+                            "{}{:>+10.3} {:>10.3}",
+                            if planar { "  " } else { " | " },
+                            me,
+                            rr
+                        );
+                        write!(csv, ",{me:.5},{rr:.5}")?;
+                    }
+                }
+                println!();
+                writeln!(csv)?;
+            }
+        }
+    }
+    println!(
+        "wrote {} ({:.0} s)",
+        csv_path.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
