@@ -183,22 +183,9 @@ pub const N_POLY: usize = 20;
 pub const N_INPUTS: usize = N_POLY + 3;
 
 /// Network input normalisation constants (model-spec §4.1): `(x − mean) · stdinv` with
-/// `stdinv = 1 / sqrt(var + 0.1)`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct NormStats {
-    /// Mean of `α_eff(α)` over the training set.
-    pub eff_albedo_mean: f32,
-    /// `1/sqrt(var + 0.1)` of `α_eff(α)`.
-    pub eff_albedo_stdinv: f32,
-    /// Mean of g.
-    pub g_mean: f32,
-    /// `1/sqrt(var + 0.1)` of g.
-    pub g_stdinv: f32,
-    /// Per-coefficient mean of the light-space polynomial coefficients.
-    pub poly_mean: [f32; N_POLY],
-    /// Per-coefficient `1/sqrt(var + 0.1)` of the light-space coefficients.
-    pub poly_stdinv: [f32; N_POLY],
-}
+/// `stdinv = 1 / sqrt(var + 0.1)`. One type serves the model file, the renderer and training:
+/// the statistics of a training set ([`NormStats::from_samples`]) are what a model stores.
+pub type NormStats = crate::nn::Normalisation;
 
 /// One training sample for [`NormStats::from_samples`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -251,7 +238,7 @@ impl Moments {
     }
 }
 
-impl NormStats {
+impl crate::nn::Normalisation {
     /// Statistics over a training set (model-spec §4.1, §5 step 6): per input the mean and
     /// `stdinv = 1/sqrt(var + 0.1)` (population variance; an input with zero variance, i.e. all
     /// samples equal, gets var := 1, so stdinv = 1/sqrt(1.1) ≈ 0.953463). The albedo statistic is
@@ -305,15 +292,12 @@ impl NormStats {
         g: f64,
         eta: f64,
     ) -> [f32; N_INPUTS] {
-        let mut out = [0.0f32; N_INPUTS];
-        for k in 0..N_POLY {
-            out[k] = (coeffs_ls[k] - self.poly_mean[k]) * self.poly_stdinv[k];
-        }
-        out[N_POLY] = ((effective_albedo(albedo_red) - self.eff_albedo_mean as f64)
-            * self.eff_albedo_stdinv as f64) as f32;
-        out[N_POLY + 1] = ((g - self.g_mean as f64) * self.g_stdinv as f64) as f32;
-        out[N_POLY + 2] = (2.0 * (eta - 1.25)) as f32;
-        out
+        self.inputs(
+            coeffs_ls,
+            effective_albedo(albedo_red) as f32,
+            g as f32,
+            eta as f32,
+        )
     }
 
     /// `∂ input[20] / ∂α'` = `stdinv · α_eff'(α')` (the only input that depends on the albedo;
