@@ -52,21 +52,13 @@ pub enum RenderError {
 }
 
 /// Settings of the learned renderer.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LearnedSettings {
     pub projection: ProjectionRule,
     /// Planar-features ablation: plane descriptor p = u_z, projection along −n(x_o).
     pub planar_features: bool,
 }
 
-impl Default for LearnedSettings {
-    fn default() -> Self {
-        LearnedSettings {
-            projection: ProjectionRule::default(),
-            planar_features: false,
-        }
-    }
-}
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
 /// (model-spec §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
