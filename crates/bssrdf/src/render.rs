@@ -59,7 +59,6 @@ pub struct LearnedSettings {
     pub planar_features: bool,
 }
 
-
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
 /// (model-spec §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
 #[derive(Clone, Debug)]
