@@ -57,6 +57,8 @@ pub struct LearnedSettings {
     pub projection: ProjectionRule,
     /// Planar-features ablation: plane descriptor p = u_z, projection along −n(x_o).
     pub planar_features: bool,
+    /// Frame convention to use instead of the model's own (A/B comparisons, model-spec A4).
+    pub frames: Option<FrameConvention>,
 }
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
@@ -230,7 +232,10 @@ fn render_row(
     let m = &scene.medium;
     let model = scene.model;
     let norm = model.normalisation();
-    let convention = model.info().frame_convention;
+    let convention = scene
+        .settings
+        .frames
+        .unwrap_or(model.info().frame_convention);
     let mesh = scene.accel.mesh();
     buf.pending.clear();
     buf.inputs.clear();

@@ -164,6 +164,10 @@ pub struct LearnedArgs {
     /// unbounded).
     #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
     pub projection: String,
+    /// Frame convention of features and outputs: the model's own (default), `vkj19` or
+    /// `son24-compat` (model-spec A4).
+    #[arg(long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
+    pub frames: String,
 }
 
 impl LearnedArgs {
@@ -174,6 +178,11 @@ impl LearnedArgs {
                 _ => bssrdf::projection::ProjectionRule::default(),
             },
             planar_features: self.planar_features,
+            frames: match self.frames.as_str() {
+                "vkj19" => Some(bssrdf::model::FrameConvention::Vkj19),
+                "son24-compat" => Some(bssrdf::model::FrameConvention::Son24Compat),
+                _ => None,
+            },
         }
     }
 
