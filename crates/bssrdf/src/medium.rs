@@ -13,7 +13,6 @@
 //!
 //! so `σ_t' = σ_t (1 − gα)` and `α' = (1 − g) α / (1 − gα)` (independent of σ_t).
 
-
 /// Errors of this module (invalid medium parameters or statistics input).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MediumError {
