@@ -60,7 +60,7 @@ mod tests {
         assert!(probit(0.5).abs() < 1e-12);
         assert!((probit(0.975) - 1.959_963_984_540_054).abs() < 1e-8);
         assert!((probit(0.001) + 3.090_232_306_167_813_6).abs() < 1e-8);
-        assert!((probit(0.84134474606854293) - 1.0).abs() < 1e-8);
+        assert!((probit(0.841_344_746_068_542_9) - 1.0).abs() < 1e-8);
         for k in 1..100 {
             let u = k as f64 / 100.0;
             assert!((probit(u) + probit(1.0 - u)).abs() < 1e-9);
