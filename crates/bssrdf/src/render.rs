@@ -2,7 +2,8 @@
 //! eq. 3–5).
 //!
 //! Per pixel sample: camera ray → x_o (front-facing hit, else 0); colour channel c uniform (the
-//! sample's value goes to channel c only, ×3, model-spec A13); refracted incident direction d_in
+//! sample's value goes to channel c only, ×3, model-spec A13; for a grey medium, whose channels
+//! share σ_t and α, the sample serves all three channels instead); refracted incident direction d_in
 //! (η); the vertex polynomials of channel c interpolated at x_o (world axes, scaled by 1/σ_n,c);
 //! d_in aligned to the polynomial normal (§3.5); light-space frame e3 = −d_in; the 23 normalised
 //! inputs → feature MLP → S_abs = 1 − Absorb (a scale factor, never roulette, A8); z ~ N(0, I₄)
@@ -117,6 +118,9 @@ pub struct LearnedScene<'a> {
     sigma_n: [f32; 3],
     /// α_eff(α') per channel (network input).
     eff_albedo: [f32; 3],
+    /// All three channels share σ_t and α: one sample serves every channel (no one-hot ×3,
+    /// a third of the variance; unbiased because the sample is distributed as each channel's).
+    grey: bool,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -146,6 +150,10 @@ impl<'a> LearnedScene<'a> {
                 "vertex features were fitted on another mesh".into(),
             ));
         }
+        let same = |v: &[f32; 3]| v.iter().all(|&x| x == v[0]);
+        let grey = same(&medium.sigma_t)
+            && same(&medium.albedo)
+            && features.polys[1..].iter().all(|p| *p == features.polys[0]);
         Ok(LearnedScene {
             accel,
             model,
@@ -154,6 +162,7 @@ impl<'a> LearnedScene<'a> {
             settings,
             sigma_n,
             eff_albedo,
+            grey,
         })
     }
 }
@@ -364,9 +373,17 @@ fn render_row(
             continue;
         }
         let s_abs = 1.0 - buf.absorb[k];
-        let value = 3.0 * s_abs * p.t_cam * v * light.intensity[c];
-        if value.is_finite() {
-            buf.sums[p.pixel as usize][c] += value as f64;
+        let base = s_abs * p.t_cam * v;
+        if !base.is_finite() {
+            continue;
+        }
+        let sum = &mut buf.sums[p.pixel as usize];
+        if scene.grey {
+            for (ch, acc) in sum.iter_mut().enumerate() {
+                *acc += (base * light.intensity[ch]) as f64;
+            }
+        } else {
+            sum[c] += (3.0 * base * light.intensity[c]) as f64;
         }
     }
     Ok(())

@@ -8,7 +8,8 @@
 //! computed directly from the model for the plane inputs, so the test checks the assembly of the
 //! estimator (channel selection and weighting, absorption scale, Fresnel and Sw factors,
 //! projection, shadow rays) for an arbitrary network. Tolerance: 4.5 standard errors of the
-//! per-sample values (the channel choice makes each value 3v or 0).
+//! per-sample values (the channel choice makes each value 3v or 0; for a grey medium every sample
+//! serves all channels and has the value v).
 
 use bssrdf::boundary::{sw, transmittance};
 use bssrdf::medium::{ReducedMedium, effective_albedo};
@@ -95,12 +96,21 @@ fn slab() -> Accel {
 fn planar_estimator_matches_closed_form_on_a_lit_slab() {
     let accel = slab();
     let model = model();
-    for eta in [1.0f32, 1.4] {
-        let medium = Medium {
-            sigma_t: [50.0, 60.0, 70.0],
-            albedo: [0.5, 0.8, 0.95],
-            g: 0.0,
-            eta,
+    for (eta, grey) in [(1.0f32, false), (1.4, false), (1.0, true)] {
+        let medium = if grey {
+            Medium {
+                sigma_t: [60.0; 3],
+                albedo: [0.8; 3],
+                g: 0.0,
+                eta,
+            }
+        } else {
+            Medium {
+                sigma_t: [50.0, 60.0, 70.0],
+                albedo: [0.5, 0.8, 0.95],
+                g: 0.0,
+                eta,
+            }
         };
         let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
         let settings = LearnedSettings {
@@ -142,8 +152,9 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             let mut absorb = [0.0];
             model.absorb(&f, &mut absorb).unwrap();
             let v = (1.0 - absorb[0]) as f64 * transmittance(1.0, eta) as f64 * sw(1.0, eta) as f64;
-            // Each sample is 3v with probability 1/3, else 0: variance 2v².
-            let se = v * (2.0 / n).sqrt();
+            // Each sample is 3v with probability 1/3, else 0: variance 2v². A grey medium gives
+            // every sample the value v (zero variance here: uniform light, every sample hits).
+            let se = if grey { 1e-5 * v } else { v * (2.0 / n).sqrt() };
             let z = (m[c] - v).abs() / se;
             assert!(
                 z < 4.5,
