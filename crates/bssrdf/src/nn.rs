@@ -214,8 +214,10 @@ impl Dense {
         self.w.len() + self.b.len()
     }
 
-    /// `out[r] = act(W x[r] + b)` for `rows` rows of `x` (row-major, `n_in` per row).
-    fn forward_rows(&self, x: &[f32], rows: usize, out: &mut [f32], relu: bool) {
+    /// `out[r] = act(W x[r] + b)` for `rows` rows of `x` (row-major, `n_in` per row), on the
+    /// calling thread. Training (crate `learn`) runs its forward passes through this same
+    /// function, so inference and training share one implementation.
+    pub fn forward_rows(&self, x: &[f32], rows: usize, out: &mut [f32], relu: bool) {
         let out = &mut out[..rows * self.n_out];
         matmul_wt(x, rows, self.n_in, &self.w, self.n_in, self.n_out, out);
         bias_act(out, &self.b, relu);
@@ -224,7 +226,10 @@ impl Dense {
 
 /// `out[r][j] = Σ_k x[r·k_dim + k] · w[j·w_stride + k]` (x Wᵀ) for `rows` rows and `n` outputs,
 /// with `gemm` on the calling thread. `out` is written, not read.
-fn matmul_wt(
+///
+/// # Panics
+/// If the buffers are smaller than the dimensions say.
+pub fn matmul_wt(
     x: &[f32],
     rows: usize,
     k_dim: usize,
