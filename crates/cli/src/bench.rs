@@ -25,6 +25,9 @@ pub enum BenchCommand {
     /// Accuracy of the learned BSSRDF (real and planar features) against the volumetric tracer.
     #[command(name = "learned-vs-volpath")]
     LearnedVsVolpath(crate::bench_learned::LearnedBenchArgs),
+    /// Learned models against directly simulated random walks on a half-space: absorption and
+    /// the radial distribution of exit points.
+    Plane(crate::bench_plane::PlaneBenchArgs),
 }
 
 #[derive(Args)]
@@ -53,6 +56,7 @@ pub fn run(cmd: &BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Volpath(a) => volpath(a),
         BenchCommand::LearnedVsVolpath(a) => crate::bench_learned::run(a),
+        BenchCommand::Plane(a) => crate::bench_plane::run(a),
     }
 }
 

@@ -26,9 +26,10 @@ use crate::compare::pair_stats;
 
 #[derive(Args)]
 pub struct LearnedBenchArgs {
-    /// Model files to evaluate (one or more, comma-separated), e.g. ours and the imported
-    /// reference model.
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Model files to evaluate (one or more, comma-separated; `shipped` = the built-in model),
+    /// e.g. `shipped,son24.safetensors` (the imported reference model). With two or more, the
+    /// first is compared case by case against each other one at the end.
+    #[arg(long, value_delimiter = ',', default_value = "shipped")]
     pub model: Vec<PathBuf>,
     /// Shapes (built-in names).
     #[arg(long, value_delimiter = ',', default_value = "sphere,cone,torus,blob")]
@@ -75,7 +76,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     let models: Vec<_> = a
         .model
         .iter()
-        .map(|p| bssrdf::model::load(p).with_context(|| format!("model {}", p.display())))
+        .map(|p| crate::common::load_model_arg(p).with_context(|| format!("model {}", p.display())))
         .collect::<Result<_>>()?;
     std::fs::create_dir_all(&a.out)?;
     let csv_path = a.out.join("learned_vs_volpath.csv");
@@ -100,6 +101,8 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     }
     println!();
     let t0 = Instant::now();
+    // Per model and feature mode: (|mean err|, rRMSE) of every case.
+    let mut results: Vec<[Vec<(f64, f64)>; 2]> = vec![[Vec::new(), Vec::new()]; models.len()];
     for shape_name in &a.shapes {
         let shape = Shape::from_name(shape_name)?;
         let accel = build_accel(shape.build()?, &[], shape_name);
@@ -154,7 +157,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                 };
                 print!("{shape_name:<7} {st:>5} {al:>5}");
                 write!(csv, "{shape_name},{st},{al}")?;
-                for model in &models {
+                for (mi, model) in models.iter().enumerate() {
                     for planar in [false, true] {
                         let settings = bssrdf::render::LearnedSettings {
                             planar_features: planar,
@@ -171,6 +174,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                             rr
                         );
                         write!(csv, ",{me:.5},{rr:.5}")?;
+                        results[mi][planar as usize].push((me.abs(), rr));
                     }
                 }
                 println!();
@@ -183,5 +187,42 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
         csv_path.display(),
         t0.elapsed().as_secs_f64()
     );
+    summarise(&a.model, &results);
     Ok(())
+}
+
+/// Averages per model and mode, and how often the first model beats each other one.
+fn summarise(names: &[PathBuf], results: &[[Vec<(f64, f64)>; 2]]) {
+    let name = |p: &PathBuf| {
+        p.file_stem()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned()
+    };
+    let mean = |v: &[(f64, f64)], f: fn(&(f64, f64)) -> f64| {
+        v.iter().map(f).sum::<f64>() / v.len().max(1) as f64
+    };
+    println!("\nsummary (averages over the cases):");
+    for (p, r) in names.iter().zip(results) {
+        for (mode, v) in ["real", "planar"].iter().zip(r) {
+            println!(
+                "  {:<24} {mode:<6} features: mean |mean err| {:.4}, mean rRMSE {:.4}",
+                name(p),
+                mean(v, |x| x.0),
+                mean(v, |x| x.1)
+            );
+        }
+    }
+    for (p, r) in names.iter().zip(results).skip(1) {
+        let (a, b) = (&results[0][0], &r[0]);
+        let n = a.len().min(b.len());
+        let wins_rr = (0..n).filter(|&i| a[i].1 <= b[i].1).count();
+        let wins_me = (0..n).filter(|&i| a[i].0 <= b[i].0).count();
+        println!(
+            "  {} vs {} (real features): lower or equal rRMSE in {wins_rr}/{n} cases, lower or \
+             equal |mean err| in {wins_me}/{n} cases",
+            name(&names[0]),
+            name(p)
+        );
+    }
 }

@@ -152,7 +152,8 @@ pub enum Method {
 /// Options of the learned BSSRDF, shared by the commands that render.
 #[derive(clap::Args, Clone, Debug)]
 pub struct LearnedArgs {
-    /// Model file (translucent safetensors format) for `--method learned`, e.g. one written by
+    /// Model file (translucent safetensors format) for `--method learned`; default: the model
+    /// shipped in `models/` (built into the binary). Files are written by `translucent train` or
     /// `translucent model import-son24`.
     #[arg(long)]
     pub model: Option<std::path::PathBuf>,
@@ -187,14 +188,32 @@ impl LearnedArgs {
     }
 
     pub fn load_model(&self) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
-        let Some(path) = &self.model else {
-            bail!(
-                "--method learned needs --model FILE (no trained model ships yet; import the \
-                 reference weights with `translucent model import-son24 DIR OUT`)"
-            )
-        };
-        Ok(bssrdf::model::load(path)?)
+        match &self.model {
+            Some(path) => load_model_arg(path),
+            None => Self::shipped_model(),
+        }
     }
+
+    /// The model shipped in `models/` (see `models/MODEL_CARD.md`), built into the binary and
+    /// validated like a file.
+    pub fn shipped_model() -> Result<bssrdf::nn::ShapeAdaptiveModel> {
+        Ok(bssrdf::model::from_bytes(
+            std::path::Path::new(SHIPPED_MODEL_NAME),
+            SHIPPED_MODEL,
+        )?)
+    }
+}
+
+/// Name of the shipped model (also accepted as a `--model` value).
+pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v1.safetensors";
+static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v1.safetensors");
+
+/// Loads a `--model` value: a file, or `shipped` for the built-in model.
+pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
+    if path.as_os_str() == "shipped" {
+        return LearnedArgs::shipped_model();
+    }
+    Ok(bssrdf::model::load(path)?)
 }
 
 /// Render every view with the learned BSSRDF (vertex features fitted once for `medium`).

@@ -4,12 +4,15 @@
 
 mod bench;
 mod bench_learned;
+mod bench_plane;
 mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
 mod model_cmd;
 mod render_cmd;
+mod train_cmd;
+mod train_fit;
 mod validate;
 
 use std::path::PathBuf;
@@ -54,6 +57,9 @@ enum Command {
     /// Model files of the learned BSSRDF: import the reference weights, show a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Train the learned BSSRDF: generate data with our random walks, fit the networks.
+    #[command(subcommand)]
+    Train(train_cmd::TrainCommand),
     /// Speed measurements (results go into BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -115,5 +121,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::ValidateMitsuba(a) => validate::run(&a),
         Command::Bench(b) => bench::run(&b),
         Command::Model(m) => model_cmd::run(&m),
+        Command::Train(t) => train_cmd::run(&t),
     }
 }

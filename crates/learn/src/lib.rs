@@ -7,18 +7,18 @@
 //! * [`datagen`]: configurations (shape, medium, incident point and direction), the per-configuration
 //!   fit, absorption probability; parallel and seeded.
 //! * [`samplefile`]: the documented binary samples file with its header.
-//! * [`backprop`]: backward pass of dense layers and MLPs.
-//! * [`vae`]: the losses of model-spec §6 and their gradients for the whole model.
-//! * [`adam`]: Adam with staircase decay and global-norm clipping.
+//! * [`mlp_grad`]: backward pass of dense layers and MLPs on `gemm`.
+//! * [`cvae`]: the losses of model-spec §6 and their gradients for the whole model.
+//! * [`optim`]: Adam with staircase decay and global-norm clipping.
 //! * [`train`]: the training loop, validation, checkpoints and resume.
 //! * [`plot`]: loss curves.
 
-pub mod adam;
-pub mod backprop;
+pub mod cvae;
 pub mod datagen;
+pub mod mlp_grad;
+pub mod optim;
 pub mod plot;
 pub mod sample;
 pub mod samplefile;
 pub mod train;
-pub mod vae;
 pub mod walk;

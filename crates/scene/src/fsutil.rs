@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::SceneError;
 
 /// `Exists` error if `path` exists and `overwrite` is false.
-pub(crate) fn check_overwrite(path: &Path, overwrite: bool) -> Result<(), SceneError> {
+pub fn check_overwrite(path: &Path, overwrite: bool) -> Result<(), SceneError> {
     if !overwrite && path.exists() {
         return Err(SceneError::Exists {
             path: path.to_path_buf(),
@@ -18,7 +18,7 @@ pub(crate) fn check_overwrite(path: &Path, overwrite: bool) -> Result<(), SceneE
 
 /// Write `bytes` to `path` through a temporary file in the same folder, renamed into place, so a
 /// reader never sees a half-written file. Refuses to replace an existing file unless `overwrite`.
-pub(crate) fn atomic_write(path: &Path, bytes: &[u8], overwrite: bool) -> Result<(), SceneError> {
+pub fn atomic_write(path: &Path, bytes: &[u8], overwrite: bool) -> Result<(), SceneError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     check_overwrite(path, overwrite)?;
     let io = |p: &Path| {

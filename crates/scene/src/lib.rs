@@ -15,7 +15,7 @@
 pub mod camera;
 pub mod dataset;
 pub mod error;
-mod fsutil;
+pub mod fsutil;
 pub mod image;
 pub mod light;
 pub mod medium;

@@ -1,0 +1,239 @@
+//! `translucent train …`: make training data with our random walks and train the learned BSSRDF
+//! (model-spec §5–§6).
+//!
+//! * `train data --out DIR`: `DIR/train.tlsamples` and `DIR/val.tlsamples` (validation from other
+//!   meshes than training).
+//! * `train fit --data DIR --out DIR`: trains, writes `checkpoint.bin` (atomic, every N steps),
+//!   `model.safetensors`, `history.csv`, `loss.png` and `train.json`; `--resume` continues a run
+//!   bit-identically.
+//! * `train all --out DIR`: both, with the defaults that made the shipped model.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use learn::datagen::{DataConfig, generate};
+use learn::samplefile::{SampleFileHeader, write_samples};
+
+use crate::common::progress;
+use crate::train_fit::run_fit;
+
+#[derive(Subcommand)]
+pub enum TrainCommand {
+    /// Generate training data: random walks inside the polynomial fitted at random entry points
+    /// of random procedural shapes (and given meshes), with random media (model-spec §5).
+    Data(DataArgs),
+    /// Train the conditional VAE and the absorption network on generated data (model-spec §6).
+    Fit(FitArgs),
+    /// Generate data and train with the defaults of the shipped model (`models/`).
+    All(AllArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct DataArgs {
+    /// Output folder (train.tlsamples, val.tlsamples).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Random training meshes.
+    #[arg(long, default_value_t = 160)]
+    pub meshes: usize,
+    /// Random validation meshes (disjoint from the training meshes).
+    #[arg(long, default_value_t = 16)]
+    pub val_meshes: usize,
+    /// Incident configurations per mesh (each with its own medium and entry point).
+    #[arg(long, default_value_t = 1250)]
+    pub configs_per_mesh: usize,
+    /// Exit samples kept per configuration.
+    #[arg(long, default_value_t = 16)]
+    pub samples_per_config: usize,
+    /// Random walks per configuration for its absorption probability.
+    #[arg(long, default_value_t = 1024)]
+    pub path_attempts: usize,
+    /// Also draw base shapes from these meshes (OBJ/PLY), besides the procedural families.
+    #[arg(long = "mesh")]
+    pub meshes_in: Vec<PathBuf>,
+    /// Fit without VKJ19's c_19 = 0 quirk (model-spec §3.2; the renderer follows the model).
+    #[arg(long)]
+    pub no_c19_quirk: bool,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Replace existing files.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+#[derive(Args, Clone)]
+pub struct FitArgs {
+    /// Folder written by `train data`.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Optimisation steps.
+    #[arg(long, default_value_t = 150_000)]
+    pub steps: u64,
+    /// Samples per step.
+    #[arg(long, default_value_t = 256)]
+    pub batch: usize,
+    /// Initial learning rate (Adam).
+    #[arg(long, default_value_t = 1e-3)]
+    pub lr: f32,
+    /// Learning-rate decay factor (staircase).
+    #[arg(long, default_value_t = 0.5)]
+    pub lr_decay: f32,
+    /// Steps between decays.
+    #[arg(long, default_value_t = 30_000)]
+    pub lr_decay_every: u64,
+    /// Floor of the learning rate as a fraction of --lr.
+    #[arg(long, default_value_t = 0.05)]
+    pub lr_floor: f32,
+    /// Global-norm gradient clipping threshold.
+    #[arg(long, default_value_t = 100.0)]
+    pub clip: f32,
+    /// Network widths: `son24` (Son et al.'s light model), `vkj19` (VKJ19's), or
+    /// `F=32,32;A=16;D=32,32;E=32,32` (feature, absorption hidden, decoder hidden, encoder hidden).
+    #[arg(long, default_value = "son24")]
+    pub widths: String,
+    /// Validation every N steps.
+    #[arg(long, default_value_t = 2000)]
+    pub eval_every: u64,
+    /// Checkpoint every N steps.
+    #[arg(long, default_value_t = 5000)]
+    pub checkpoint_every: u64,
+    /// Seed (initialisation, batch order, VAE noise).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Continue the run in --out from its checkpoint (--steps may extend it).
+    #[arg(long)]
+    pub resume: bool,
+    /// Replace the outputs of an existing run in --out (without --resume).
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+#[derive(Args, Clone)]
+pub struct AllArgs {
+    /// Output folder (data/ and model/ inside).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Replace existing outputs.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+pub fn run(cmd: &TrainCommand) -> Result<()> {
+    match cmd {
+        TrainCommand::Data(a) => run_data(a),
+        TrainCommand::Fit(a) => run_fit(a),
+        TrainCommand::All(a) => {
+            let data = DataArgs::parse_defaults(a.out.join("data"), a.seed, a.overwrite);
+            run_data(&data)?;
+            let fit = FitArgs::parse_defaults(a.out.join("data"), a.out.join("model"), a.seed);
+            run_fit(&FitArgs {
+                overwrite: a.overwrite,
+                ..fit
+            })
+        }
+    }
+}
+
+impl DataArgs {
+    fn parse_defaults(out: PathBuf, seed: u64, overwrite: bool) -> Self {
+        use clap::FromArgMatches;
+        let m = <Self as clap::Args>::augment_args(clap::Command::new("x"))
+            .try_get_matches_from(["x", "--out", "o"])
+            .expect("defaults parse");
+        let mut a = Self::from_arg_matches(&m).expect("defaults parse");
+        a.out = out;
+        a.seed = seed;
+        a.overwrite = overwrite;
+        a
+    }
+}
+
+impl FitArgs {
+    fn parse_defaults(data: PathBuf, out: PathBuf, seed: u64) -> Self {
+        use clap::FromArgMatches;
+        let m = <Self as clap::Args>::augment_args(clap::Command::new("x"))
+            .try_get_matches_from(["x", "--data", "d", "--out", "o"])
+            .expect("defaults parse");
+        let mut a = Self::from_arg_matches(&m).expect("defaults parse");
+        a.data = data;
+        a.out = out;
+        a.seed = seed;
+        a
+    }
+}
+
+fn run_data(a: &DataArgs) -> Result<()> {
+    anyhow::ensure!(a.meshes > 0, "--meshes must be at least 1");
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let mut base_meshes = Vec::new();
+    let mut base_mesh_names = Vec::new();
+    for p in &a.meshes_in {
+        let (mesh, warnings) = geometry::io::load_mesh(p)?;
+        for w in warnings {
+            tracing::warn!("{}: {w}", p.display());
+        }
+        base_meshes.push(mesh);
+        base_mesh_names.push(p.display().to_string());
+    }
+    let base = DataConfig {
+        configs_per_mesh: a.configs_per_mesh,
+        samples_per_config: a.samples_per_config,
+        path_attempts: a.path_attempts,
+        seed: a.seed,
+        quirk_c19: !a.no_c19_quirk,
+        base_meshes,
+        base_mesh_names,
+        ..DataConfig::default()
+    };
+    let sets = [
+        ("train", 0u64, a.meshes),
+        ("val", a.meshes as u64, a.val_meshes),
+    ];
+    for (name, first_mesh, meshes) in sets {
+        let path = a.out.join(format!("{name}.tlsamples"));
+        if meshes == 0 {
+            continue;
+        }
+        if path.exists() && !a.overwrite {
+            bail!(
+                "{} exists; pass --overwrite to replace it or choose another --out",
+                path.display()
+            );
+        }
+        let cfg = DataConfig {
+            meshes,
+            first_mesh,
+            ..base.clone()
+        };
+        let t0 = Instant::now();
+        let pb = progress((meshes * a.configs_per_mesh) as u64, name);
+        let (samples, summary) = generate(&cfg, Some(&pb))?;
+        pb.finish_and_clear();
+        let secs = t0.elapsed().as_secs_f64();
+        let header = SampleFileHeader::new(&cfg, Some(&summary));
+        write_samples(&path, &header, &samples, a.overwrite)?;
+        println!(
+            "{name}: {} samples from {} meshes ({} configurations, {} skipped; {} paths, {:.1} % \
+             absorbed) in {secs:.1} s ({:.0} samples/s) -> {}",
+            samples.len(),
+            meshes,
+            summary.configs,
+            summary.configs_skipped,
+            summary.paths,
+            100.0 * summary.absorbed as f64 / summary.paths.max(1) as f64,
+            samples.len() as f64 / secs,
+            path.display()
+        );
+    }
+    Ok(())
+}

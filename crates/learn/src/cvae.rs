@@ -1,0 +1,393 @@
+//! The training objective of the shape-adaptive BSSRDF (model-spec §6) and its exact gradient
+//! with respect to every parameter of the model: feature MLP (shared), absorption MLP, decoder
+//! and encoder.
+//!
+//! For a sample with normalised inputs u, target x = x_LS (units of σ_n), absorption probability
+//! p and noise ε ~ N(0, I₄):
+//!
+//! * f = Feature(u); A = sigmoid(Absorption(f));
+//! * (μ, log σ²) = Encoder(x ⊕ f); z = μ + exp(½ log σ²)·ε (reparameterisation);
+//! * x̂ = Decoder(z ⊕ f);
+//! * L = w_pos · ⅓Σ₃(x − x̂)² + w_kl · ½Σ₄(μ² + σ² − log σ² − 1) + w_abs · (A − p)²,
+//!
+//! averaged over the batch, with VKJ19's weights w_pos = 100, w_kl = 1, w_abs = 5000. The
+//! gradient flows into f from the decoder, the encoder and the absorption network.
+//!
+//! **Flat parameter order** (also the order of [`Gradients`]): feature layers, absorption
+//! layers, decoder layers, encoder hidden layers, encoder mean head, encoder log-variance head;
+//! for each layer its weights (`[n_out × n_in]` row-major) then its biases.
+//!
+//! **Determinism.** A batch is cut into sub-batches of [`SUB_BATCH`] rows (independent of the
+//! thread count); each sub-batch's gradient is computed on its own and the results are summed in
+//! sub-batch order, so the gradient is bit-identical for any number of threads.
+
+use std::cell::RefCell;
+
+use bssrdf::model::{ModelError, ModelInfo};
+use bssrdf::nn::ShapeAdaptiveModel;
+use bssrdf::nn::{Dense, Encoder, INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use volpath::rng::Sampler;
+
+use crate::mlp_grad::MlpTape;
+
+/// Rows per sub-batch of the gradient computation.
+pub const SUB_BATCH: usize = 64;
+
+/// Layer widths of a model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Widths {
+    /// Feature MLP layer widths (the last is the feature dimension F).
+    pub feature: Vec<usize>,
+    /// Hidden widths of the absorption MLP (output 1).
+    pub absorption_hidden: Vec<usize>,
+    /// Hidden widths of the decoder (output 3).
+    pub decoder_hidden: Vec<usize>,
+    /// Hidden widths of the encoder (then two heads of 4).
+    pub encoder_hidden: Vec<usize>,
+}
+
+impl Widths {
+    /// Son et al.'s light model (model-spec §4.2): F = 32,32; A 16; D 32,32; E 32,32.
+    pub fn son24() -> Self {
+        Self {
+            feature: vec![32, 32],
+            absorption_hidden: vec![16],
+            decoder_hidden: vec![32, 32],
+            encoder_hidden: vec![32, 32],
+        }
+    }
+
+    /// VKJ19's model (model-spec §4.1): F = 64,64,64; A 32; D 64,64,64; E 64,64,64.
+    pub fn vkj19() -> Self {
+        Self {
+            feature: vec![64, 64, 64],
+            absorption_hidden: vec![32],
+            decoder_hidden: vec![64, 64, 64],
+            encoder_hidden: vec![64, 64, 64],
+        }
+    }
+}
+
+/// Loss weights (model-spec §6).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LossWeights {
+    /// Weight of the mean (over 3 dimensions) squared position error.
+    pub position: f32,
+    /// Weight of the KL term ½Σ(μ² + σ² − log σ² − 1).
+    pub kl: f32,
+    /// Weight of the squared absorption error.
+    pub absorption: f32,
+}
+
+impl Default for LossWeights {
+    fn default() -> Self {
+        Self {
+            position: 100.0,
+            kl: 1.0,
+            absorption: 5000.0,
+        }
+    }
+}
+
+/// Batch means of the loss and its parts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LossParts {
+    /// The loss.
+    pub total: f64,
+    /// Weighted position term.
+    pub position: f64,
+    /// Weighted KL term.
+    pub kl: f64,
+    /// Weighted absorption term.
+    pub absorption: f64,
+    /// Unweighted mean squared position error (units of σ_n², per dimension).
+    pub position_mse: f64,
+    /// Unweighted mean squared absorption error.
+    pub absorption_mse: f64,
+}
+
+impl LossParts {
+    fn add(&mut self, o: &LossParts) {
+        self.total += o.total;
+        self.position += o.position;
+        self.kl += o.kl;
+        self.absorption += o.absorption;
+        self.position_mse += o.position_mse;
+        self.absorption_mse += o.absorption_mse;
+    }
+}
+
+/// A training batch (row-major flat arrays).
+#[derive(Clone, Copy, Debug)]
+pub struct Batch<'a> {
+    /// `rows × 23` normalised inputs.
+    pub inputs: &'a [f32],
+    /// `rows × 3` targets x_LS.
+    pub targets: &'a [f32],
+    /// `rows` absorption probabilities.
+    pub absorption: &'a [f32],
+    /// `rows × 4` reparameterisation noise.
+    pub eps: &'a [f32],
+}
+
+/// The gradient of the loss, flat in the parameter order of the module doc.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gradients {
+    flat: Vec<f32>,
+}
+
+impl Gradients {
+    /// Zeros for `model`'s parameters.
+    pub fn zeros_like(model: &ShapeAdaptiveModel) -> Self {
+        Self {
+            flat: vec![0.0; n_params(model)],
+        }
+    }
+
+    /// The flat values.
+    pub fn as_flat(&self) -> &[f32] {
+        &self.flat
+    }
+
+    /// The flat values, mutable (Adam clips them in place).
+    pub fn as_flat_mut(&mut self) -> &mut [f32] {
+        &mut self.flat
+    }
+}
+
+/// The layers of a model in the flat order; panics if the model has no encoder.
+fn layers(model: &ShapeAdaptiveModel) -> Vec<&Dense> {
+    let mut v: Vec<&Dense> = Vec::new();
+    v.extend(model.feature_mlp().layers());
+    v.extend(model.absorption_mlp().layers());
+    v.extend(model.decoder().layers());
+    if let Some(e) = model.encoder() {
+        v.extend(e.hidden().layers());
+        v.push(e.mean());
+        v.push(e.logvar());
+    }
+    v
+}
+
+/// Number of trainable parameters (all blocks, encoder included).
+pub fn n_params(model: &ShapeAdaptiveModel) -> usize {
+    layers(model).iter().map(|l| l.n_params()).sum()
+}
+
+/// The parameters as one flat vector.
+pub fn params_to_flat(model: &ShapeAdaptiveModel) -> Vec<f32> {
+    let mut out = Vec::with_capacity(n_params(model));
+    for l in layers(model) {
+        out.extend_from_slice(l.weights());
+        out.extend_from_slice(l.bias());
+    }
+    out
+}
+
+/// Sets the parameters from a flat vector.
+///
+/// # Panics
+/// If `flat` does not have [`n_params`] values.
+pub fn flat_to_params(model: &mut ShapeAdaptiveModel, flat: &[f32]) {
+    assert_eq!(flat.len(), n_params(model), "flat parameter count");
+    let mut rest = flat;
+    let mut set = |l: &mut Dense| {
+        let (w, r) = rest.split_at(l.weights().len());
+        l.weights_mut().copy_from_slice(w);
+        let (b, r) = r.split_at(l.bias().len());
+        l.bias_mut().copy_from_slice(b);
+        rest = r;
+    };
+    let (feat, abs, dec, enc) = model.networks_mut();
+    feat.layers_mut().iter_mut().for_each(&mut set);
+    abs.layers_mut().iter_mut().for_each(&mut set);
+    dec.layers_mut().iter_mut().for_each(&mut set);
+    if let Some(e) = enc {
+        let (hidden, mean, logvar) = e.parts_mut();
+        hidden.layers_mut().iter_mut().for_each(&mut set);
+        set(mean);
+        set(logvar);
+    }
+}
+
+/// A layer with uniform random weights in ±sqrt(6/n_in) (He, for ReLU layers) or
+/// ±sqrt(6/(n_in + n_out)) (Glorot, for linear outputs), biases 0.
+fn init_layer(
+    n_in: usize,
+    n_out: usize,
+    relu: bool,
+    rng: &mut Sampler,
+) -> Result<Dense, ModelError> {
+    let a = if relu {
+        (6.0 / n_in as f32).sqrt()
+    } else {
+        (6.0 / (n_in + n_out) as f32).sqrt()
+    };
+    let w = (0..n_in * n_out)
+        .map(|_| a * (2.0 * rng.next_f32() - 1.0))
+        .collect();
+    Dense::new(n_in, n_out, w, vec![0.0; n_out])
+}
+
+fn init_stack(
+    n_in: usize,
+    widths: &[usize],
+    relu_last: bool,
+    rng: &mut Sampler,
+) -> Result<Vec<Dense>, ModelError> {
+    let mut v = Vec::new();
+    let mut prev = n_in;
+    for (i, &w) in widths.iter().enumerate() {
+        v.push(init_layer(prev, w, i + 1 < widths.len() || relu_last, rng)?);
+        prev = w;
+    }
+    Ok(v)
+}
+
+/// A freshly initialised model with an encoder (seeded, deterministic).
+pub fn init_model(
+    widths: &Widths,
+    normalisation: Normalisation,
+    info: ModelInfo,
+    seed: u64,
+) -> Result<ShapeAdaptiveModel, ModelError> {
+    if widths.feature.is_empty() || widths.encoder_hidden.is_empty() {
+        return Err(ModelError::Architecture(
+            "the feature MLP and the encoder need at least one layer".into(),
+        ));
+    }
+    let mut rng = Sampler::new(seed, 0x1417, 0, 0);
+    let f = *widths.feature.last().expect("non-empty");
+    let feature = init_stack(INPUT_DIM, &widths.feature, true, &mut rng)?;
+    let mut abs_w = widths.absorption_hidden.clone();
+    abs_w.push(1);
+    let absorption = init_stack(f, &abs_w, false, &mut rng)?;
+    let mut dec_w = widths.decoder_hidden.clone();
+    dec_w.push(POSITION_DIM);
+    let decoder = init_stack(LATENT_DIM + f, &dec_w, false, &mut rng)?;
+    let hidden = init_stack(POSITION_DIM + f, &widths.encoder_hidden, true, &mut rng)?;
+    let h = *widths.encoder_hidden.last().expect("non-empty");
+    let mean = init_layer(h, LATENT_DIM, false, &mut rng)?;
+    let logvar = init_layer(h, LATENT_DIM, false, &mut rng)?;
+    let encoder = Encoder::new(hidden, mean, logvar)?;
+    ShapeAdaptiveModel::new(
+        feature,
+        absorption,
+        decoder,
+        Some(encoder),
+        normalisation,
+        info,
+    )
+}
+
+#[derive(Default)]
+struct Tapes {
+    feat: MlpTape,
+    abs: MlpTape,
+    enc: MlpTape,
+    dec: MlpTape,
+    enc_in: Vec<f32>,
+    dec_in: Vec<f32>,
+    mu: Vec<f32>,
+    lv: Vec<f32>,
+    d_out: Vec<f32>,
+    d_in: Vec<f32>,
+    d_f: Vec<f32>,
+    d_mu: Vec<f32>,
+    d_lv: Vec<f32>,
+    d_h: Vec<f32>,
+    d_h2: Vec<f32>,
+}
+
+thread_local! {
+    static TAPES: RefCell<Tapes> = RefCell::new(Tapes::default());
+}
+
+fn sized(v: &mut Vec<f32>, n: usize) -> &mut [f32] {
+    v.resize(n, 0.0);
+    &mut v[..n]
+}
+
+mod pass;
+
+fn check(model: &ShapeAdaptiveModel, b: &Batch) -> Result<usize, ModelError> {
+    let rows = b.absorption.len();
+    if b.inputs.len() != rows * INPUT_DIM
+        || b.targets.len() != rows * POSITION_DIM
+        || b.eps.len() != rows * LATENT_DIM
+    {
+        return Err(ModelError::Batch(format!(
+            "training batch of {rows} rows has {} inputs, {} targets and {} noise values",
+            b.inputs.len(),
+            b.targets.len(),
+            b.eps.len()
+        )));
+    }
+    if model.encoder().is_none() {
+        return Err(ModelError::Batch(
+            "training needs a model with an encoder".into(),
+        ));
+    }
+    Ok(rows)
+}
+
+/// Loss and gradient of `batch` (means over its rows); the gradient overwrites `grads`.
+pub fn loss_and_grad(
+    model: &ShapeAdaptiveModel,
+    batch: &Batch,
+    weights: &LossWeights,
+    grads: &mut Gradients,
+) -> Result<LossParts, ModelError> {
+    let rows = check(model, batch)?;
+    let n = n_params(model);
+    let inv = 1.0 / rows.max(1) as f32;
+    let subs: Vec<(LossParts, Vec<f32>)> = (0..rows.div_ceil(SUB_BATCH))
+        .into_par_iter()
+        .map(|i| {
+            let r = i * SUB_BATCH..((i + 1) * SUB_BATCH).min(rows);
+            let mut g = vec![0.0f32; n];
+            let parts = TAPES.with(|t| {
+                pass::run(
+                    model,
+                    batch,
+                    r,
+                    weights,
+                    inv,
+                    Some(&mut g),
+                    &mut t.borrow_mut(),
+                )
+            });
+            (parts, g)
+        })
+        .collect();
+    grads.flat.resize(n, 0.0);
+    grads.flat.fill(0.0);
+    let mut total = LossParts::default();
+    for (p, g) in &subs {
+        total.add(p);
+        grads.flat.iter_mut().zip(g).for_each(|(a, b)| *a += b);
+    }
+    Ok(total)
+}
+
+/// The loss of `batch` without gradients (validation), in chunks of 1024 rows over the pool.
+pub fn loss_only(
+    model: &ShapeAdaptiveModel,
+    batch: &Batch,
+    weights: &LossWeights,
+) -> Result<LossParts, ModelError> {
+    let rows = check(model, batch)?;
+    let inv = 1.0 / rows.max(1) as f32;
+    let parts: Vec<LossParts> = (0..rows.div_ceil(1024))
+        .into_par_iter()
+        .map(|i| {
+            let r = i * 1024..((i + 1) * 1024).min(rows);
+            TAPES.with(|t| pass::run(model, batch, r, weights, inv, None, &mut t.borrow_mut()))
+        })
+        .collect();
+    let mut total = LossParts::default();
+    parts.iter().for_each(|p| total.add(p));
+    Ok(total)
+}
