@@ -32,7 +32,7 @@ pub enum ModelCommand {
     /// Show a model file: architecture, parameter counts, normalisation, conventions,
     /// provenance, and its outputs on the plane case.
     Info {
-        /// Model file (.safetensors).
+        /// Model file (.safetensors), or `shipped` for the built-in model.
         file: PathBuf,
     },
 }
@@ -144,7 +144,7 @@ fn import_son24(dir: &Path, out: &Path, overwrite: bool) -> Result<()> {
 }
 
 fn info(file: &Path) -> Result<()> {
-    let m = model::load(file)?;
+    let m = crate::common::load_model_arg(file)?;
     let i = m.info();
     println!(
         "model file    {} ({FORMAT_NAME} v{FORMAT_VERSION})",

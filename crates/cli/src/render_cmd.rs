@@ -33,7 +33,8 @@ pub struct RenderArgs {
     /// Russian roulette starts after this many scattering events.
     #[arg(long, default_value_t = 5)]
     pub rr_depth: u32,
-    /// Forward model: the volumetric path tracer or the learned BSSRDF (needs --model).
+    /// Forward model: the volumetric path tracer or the learned BSSRDF (the shipped model unless
+    /// --model is given).
     #[arg(long, value_enum, default_value = "volpath")]
     pub method: Method,
     #[command(flatten)]

@@ -73,7 +73,7 @@ pub struct FitArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Optimisation steps.
-    #[arg(long, default_value_t = 150_000)]
+    #[arg(long, default_value_t = 400_000)]
     pub steps: u64,
     /// Samples per step.
     #[arg(long, default_value_t = 256)]
@@ -85,7 +85,7 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 0.5)]
     pub lr_decay: f32,
     /// Steps between decays.
-    #[arg(long, default_value_t = 30_000)]
+    #[arg(long, default_value_t = 60_000)]
     pub lr_decay_every: u64,
     /// Floor of the learning rate as a fraction of --lr.
     #[arg(long, default_value_t = 0.05)]

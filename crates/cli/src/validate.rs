@@ -36,7 +36,8 @@ pub struct ValidateArgs {
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Forward model: the volumetric path tracer or the learned BSSRDF (needs --model).
+    /// Forward model: the volumetric path tracer or the learned BSSRDF (the shipped model unless
+    /// --model is given).
     #[arg(long, value_enum, default_value = "volpath")]
     pub method: Method,
     #[command(flatten)]
