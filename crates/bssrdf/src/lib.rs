@@ -14,11 +14,14 @@
 //! * [`projection`]: the projection Π of proposed points onto the mesh (§7, A5).
 //! * [`boundary`]: Fresnel transmittance, FM1 and the light-side factor Sw (§1).
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
+//! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
+//!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
 //! * [`gaussian`]: standard normal samples by inversion.
 //! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
 //!   dependency).
 
 pub mod boundary;
+pub mod diff;
 pub mod fit;
 pub mod gaussian;
 pub mod medium;

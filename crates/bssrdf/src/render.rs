@@ -97,7 +97,7 @@ impl VertexFeatures {
 }
 
 /// σ_n per channel (model-spec §2) with range checks.
-fn channel_sigma_n(m: &Medium) -> Result<[f32; 3], RenderError> {
+pub(crate) fn channel_sigma_n(m: &Medium) -> Result<[f32; 3], RenderError> {
     let mut out = [0.0; 3];
     for c in 0..3 {
         let r = ReducedMedium::try_new(m.sigma_t[c] as f64, m.albedo[c] as f64, m.g as f64)
@@ -115,12 +115,12 @@ pub struct LearnedScene<'a> {
     pub medium: Medium,
     pub settings: LearnedSettings,
     /// σ_n per channel at the CURRENT medium (the features may be fitted at another one).
-    sigma_n: [f32; 3],
+    pub(crate) sigma_n: [f32; 3],
     /// α_eff(α') per channel (network input).
-    eff_albedo: [f32; 3],
+    pub(crate) eff_albedo: [f32; 3],
     /// All three channels share σ_t and α: one sample serves every channel (no one-hot ×3,
     /// a third of the variance; unbiased because the sample is distributed as each channel's).
-    grey: bool,
+    pub(crate) grey: bool,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -169,32 +169,32 @@ impl<'a> LearnedScene<'a> {
 
 /// One BSSRDF sample between the batched network calls.
 #[derive(Clone, Copy)]
-struct Pending {
-    pixel: u32,
-    channel: u8,
-    x_o: Vec3,
+pub(crate) struct Pending {
+    pub(crate) pixel: u32,
+    pub(crate) channel: u8,
+    pub(crate) x_o: Vec3,
     /// Output frame (e1, e2, e3) in world axes.
-    out_frame: Frame,
+    pub(crate) out_frame: Frame,
     /// Interpolated world polynomial (for the projection direction).
-    poly: Poly3,
+    pub(crate) poly: Poly3,
     /// Shading normal at x_o (planar projection direction).
-    n_o: Vec3,
+    pub(crate) n_o: Vec3,
     /// (1 − F(cos θ_cam)).
-    t_cam: f32,
+    pub(crate) t_cam: f32,
 }
 
 /// Reused per worker thread.
 #[derive(Default)]
-struct RowBuffers {
-    pending: Vec<Pending>,
-    inputs: Vec<[f32; INPUT_DIM]>,
-    feats: Vec<f32>,
-    absorb: Vec<f32>,
-    z: Vec<[f32; LATENT_DIM]>,
-    point: Vec<u32>,
-    y: Vec<[f32; POSITION_DIM]>,
-    sums: Vec<[f64; 3]>,
-    ws: Workspace,
+pub(crate) struct RowBuffers {
+    pub(crate) pending: Vec<Pending>,
+    pub(crate) inputs: Vec<[f32; INPUT_DIM]>,
+    pub(crate) feats: Vec<f32>,
+    pub(crate) absorb: Vec<f32>,
+    pub(crate) z: Vec<[f32; LATENT_DIM]>,
+    pub(crate) point: Vec<u32>,
+    pub(crate) y: Vec<[f32; POSITION_DIM]>,
+    pub(crate) sums: Vec<[f64; 3]>,
+    pub(crate) ws: Workspace,
 }
 
 /// Per-render settings (shared with the volumetric renderer).
@@ -229,7 +229,8 @@ pub fn render_image(
     Ok(img)
 }
 
-fn render_row(
+/// Render one image row into `buf.sums` (per pixel, summed over the spp samples).
+pub(crate) fn render_row(
     scene: &LearnedScene,
     camera: &Camera,
     light: &PointLight,
@@ -237,6 +238,45 @@ fn render_row(
     y: u32,
     buf: &mut RowBuffers,
 ) -> Result<(), RenderError> {
+    prepare_row(scene, camera, rs, y, buf);
+    run_networks(scene, buf)?;
+    // Stage 3: placement, projection, light.
+    for k in 0..buf.pending.len() {
+        let p = &buf.pending[k];
+        let c = p.channel as usize;
+        let Some(hit) = place_and_project(scene, p, buf.y[k], scene.sigma_n[c]) else {
+            continue;
+        };
+        let v = light_contribution(scene, light, hit.p, hit.ns, hit.ng);
+        if v <= 0.0 {
+            continue;
+        }
+        let s_abs = 1.0 - buf.absorb[k];
+        let base = s_abs * p.t_cam * v;
+        if !base.is_finite() {
+            continue;
+        }
+        let sum = &mut buf.sums[p.pixel as usize];
+        if scene.grey {
+            for (ch, acc) in sum.iter_mut().enumerate() {
+                *acc += (base * light.intensity[ch]) as f64;
+            }
+        } else {
+            sum[c] += (3.0 * base * light.intensity[c]) as f64;
+        }
+    }
+    Ok(())
+}
+
+/// Stage 1 of a row: camera rays, channel choice, shape descriptor, network inputs, latent
+/// samples (all random numbers of the row; `buf.sums` is reset to zeros).
+pub(crate) fn prepare_row(
+    scene: &LearnedScene,
+    camera: &Camera,
+    rs: &RenderSettings,
+    y: u32,
+    buf: &mut RowBuffers,
+) {
     let w = camera.width;
     let m = &scene.medium;
     let model = scene.model;
@@ -322,6 +362,11 @@ fn render_row(
             });
         }
     }
+}
+
+/// Stage 2 of a row: feature MLP, S_abs and the decoder, batched over the row's samples.
+pub(crate) fn run_networks(scene: &LearnedScene, buf: &mut RowBuffers) -> Result<(), RenderError> {
+    let model = scene.model;
     let n = buf.pending.len();
     if n == 0 {
         return Ok(());
@@ -337,61 +382,54 @@ fn render_row(
     model.features_with(&buf.inputs, &mut buf.feats, &mut buf.ws)?;
     model.absorb_with(&buf.feats, &mut buf.absorb, &mut buf.ws)?;
     model.decode_with(&buf.feats, &buf.z, &buf.point, &mut buf.y, &mut buf.ws)?;
-
-    // Stage 3: placement, projection, light.
-    for k in 0..n {
-        let p = &buf.pending[k];
-        let c = p.channel as usize;
-        let sigma_n = scene.sigma_n[c];
-        let yk = buf.y[k];
-        let x_t = p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(yk[0], yk[1], yk[2]));
-        let hit = if scene.settings.planar_features {
-            project(
-                scene.accel,
-                scene.settings.projection,
-                x_t,
-                p.n_o,
-                1.0,
-                sigma_n,
-            )
-        } else {
-            let (value, grad) = p
-                .poly
-                .eval_with_gradient((x_t - p.x_o) / scene.features.sigma_n[c]);
-            project(
-                scene.accel,
-                scene.settings.projection,
-                x_t,
-                grad,
-                value,
-                sigma_n,
-            )
-        };
-        let Some(hit) = hit else { continue };
-        let v = light_contribution(scene, light, hit.p, hit.ns, hit.ng);
-        if v <= 0.0 {
-            continue;
-        }
-        let s_abs = 1.0 - buf.absorb[k];
-        let base = s_abs * p.t_cam * v;
-        if !base.is_finite() {
-            continue;
-        }
-        let sum = &mut buf.sums[p.pixel as usize];
-        if scene.grey {
-            for (ch, acc) in sum.iter_mut().enumerate() {
-                *acc += (base * light.intensity[ch]) as f64;
-            }
-        } else {
-            sum[c] += (3.0 * base * light.intensity[c]) as f64;
-        }
-    }
     Ok(())
+}
+
+/// The (unnormalised, detached) projection direction and the side value at the proposed point
+/// `x_t` of sample `p` (model-spec A5): the gradient and value of the fixed interpolated
+/// polynomial at `(x_t − x_o)/σ_n,fit`, or (n_o, 1) with planar features.
+#[inline]
+pub(crate) fn projection_gradient(scene: &LearnedScene, p: &Pending, x_t: Vec3) -> (Vec3, f32) {
+    if scene.settings.planar_features {
+        (p.n_o, 1.0)
+    } else {
+        let (value, grad) = p
+            .poly
+            .eval_with_gradient((x_t - p.x_o) / scene.features.sigma_n[p.channel as usize]);
+        (grad, value)
+    }
+}
+
+/// x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃) and x_i = Π(x̃) for the decoder output `y` at the kernel
+/// scale `sigma_n` (the offset samples of [`crate::diff`] call this with σ_n(θ ± Δ)).
+#[inline]
+pub(crate) fn place_and_project(
+    scene: &LearnedScene,
+    p: &Pending,
+    y: [f32; POSITION_DIM],
+    sigma_n: f32,
+) -> Option<geometry::Hit> {
+    let x_t = proposed_point(p, y, sigma_n);
+    let (grad, value) = projection_gradient(scene, p, x_t);
+    project(
+        scene.accel,
+        scene.settings.projection,
+        x_t,
+        grad,
+        value,
+        sigma_n,
+    )
+}
+
+/// x̃ = x_o + σ_n·R·y.
+#[inline]
+pub(crate) fn proposed_point(p: &Pending, y: [f32; POSITION_DIM], sigma_n: f32) -> Vec3 {
+    p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(y[0], y[1], y[2]))
 }
 
 /// Sw(w_l) · max(0, n_i·w_l) · V / r² at the entry point (without the intensity).
 #[inline]
-fn light_contribution(
+pub(crate) fn light_contribution(
     scene: &LearnedScene,
     light: &PointLight,
     x_i: Vec3,

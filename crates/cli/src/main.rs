@@ -10,6 +10,7 @@ mod compare;
 mod dataset_cmd;
 mod demo;
 mod model_cmd;
+mod optimize_cmd;
 mod render_cmd;
 mod train_cmd;
 mod train_fit;
@@ -57,6 +58,9 @@ enum Command {
     /// Model files of the learned BSSRDF: import the reference weights, show a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Recover σ_t and α from a dataset's images by differentiable rendering with the learned
+    /// BSSRDF (Son et al. 2024): Adam, checkpoints, convergence plots, result.json.
+    Optimize(Box<optimize_cmd::OptimizeArgs>),
     /// Train the learned BSSRDF: generate data with our random walks, fit the networks.
     #[command(subcommand)]
     Train(train_cmd::TrainCommand),
@@ -122,5 +126,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench(b) => bench::run(&b),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),
+        Command::Optimize(a) => optimize_cmd::run(&a),
     }
 }

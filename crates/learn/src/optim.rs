@@ -100,6 +100,19 @@ impl Adam {
     /// # Panics
     /// If `params` or `grad` do not have the optimiser's length.
     pub fn step(&mut self, params: &mut [f32], grad: &mut [f32]) -> f32 {
+        self.step_scaled(params, grad, &[])
+    }
+
+    /// As [`Adam::step`] with a per-parameter learning-rate factor (`scale[i]` multiplies the
+    /// learning rate of parameter i; an empty slice means 1 for all).
+    ///
+    /// # Panics
+    /// If the lengths differ from the optimiser's (or `scale` is neither empty nor as long).
+    pub fn step_scaled(&mut self, params: &mut [f32], grad: &mut [f32], scale: &[f32]) -> f32 {
+        assert!(
+            scale.is_empty() || scale.len() == params.len(),
+            "Adam: one learning-rate factor per parameter"
+        );
         assert_eq!(
             params.len(),
             self.state.m.len(),
@@ -121,14 +134,16 @@ impl Adam {
         let c = &self.config;
         let bc1 = 1.0 - c.beta1.powi(t);
         let bc2 = 1.0 - c.beta2.powi(t);
-        for ((p, &g), (m, v)) in params
+        for (i, ((p, &g), (m, v))) in params
             .iter_mut()
             .zip(grad.iter())
             .zip(self.state.m.iter_mut().zip(self.state.v.iter_mut()))
+            .enumerate()
         {
+            let lr_i = if scale.is_empty() { lr } else { lr * scale[i] };
             *m = c.beta1 * *m + (1.0 - c.beta1) * g;
             *v = c.beta2 * *v + (1.0 - c.beta2) * g * g;
-            *p -= lr * (*m / bc1) / ((*v / bc2).sqrt() + c.eps);
+            *p -= lr_i * (*m / bc1) / ((*v / bc2).sqrt() + c.eps);
         }
         norm
     }

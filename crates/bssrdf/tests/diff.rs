@@ -1,0 +1,570 @@
+//! The differentiable learned renderer against brute-force finite differences
+//! (architecture.md §4: every estimator is checked against FD; model-spec §8).
+//!
+//! The model is a small deterministic random network built here (no model files). Its decoder
+//! ignores the shape features (their input weights are zero), so y depends on z only and the
+//! α-dependence of the render is exactly S_abs(α) plus σ_n(α): the offset estimators then have
+//! the same expectation as FD of full renders (up to O(Δ²)).
+//!
+//! Standard errors come from R independent replicate renders (different `view` streams): the
+//! image sums of the replicates are i.i.d., so se = sd/√R. Statistical comparisons use
+//! |a − b| < 4·√(se_a² + se_b²).
+
+use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Loss, render_diff, render_loss_gradient};
+use bssrdf::model::{FrameConvention, ModelInfo};
+use bssrdf::nn::{Dense, Normalisation, ShapeAdaptiveModel};
+use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
+use geometry::{Accel, Mesh, Shape, Vec3};
+use scene::{Camera, Image, Medium, PointLight};
+
+fn layer(n_in: usize, n_out: usize, scale: f32, seed: u32) -> Dense {
+    let mut s = seed.wrapping_mul(2_654_435_761).wrapping_add(1);
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 17;
+        s ^= s << 5;
+        (s as f32 / u32::MAX as f32 - 0.5) * 2.0 * scale
+    };
+    let w = (0..n_in * n_out).map(|_| next()).collect();
+    let b = (0..n_out).map(|_| next() * 0.1).collect();
+    Dense::new(n_in, n_out, w, b).unwrap()
+}
+
+/// Random feature and absorption MLPs; a decoder of z only with outputs of order one (samples
+/// spread over about σ_n).
+fn model() -> ShapeAdaptiveModel {
+    let f = 8;
+    let feature = vec![layer(23, 16, 0.5, 1), layer(16, f, 0.5, 2)];
+    let absorption = vec![layer(f, 8, 0.7, 3), layer(8, 1, 0.7, 4)];
+    let mut d0 = layer(4 + f, 16, 0.8, 5);
+    let n_in = d0.n_in();
+    for (i, w) in d0.weights_mut().iter_mut().enumerate() {
+        if i % n_in >= 4 {
+            *w = 0.0;
+        }
+    }
+    // The depth output y₃ (along e₃, into the medium) is kept small: proposals stay within the
+    // projection bound of a flat or gently curved surface, so the only discontinuities are the
+    // ones a configuration builds in.
+    let mut d1 = layer(16, 3, 1.2, 6);
+    for w in &mut d1.weights_mut()[2 * 16..] {
+        *w *= 0.05;
+    }
+    let decoder = vec![d0, d1];
+    let info = ModelInfo {
+        frame_convention: FrameConvention::Vkj19,
+        ..Default::default()
+    };
+    ShapeAdaptiveModel::new(
+        feature,
+        absorption,
+        decoder,
+        None,
+        Normalisation::identity(),
+        info,
+    )
+    .unwrap()
+}
+
+/// Slab |x|, |z| ≤ 0.5, −0.5 ≤ y ≤ 0 (sharp edges), CCW outward.
+fn slab() -> Accel {
+    let (a, h) = (0.5f32, 0.5f32);
+    let p = Vec3::new;
+    let positions = vec![
+        p(-a, 0.0, -a),
+        p(a, 0.0, -a),
+        p(a, 0.0, a),
+        p(-a, 0.0, a),
+        p(-a, -h, -a),
+        p(a, -h, -a),
+        p(a, -h, a),
+        p(-a, -h, a),
+    ];
+    let indices = vec![
+        [0, 2, 1],
+        [0, 3, 2],
+        [4, 5, 6],
+        [4, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [3, 7, 6],
+        [3, 6, 2],
+        [0, 4, 7],
+        [0, 7, 3],
+        [1, 2, 6],
+        [1, 6, 5],
+    ];
+    let mut mesh = Mesh {
+        positions,
+        normals: None,
+        indices,
+    };
+    geometry::mesh::validate(&mut mesh, "slab").unwrap();
+    Accel::new(mesh)
+}
+
+fn sphere() -> Accel {
+    Accel::new(
+        Shape::Sphere {
+            radius: 0.5,
+            subdivisions: 3,
+        }
+        .build()
+        .unwrap(),
+    )
+}
+
+const PLANAR: LearnedSettings = LearnedSettings {
+    projection: bssrdf::projection::ProjectionRule::Son24 {
+        max_dist_scale: 2.0,
+        origin_offset: 0.01,
+    },
+    planar_features: true,
+    frames: None,
+};
+
+fn rgb_medium() -> Medium {
+    Medium {
+        sigma_t: [30.0, 40.0, 50.0],
+        albedo: [0.8, 0.9, 0.95],
+        g: 0.0,
+        eta: 1.0,
+    }
+}
+
+struct Setup {
+    accel: Accel,
+    model: ShapeAdaptiveModel,
+    features: VertexFeatures,
+    medium: Medium,
+    camera: Camera,
+    light: PointLight,
+    settings: LearnedSettings,
+}
+
+impl Setup {
+    fn scene(&self) -> LearnedScene<'_> {
+        LearnedScene::new(
+            &self.accel,
+            &self.model,
+            &self.features,
+            self.medium,
+            self.settings,
+        )
+        .unwrap()
+    }
+}
+
+/// Sphere lit from the side, its terminator and shadowed half in view.
+fn sphere_setup(medium: Medium) -> Setup {
+    let accel = sphere();
+    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
+    Setup {
+        accel,
+        model: model(),
+        features,
+        medium,
+        camera: Camera::look_at(Vec3::new(0.0, 0.3, 2.0), Vec3::ZERO, Vec3::Y, 32.0, 16, 16),
+        light: PointLight {
+            position: Vec3::new(1.5, 0.5, 0.3),
+            intensity: [2.0; 3],
+        },
+        settings: LearnedSettings::default(),
+    }
+}
+
+/// The sharp edge x = 0.5 of a slab lit from straight above: the side face gets no light, so
+/// samples crossing the edge are lost; the footprint of every pixel straddles the edge.
+fn edge_setup() -> Setup {
+    let accel = slab();
+    let medium = rgb_medium();
+    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
+    Setup {
+        accel,
+        model: model(),
+        features,
+        medium,
+        camera: Camera::look_at(
+            Vec3::new(0.485, 2.0, 0.0),
+            Vec3::new(0.485, 0.0, 0.0),
+            Vec3::Z,
+            1.4,
+            16,
+            16,
+        ),
+        light: PointLight {
+            position: Vec3::new(0.0, 50.0, 0.0),
+            intensity: [2500.0; 3],
+        },
+        // The slab's vertices are its corners: per-vertex polynomials say nothing about the
+        // flat faces, so the planar descriptor (projection along −n(x_o)) is used.
+        settings: PLANAR,
+    }
+}
+
+fn rs(spp: u32, view: u64) -> RenderSettings {
+    RenderSettings { spp, seed: 7, view }
+}
+
+fn ds(method: DiffMethod) -> DiffSettings {
+    DiffSettings {
+        method,
+        ..Default::default()
+    }
+}
+
+/// Per-channel image sums of the value and the two derivative images, then the sums of the
+/// absolute values of the derivative images.
+fn sums(im: &DiffImages) -> [[f64; 3]; N_SUMS] {
+    let s = |i: &Image, f: fn(f64) -> f64| {
+        let mut a = [0.0f64; 3];
+        for p in &i.data {
+            for c in 0..3 {
+                a[c] += f(p[c] as f64);
+            }
+        }
+        a
+    };
+    let id = |v| v;
+    [
+        s(&im.value, id),
+        s(&im.d_sigma_t, id),
+        s(&im.d_albedo, id),
+        s(&im.d_sigma_t, f64::abs),
+        s(&im.d_albedo, f64::abs),
+    ]
+}
+
+const N_SUMS: usize = 5;
+
+/// Mean and standard error over replicates, per (image, channel).
+#[derive(Debug, Clone, Copy)]
+struct Est {
+    mean: [[f64; 3]; N_SUMS],
+    se: [[f64; 3]; N_SUMS],
+}
+
+fn replicate(
+    s: &Setup,
+    scene: &LearnedScene,
+    d: &DiffSettings,
+    spp: u32,
+    views: std::ops::Range<u64>,
+) -> Est {
+    let runs: Vec<[[f64; 3]; N_SUMS]> = views
+        .map(|v| sums(&render_diff(scene, &s.camera, &s.light, &rs(spp, v), d, None).unwrap()))
+        .collect();
+    let r = runs.len() as f64;
+    let mut e = Est {
+        mean: [[0.0; 3]; N_SUMS],
+        se: [[0.0; 3]; N_SUMS],
+    };
+    for i in 0..N_SUMS {
+        for c in 0..3 {
+            let m = runs.iter().map(|x| x[i][c]).sum::<f64>() / r;
+            let var = runs.iter().map(|x| (x[i][c] - m).powi(2)).sum::<f64>() / (r - 1.0);
+            e.mean[i][c] = m;
+            e.se[i][c] = (var / r).sqrt();
+        }
+    }
+    e
+}
+
+/// |a − b| in units of the combined standard error.
+fn z(a: &Est, b: &Est, i: usize, c: usize) -> f64 {
+    (a.mean[i][c] - b.mean[i][c]).abs() / (a.se[i][c].powi(2) + b.se[i][c].powi(2)).sqrt()
+}
+
+const D_T: usize = 1;
+const D_A: usize = 2;
+const ABS_D_A: usize = 4;
+
+fn report(name: &str, e: &Est, i: usize) {
+    for c in 0..3 {
+        eprintln!("{name} ch{c}: {:.5e} ± {:.2e}", e.mean[i][c], e.se[i][c]);
+    }
+}
+
+#[test]
+fn ours_sigma_t_matches_finite_differences() {
+    let s = sphere_setup(rgb_medium());
+    let scene = s.scene();
+    let (spp, r) = (32, 16);
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, r..2 * r);
+    // Same random numbers: the offset samples ARE the samples of the FD renders (A10: the
+    // polynomial is fixed, S_abs and y do not depend on σ_t), equal up to rounding.
+    let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
+    report("sphere ours dσ_t", &ours, D_T);
+    report("sphere fd dσ_t", &fd, D_T);
+    report("sphere fd(same seeds) dσ_t", &fd_same, D_T);
+    for c in 0..3 {
+        let zc = z(&ours, &fd, D_T, c);
+        eprintln!("channel {c}: z = {zc:.2}");
+        assert!(
+            fd.mean[D_T][c].abs() > 6.0 * fd.se[D_T][c],
+            "channel {c}: the derivative sum should be clearly non-zero"
+        );
+        assert!(zc < 4.0, "channel {c}: ours vs fd, z = {zc:.2}");
+        let rel = (ours.mean[D_T][c] - fd_same.mean[D_T][c]).abs() / ours.mean[D_T][c].abs();
+        eprintln!("channel {c}: same-seed relative difference {rel:.2e}");
+        assert!(
+            rel < 1e-3,
+            "channel {c}: same-seed relative difference {rel:.2e}"
+        );
+    }
+}
+
+/// A slab lit by a near light, seen around the point under the light, away from every edge:
+/// no visibility change in any footprint, so the interior term is the whole derivative.
+fn interior_setup() -> Setup {
+    let accel = slab();
+    let medium = rgb_medium();
+    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
+    Setup {
+        accel,
+        model: model(),
+        features,
+        medium,
+        camera: Camera::look_at(
+            Vec3::new(0.05, 2.0, 0.0),
+            Vec3::new(0.05, 0.0, 0.0),
+            Vec3::Z,
+            4.0,
+            16,
+            16,
+        ),
+        light: PointLight {
+            position: Vec3::new(0.0, 0.25, 0.0),
+            intensity: [0.1; 3],
+        },
+        // The slab's vertices are its corners: per-vertex polynomials say nothing about the
+        // flat faces, so the planar descriptor (projection along −n(x_o)) is used.
+        settings: PLANAR,
+    }
+}
+
+#[test]
+fn alpha_derivatives() {
+    let s = sphere_setup(rgb_medium());
+    let scene = s.scene();
+    let (spp, r) = (16, 16);
+    // (a) Ours = FD through S_abs only (σ_n held fixed), same random numbers: the per-sample
+    // estimates differ by the O(Δα²) error of the central difference and rounding only.
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let fd_sabs = replicate(
+        &s,
+        &scene,
+        &DiffSettings {
+            method: DiffMethod::Fd,
+            fd_fixed_sigma_n: true,
+            delta_albedo: 2e-4,
+            ..Default::default()
+        },
+        spp,
+        0..r,
+    );
+    report("sphere ours dα", &ours, D_A);
+    report("sphere fd(σ_n fixed, same seeds) dα", &fd_sabs, D_A);
+    for c in 0..3 {
+        // Relative to the L1 norm of the derivative image (a channel's sum may be near 0).
+        let rel = (ours.mean[D_A][c] - fd_sabs.mean[D_A][c]).abs() / ours.mean[ABS_D_A][c];
+        eprintln!("channel {c}: ours vs S_abs-only FD, difference / Σ|D| = {rel:.2e}");
+        // Central difference vs tangent: O(Δα²), plus O(Δα) from samples whose ReLU
+        // pre-activations change sign within ±Δα.
+        assert!(rel < 3e-3, "channel {c}: relative difference {rel:.2e}");
+    }
+    // (b) OursAlphaOffsets vs the full FD (σ_n(α) included), independent random numbers.
+    let offs = replicate(&s, &scene, &ds(DiffMethod::OursAlphaOffsets), spp, 0..r);
+    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, r..2 * r);
+    report("sphere ours-alpha-offsets dα", &offs, D_A);
+    report("sphere fd dα", &fd, D_A);
+    for c in 0..3 {
+        let zc = z(&offs, &fd, D_A, c);
+        let z_ours = z(&ours, &fd, D_A, c);
+        eprintln!(
+            "channel {c}: offsets vs fd z = {zc:.2}; ours (S_abs only) vs fd z = {z_ours:.2}"
+        );
+        assert!(zc < 4.0, "channel {c}: z = {zc:.2}");
+    }
+}
+
+#[test]
+fn naive_misses_the_boundary_term_and_ours_does_not() {
+    let (spp, r) = (16, 16);
+    // Interior only: all three agree.
+    let s = interior_setup();
+    let scene = s.scene();
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let naive = replicate(&s, &scene, &ds(DiffMethod::Naive), spp, r..2 * r);
+    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 2 * r..3 * r);
+    report("interior ours dσ_t", &ours, D_T);
+    report("interior naive dσ_t", &naive, D_T);
+    report("interior fd dσ_t", &fd, D_T);
+    for c in 0..3 {
+        let (zo, zn) = (z(&ours, &fd, D_T, c), z(&naive, &fd, D_T, c));
+        eprintln!("interior channel {c}: z(ours, fd) = {zo:.2}, z(naive, fd) = {zn:.2}");
+        assert!(fd.mean[D_T][c].abs() > 6.0 * fd.se[D_T][c]);
+        assert!(zo < 4.0 && zn < 4.0);
+    }
+    // A sharp edge in every footprint: the boundary term dominates.
+    let (spp, r) = (64, 16);
+    let s = edge_setup();
+    let scene = s.scene();
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let naive = replicate(&s, &scene, &ds(DiffMethod::Naive), spp, r..2 * r);
+    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 2 * r..3 * r);
+    report("edge ours dσ_t", &ours, D_T);
+    report("edge naive dσ_t", &naive, D_T);
+    report("edge fd dσ_t", &fd, D_T);
+    for c in 0..3 {
+        let (zo, zn) = (z(&ours, &fd, D_T, c), z(&naive, &fd, D_T, c));
+        eprintln!("edge channel {c}: z(ours, fd) = {zo:.2}, z(naive, fd) = {zn:.2}");
+        assert!(zo < 4.0, "channel {c}: ours vs fd z = {zo:.2}");
+        assert!(zn > 6.0, "channel {c}: naive vs fd z = {zn:.2}");
+    }
+}
+
+#[test]
+fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
+    for grey in [false, true] {
+        let medium = if grey {
+            Medium {
+                sigma_t: [40.0; 3],
+                albedo: [0.9; 3],
+                g: 0.0,
+                eta: 1.3,
+            }
+        } else {
+            Medium {
+                eta: 1.3,
+                ..rgb_medium()
+            }
+        };
+        let s = sphere_setup(medium);
+        let scene = s.scene();
+        let r = rs(8, 3);
+        let img = render_image(&scene, &s.camera, &s.light, &r, None).unwrap();
+        assert!(img.mean()[0] > 0.0);
+        for method in DiffMethod::ALL {
+            let d = ds(method);
+            let run = |threads: usize| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| render_diff(&scene, &s.camera, &s.light, &r, &d, None).unwrap())
+            };
+            let (one, three) = (run(1), run(3));
+            assert_eq!(
+                one.value, img,
+                "{method} (grey {grey}): value differs from render_image"
+            );
+            assert_eq!(
+                one, three,
+                "{method} (grey {grey}): thread count changes the result"
+            );
+            assert!(one.d_sigma_t.data.iter().any(|p| p[0] != 0.0));
+            assert!(one.d_albedo.data.iter().any(|p| p[0] != 0.0));
+        }
+    }
+}
+
+#[test]
+fn loss_gradient_equals_the_sum_over_derivative_images() {
+    let s = sphere_setup(rgb_medium());
+    let scene = s.scene();
+    let r = rs(8, 1);
+    for method in [DiffMethod::Ours, DiffMethod::Naive] {
+        let d = ds(method);
+        let images = render_diff(&scene, &s.camera, &s.light, &r, &d, None).unwrap();
+        // Target: a blurred-ish, rescaled copy so residuals of both signs occur.
+        let mut target = images.value.clone();
+        for (i, p) in target.data.iter_mut().enumerate() {
+            for c in 0..3 {
+                p[c] = p[c] * 0.8 + 0.01 * ((i * 7 + c * 3) % 5) as f32;
+            }
+        }
+        for loss in [Loss::L2, Loss::L1] {
+            let g = render_loss_gradient(
+                &scene, &s.camera, &s.light, &r, &d, &target, loss, false, None,
+            )
+            .unwrap();
+            assert!(g.images.is_none());
+            let n = 3.0 * images.value.data.len() as f64;
+            let (mut l, mut gt, mut ga) = (0.0, [0.0f64; 3], [0.0f64; 3]);
+            for i in 0..images.value.data.len() {
+                for c in 0..3 {
+                    let (li, dl) = loss.element(images.value.data[i][c], target.data[i][c]);
+                    l += li / n;
+                    gt[c] += dl / n * images.d_sigma_t.data[i][c] as f64;
+                    ga[c] += dl / n * images.d_albedo.data[i][c] as f64;
+                }
+            }
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1e-300);
+            eprintln!(
+                "{method} {loss:?}: loss {:.6e}, dσ_t {:?}, dα {:?}",
+                g.loss, g.d_sigma_t, g.d_albedo
+            );
+            assert!(
+                close(g.loss, l),
+                "{method} {loss:?}: loss {} vs {l}",
+                g.loss
+            );
+            for c in 0..3 {
+                assert!(gt[c] != 0.0 && ga[c] != 0.0);
+                assert!(
+                    close(g.d_sigma_t[c], gt[c]),
+                    "{method} {loss:?} dσ_t[{c}]: {} vs {}",
+                    g.d_sigma_t[c],
+                    gt[c]
+                );
+                assert!(
+                    close(g.d_albedo[c], ga[c]),
+                    "{method} {loss:?} dα[{c}]: {} vs {}",
+                    g.d_albedo[c],
+                    ga[c]
+                );
+            }
+            let kept = render_loss_gradient(
+                &scene, &s.camera, &s.light, &r, &d, &target, loss, true, None,
+            )
+            .unwrap();
+            assert_eq!(kept.images.as_ref(), Some(&images));
+            assert_eq!(kept.d_sigma_t, g.d_sigma_t);
+        }
+    }
+}
+
+#[test]
+fn method_names_round_trip() {
+    for m in DiffMethod::ALL {
+        assert_eq!(m.name().parse::<DiffMethod>().unwrap(), m);
+    }
+    assert_eq!(
+        "OURS_ALPHA_OFFSETS".parse::<DiffMethod>().unwrap(),
+        DiffMethod::OursAlphaOffsets
+    );
+    assert!("adjoint".parse::<DiffMethod>().is_err());
+    assert_eq!(DiffSettings::default().method, DiffMethod::Ours);
+}
+
+/// Timing of a 64×64 view at 32 spp (run with `--release --ignored --nocapture`).
+#[test]
+#[ignore]
+fn timing_64x64_32spp() {
+    let mut s = sphere_setup(rgb_medium());
+    s.camera = Camera::look_at(Vec3::new(0.0, 0.3, 2.0), Vec3::ZERO, Vec3::Y, 32.0, 64, 64);
+    let scene = s.scene();
+    let r = rs(32, 0);
+    for _ in 0..2 {
+        let t = std::time::Instant::now();
+        render_image(&scene, &s.camera, &s.light, &r, None).unwrap();
+        let fwd = t.elapsed().as_secs_f64();
+        for m in DiffMethod::ALL {
+            let t = std::time::Instant::now();
+            render_diff(&scene, &s.camera, &s.light, &r, &ds(m), None).unwrap();
+            eprintln!("forward {fwd:.3} s, {m} {:.3} s", t.elapsed().as_secs_f64());
+        }
+    }
+}

@@ -1,0 +1,304 @@
+//! `translucent optimize`: recover σ_t and α from a dataset's images by differentiable rendering
+//! with the learned BSSRDF (Son et al. 2024 §5; the loop is in the `inverse` crate).
+//!
+//! Writes `OUT/iterations.csv` (every iteration), `OUT/checkpoint.json` (atomic, every
+//! `--checkpoint-every` iterations; `--resume` continues bit-identically), and at the end
+//! `OUT/result.json`, `OUT/convergence.png` and re-renders beside the targets with false-colour
+//! error images in `OUT/final/`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use bssrdf::diff::{DiffMethod, Loss};
+use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, render_image};
+use clap::Args;
+use inverse::optimize::{Checkpoint, OptimizeConfig, Optimizer, TargetView};
+use inverse::params::{ParamSpec, Parameterisation, Params};
+use inverse::report;
+use scene::{Dataset, Image, Medium};
+
+use crate::common::{LearnedArgs, build_accel, parse_rgb, progress};
+
+#[derive(Args, Clone)]
+pub struct OptimizeArgs {
+    /// Dataset folder: ours (dataset.json) or a Mitsuba reference folder (scene.json); its
+    /// truth medium, when present, is only used to report errors.
+    #[arg(long)]
+    pub dataset: PathBuf,
+    /// Output folder.
+    #[arg(long, default_value = "out/optimize")]
+    pub out: PathBuf,
+    /// Gradient estimator: ours, ours-alpha-offsets, naive or fd.
+    #[arg(long, default_value = "ours")]
+    pub method: String,
+    /// Iterations.
+    #[arg(long, default_value_t = 300)]
+    pub iterations: u32,
+    /// Samples per pixel per iteration.
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    /// Views rendered per iteration (drawn at random).
+    #[arg(long, default_value_t = 1)]
+    pub views_per_iter: usize,
+    /// Image loss: l2 or l1.
+    #[arg(long, default_value = "l2", value_parser = ["l2", "l1"])]
+    pub loss: String,
+    /// Unbiased gradient from two independent renders per view (∂ℓ/∂I from one, ∂I/∂θ from the
+    /// other) instead of the single-render product (biased by their covariance).
+    #[arg(long)]
+    pub two_renders: bool,
+    /// Initial σ_t (1/unit; one value or R,G,B).
+    #[arg(long, default_value = "50", value_parser = parse_rgb)]
+    pub init_sigma_t: [f32; 3],
+    /// Initial albedo (one value or R,G,B).
+    #[arg(long, default_value = "0.5", value_parser = parse_rgb)]
+    pub init_albedo: [f32; 3],
+    /// Learning rate on σ_t/100 (or on ln σ_t with --log-sigma-t).
+    #[arg(long, default_value_t = 0.015)]
+    pub lr_sigma_t: f32,
+    /// Learning rate on α.
+    #[arg(long, default_value_t = 0.02)]
+    pub lr_albedo: f32,
+    /// Learning-rate decay factor.
+    #[arg(long, default_value_t = 0.85)]
+    pub decay: f32,
+    /// Iterations between decays.
+    #[arg(long, default_value_t = 50)]
+    pub decay_every: u32,
+    /// Optimise ln σ_t instead of σ_t/100.
+    #[arg(long)]
+    pub log_sigma_t: bool,
+    /// One σ_t and one α for all channels.
+    #[arg(long)]
+    pub monochrome: bool,
+    /// Keep σ_t at its initial value.
+    #[arg(long)]
+    pub fix_sigma_t: bool,
+    /// Keep α at its initial value.
+    #[arg(long)]
+    pub fix_albedo: bool,
+    /// Refit the polynomial features every K iterations (0: once, at the initial parameters).
+    #[arg(long, default_value_t = 0)]
+    pub refit_every: u32,
+    /// Relative offset Δ/σ_t of the correlated offset samples.
+    #[arg(long, default_value_t = 0.02)]
+    pub delta_rel: f32,
+    /// Checkpoint every N iterations.
+    #[arg(long, default_value_t = 10)]
+    pub checkpoint_every: u32,
+    /// Samples per pixel of the final re-renders.
+    #[arg(long, default_value_t = 64)]
+    pub final_spp: u32,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Continue the run in --out from its checkpoint (--iterations may extend it).
+    #[arg(long)]
+    pub resume: bool,
+    /// Replace an existing run in --out.
+    #[arg(long)]
+    pub overwrite: bool,
+    #[command(flatten)]
+    pub learned: LearnedArgs,
+}
+
+fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
+    let method: DiffMethod = a.method.parse()?;
+    let mut c = OptimizeConfig::new(Params {
+        sigma_t: a.init_sigma_t.map(|v| v as f64),
+        albedo: a.init_albedo.map(|v| v as f64),
+    });
+    c.method = method;
+    c.iterations = a.iterations;
+    c.spp = a.spp;
+    c.views_per_iter = a.views_per_iter;
+    c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
+    c.two_renders = a.two_renders;
+    c.lr_sigma_t = a.lr_sigma_t;
+    c.lr_albedo = a.lr_albedo;
+    c.decay = a.decay;
+    c.decay_every = a.decay_every;
+    c.refit_every = a.refit_every;
+    c.delta_rel = a.delta_rel;
+    c.seed = a.seed;
+    c.params = ParamSpec {
+        parameterisation: if a.log_sigma_t {
+            Parameterisation::Log
+        } else {
+            Parameterisation::Scaled
+        },
+        monochrome: a.monochrome,
+        fix_sigma_t: a.fix_sigma_t,
+        fix_albedo: a.fix_albedo,
+    };
+    Ok(c)
+}
+
+pub fn run(a: &OptimizeArgs) -> Result<()> {
+    let ds = Dataset::load(&a.dataset)?;
+    let (mesh, warnings) = ds.load_mesh()?;
+    let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
+    let model = a.learned.load_model()?;
+    let images: Vec<&Image> = ds
+        .views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            v.image
+                .as_ref()
+                .with_context(|| format!("{}: view {i} has no image to fit", a.dataset.display()))
+        })
+        .collect::<Result<_>>()?;
+    for (i, img) in images.iter().enumerate() {
+        img.check_finite(&format!("{} view {i}", a.dataset.display()))?;
+    }
+    let targets: Vec<TargetView> = ds
+        .views
+        .iter()
+        .zip(&images)
+        .map(|(v, img)| TargetView {
+            camera: &v.camera,
+            light: &v.light,
+            image: img,
+        })
+        .collect();
+    let base = ds.truth.unwrap_or(Medium {
+        sigma_t: [50.0; 3],
+        albedo: [0.5; 3],
+        g: 0.0,
+        eta: 1.0,
+    });
+    let truth = ds.truth.as_ref().map(Params::of);
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let ckpt = a.out.join("checkpoint.json");
+    let mut opt = if a.resume {
+        let c = Checkpoint::read(&ckpt)?;
+        Optimizer::resume(c, Some(a.iterations), &accel, &model, base, targets)?
+    } else {
+        if ckpt.exists() && !a.overwrite {
+            bail!(
+                "{} already holds an optimisation run; pass --resume to continue it or \
+                 --overwrite to start again",
+                a.out.display()
+            );
+        }
+        Optimizer::new(config_of(a)?, &accel, &model, base, targets)?
+    };
+    let t0 = Instant::now();
+    let pb = progress(opt.config().iterations as u64, "optimize");
+    pb.set_position(opt.iteration() as u64);
+    let csv = a.out.join("iterations.csv");
+    opt.run(Some((&ckpt, a.checkpoint_every)), |r, p| {
+        pb.set_position(r.iteration as u64 + 1);
+        pb.set_message(format!(
+            "loss {:.3e} σ_t ({:.1}, {:.1}, {:.1}) α ({:.3}, {:.3}, {:.3})",
+            r.loss, p.sigma_t[0], p.sigma_t[1], p.sigma_t[2], p.albedo[0], p.albedo[1], p.albedo[2]
+        ));
+    })?;
+    pb.finish_and_clear();
+    let seconds_total = t0.elapsed().as_secs_f64();
+    report::write_csv(opt.history(), &csv)?;
+    let estimate = opt.params();
+    let result = report::result_json(
+        opt.config(),
+        opt.history(),
+        &estimate,
+        truth.as_ref(),
+        seconds_total,
+    );
+    scene::fsutil::atomic_write(
+        &a.out.join("result.json"),
+        serde_json::to_string_pretty(&result)?.as_bytes(),
+        true,
+    )?;
+    report::write_plots(
+        opt.history(),
+        &estimate,
+        truth.as_ref(),
+        &a.out.join("convergence.png"),
+    )?;
+    rerender(a, &opt, &ds, &estimate, &base)?;
+    let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
+    print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+fn print_summary(est: &Params, truth: Option<&Params>, iters: usize, spi: f64) {
+    println!("after {iters} iterations ({spi:.2} s/iteration):");
+    let f3 = |v: [f64; 3], p: usize| format!("({:.p$}, {:.p$}, {:.p$})", v[0], v[1], v[2], p = p);
+    println!(
+        "  estimate  σ_t = {}  α = {}",
+        f3(est.sigma_t, 2),
+        f3(est.albedo, 4)
+    );
+    if let Some(t) = truth {
+        println!(
+            "  truth     σ_t = {}  α = {}",
+            f3(t.sigma_t, 2),
+            f3(t.albedo, 4)
+        );
+        let rel: [f64; 3] = std::array::from_fn(|c| 100.0 * (est.sigma_t[c] / t.sigma_t[c] - 1.0));
+        let abs: [f64; 3] = std::array::from_fn(|c| est.albedo[c] - t.albedo[c]);
+        println!("  error     σ_t {} %  α {}", f3(rel, 1), f3(abs, 4));
+    }
+}
+
+/// Re-renders every view at the estimate next to its target, with error images.
+fn rerender(
+    a: &OptimizeArgs,
+    opt: &Optimizer,
+    ds: &Dataset,
+    est: &Params,
+    base: &Medium,
+) -> Result<()> {
+    let dir = a.out.join("final");
+    std::fs::create_dir_all(&dir)?;
+    let medium = est.medium(base);
+    // The first views only, to keep the end of a run short.
+    let n = ds.views.len().min(8);
+    let (mesh, warnings) = ds.load_mesh()?;
+    let accel = build_accel(mesh, &warnings, "re-render");
+    let model = a.learned.load_model()?;
+    let scene = LearnedScene::new(
+        &accel,
+        &model,
+        opt.features(),
+        medium,
+        LearnedSettings::default(),
+    )?;
+    let mut imgs = Vec::new();
+    for (i, v) in ds.views.iter().take(n).enumerate() {
+        let rs = RenderSettings {
+            spp: a.final_spp,
+            seed: a.seed ^ 0xF1AA_1000,
+            view: i as u64,
+        };
+        imgs.push(render_image(&scene, &v.camera, &v.light, &rs, None)?);
+    }
+    let targets: Vec<Image> = ds
+        .views
+        .iter()
+        .take(n)
+        .filter_map(|v| v.image.clone())
+        .collect();
+    let exposure = scene::image::auto_exposure(&targets);
+    for (i, (img, t)) in imgs.iter().zip(&targets).enumerate() {
+        write_view(&dir, &format!("view_{i:03}"), img, t, exposure)?;
+    }
+    Ok(())
+}
+
+fn write_view(dir: &Path, name: &str, img: &Image, target: &Image, exposure: f32) -> Result<()> {
+    img.write_exr(&dir.join(format!("{name}.exr")), true)?;
+    img.write_png(&dir.join(format!("{name}.png")), exposure, true)?;
+    target.write_png(&dir.join(format!("{name}_target.png")), exposure, true)?;
+    Image::false_colour_diff(img, target)?.write_png(
+        &dir.join(format!("{name}_diff.png")),
+        1.0,
+        true,
+    )?;
+    Ok(())
+}

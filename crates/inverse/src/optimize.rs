@@ -1,0 +1,402 @@
+//! Multi-view inverse rendering with the learned BSSRDF (Son et al. 2024 §5; model-spec §8.3,
+//! A10–A12): Adam on the medium parameters with the gradient of the image loss from
+//! [`bssrdf::diff::render_loss_gradient`].
+//!
+//! Iteration k: draw `views_per_iter` views (stream `hash(seed, k)`), render each at the current
+//! parameters with `spp` samples per pixel and the iteration's seed (one render per view: the
+//! single-render L2 gradient of SON24, A11), sum ∂ℓ/∂(σ_t, α) over the views, map it to the
+//! optimiser's variables ([`crate::params`]), take one Adam step with per-parameter learning rates
+//! (`lr_sigma_t` on σ_t/100 or ln σ_t, `lr_albedo` on α) decayed ×`decay` every `decay_every`
+//! iterations, clamp. The vertex polynomials are fitted once at the initial parameters (A10) and,
+//! if `refit_every` > 0, again every that many iterations at the current ones.
+//!
+//! Everything random derives from (seed, iteration, view, pixel), so a run is reproducible for a
+//! given thread count and a resumed run continues exactly where the checkpoint left off.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use bssrdf::diff::{DiffMethod, DiffSettings, Loss, render_loss_gradient};
+use bssrdf::nn::ShapeAdaptiveModel;
+use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
+use geometry::Accel;
+use learn::optim::{Adam, AdamConfig, AdamState};
+use scene::{Camera, Image, Medium, PointLight};
+use serde::{Deserialize, Serialize};
+use volpath::rng::{Sampler, hash_key};
+
+use crate::params::{ParamSpec, Params};
+
+/// Errors of the inverse loop.
+#[derive(Debug, thiserror::Error)]
+pub enum InverseError {
+    /// Invalid settings or data.
+    #[error("{0}")]
+    Invalid(String),
+    /// Rendering failed.
+    #[error(transparent)]
+    Render(#[from] bssrdf::render::RenderError),
+    /// Writing failed.
+    #[error(transparent)]
+    Write(#[from] scene::SceneError),
+    /// A checkpoint cannot be used.
+    #[error("checkpoint {}: {reason}", .path.display())]
+    Checkpoint {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Settings of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OptimizeConfig {
+    /// Gradient estimator.
+    #[serde(with = "method_name")]
+    pub method: DiffMethod,
+    /// Iterations.
+    pub iterations: u32,
+    /// Samples per pixel per iteration.
+    pub spp: u32,
+    /// Views rendered per iteration.
+    pub views_per_iter: usize,
+    /// Image loss.
+    #[serde(with = "loss_name")]
+    pub loss: Loss,
+    /// Decorrelated gradient: ∂ℓ/∂I from one render and ∂I/∂θ from another with independent
+    /// samples (DLW22's two-buffer estimator, model-spec A11). The single-render product
+    /// 2(I − T)·∂I/∂θ is biased by Cov(I, ∂I/∂θ); this one is not.
+    #[serde(default)]
+    pub two_renders: bool,
+    /// Learning rate of σ_t's variable.
+    pub lr_sigma_t: f32,
+    /// Learning rate of α.
+    pub lr_albedo: f32,
+    /// Step decay factor.
+    pub decay: f32,
+    /// Iterations between decays.
+    pub decay_every: u32,
+    /// Refit the vertex polynomials every this many iterations (0: never).
+    pub refit_every: u32,
+    /// Relative σ_t offset Δ/σ_t of the offset samples and of `fd`.
+    pub delta_rel: f32,
+    /// Parameterisation, sharing and fixing.
+    pub params: ParamSpec,
+    /// Initial parameters.
+    pub init: Params,
+    /// Seed.
+    pub seed: u64,
+}
+
+mod method_name {
+    use bssrdf::diff::DiffMethod;
+    use serde::{Deserialize, Deserializer, Serializer};
+    pub fn serialize<S: Serializer>(m: &DiffMethod, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<DiffMethod, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+mod loss_name {
+    use bssrdf::diff::Loss;
+    use serde::{Deserialize, Deserializer, Serializer};
+    pub fn serialize<S: Serializer>(l: &Loss, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match l {
+            Loss::L2 => "l2",
+            Loss::L1 => "l1",
+        })
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Loss, D::Error> {
+        match String::deserialize(d)?.as_str() {
+            "l2" => Ok(Loss::L2),
+            "l1" => Ok(Loss::L1),
+            o => Err(serde::de::Error::custom(format!("unknown loss {o:?}"))),
+        }
+    }
+}
+
+impl OptimizeConfig {
+    /// The defaults of model-spec A12 from `init`: `ours`, 300 iterations, 32 spp, 1 view, L2,
+    /// lr 0.015 (σ_t/100) and 0.02 (α), ×0.85 every 50 iterations.
+    pub fn new(init: Params) -> Self {
+        Self {
+            method: DiffMethod::Ours,
+            iterations: 300,
+            spp: 32,
+            views_per_iter: 1,
+            loss: Loss::L2,
+            two_renders: false,
+            lr_sigma_t: 0.015,
+            lr_albedo: 0.02,
+            decay: 0.85,
+            decay_every: 50,
+            refit_every: 0,
+            delta_rel: 0.02,
+            params: ParamSpec::default(),
+            init,
+            seed: 0,
+        }
+    }
+}
+
+/// One target view.
+pub struct TargetView<'a> {
+    /// Camera.
+    pub camera: &'a Camera,
+    /// Point light.
+    pub light: &'a PointLight,
+    /// Target image.
+    pub image: &'a Image,
+}
+
+/// One row of the per-iteration history.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    /// Iteration (0-based).
+    pub iteration: u32,
+    /// Mean loss over the iteration's views.
+    pub loss: f64,
+    /// Parameters BEFORE the step.
+    pub params: Params,
+    /// ∂ℓ/∂σ_t per channel.
+    pub d_sigma_t: [f64; 3],
+    /// ∂ℓ/∂α per channel.
+    pub d_albedo: [f64; 3],
+    /// Views used.
+    pub views: Vec<usize>,
+    /// Seconds of this iteration.
+    pub seconds: f64,
+}
+
+/// A run in progress.
+pub struct Optimizer<'a> {
+    config: OptimizeConfig,
+    accel: &'a Accel,
+    model: &'a ShapeAdaptiveModel,
+    base: Medium,
+    targets: Vec<TargetView<'a>>,
+    features: VertexFeatures,
+    adam: Adam,
+    u: Vec<f32>,
+    history: Vec<IterationRecord>,
+}
+
+mod checkpoint;
+pub use checkpoint::Checkpoint;
+
+impl<'a> Optimizer<'a> {
+    /// A new run. `base` supplies g and η (the parameters come from `config.init`).
+    pub fn new(
+        config: OptimizeConfig,
+        accel: &'a Accel,
+        model: &'a ShapeAdaptiveModel,
+        base: Medium,
+        targets: Vec<TargetView<'a>>,
+    ) -> Result<Self, InverseError> {
+        if targets.is_empty() {
+            return Err(InverseError::Invalid("no target views".into()));
+        }
+        if config.views_per_iter == 0 || config.spp == 0 {
+            return Err(InverseError::Invalid(
+                "views per iteration and spp must be at least 1".into(),
+            ));
+        }
+        let init_medium = config.init.medium(&base);
+        init_medium
+            .validate("initial parameters")
+            .map_err(|e| InverseError::Invalid(e.to_string()))?;
+        let features =
+            VertexFeatures::fit(accel, &init_medium, model.info().c19_quirk, config.seed)?;
+        let u = config.params.encode(&config.init);
+        let adam = Adam::new(u.len(), adam_config(&config));
+        Ok(Self {
+            config,
+            accel,
+            model,
+            base,
+            targets,
+            features,
+            adam,
+            u,
+            history: Vec::new(),
+        })
+    }
+
+    /// Iterations done.
+    pub fn iteration(&self) -> u32 {
+        self.history.len() as u32
+    }
+
+    /// Current parameters.
+    pub fn params(&self) -> Params {
+        self.config.params.decode(&self.u)
+    }
+
+    /// The history.
+    pub fn history(&self) -> &[IterationRecord] {
+        &self.history
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &OptimizeConfig {
+        &self.config
+    }
+
+    /// The vertex features in use.
+    pub fn features(&self) -> &VertexFeatures {
+        &self.features
+    }
+
+    /// One iteration.
+    pub fn step(&mut self) -> Result<&IterationRecord, InverseError> {
+        let t0 = Instant::now();
+        let k = self.iteration();
+        let c = &self.config;
+        let p = self.params();
+        if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
+            self.features = VertexFeatures::fit(
+                self.accel,
+                &p.medium(&self.base),
+                self.model.info().c19_quirk,
+                c.seed,
+            )?;
+        }
+        let medium = p.medium(&self.base);
+        let scene = LearnedScene::new(
+            self.accel,
+            self.model,
+            &self.features,
+            medium,
+            LearnedSettings::default(),
+        )?;
+        let ds = DiffSettings {
+            method: c.method,
+            delta_rel: c.delta_rel,
+            ..DiffSettings::default()
+        };
+        let mut rng = Sampler::new(c.seed, 0x0AD1_0E55, k as u64, 0);
+        let n = self.targets.len() as u32;
+        let views: Vec<usize> = (0..c.views_per_iter)
+            .map(|_| rng.next_below(n) as usize)
+            .collect();
+        let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
+        for &v in &views {
+            let t = &self.targets[v];
+            let rs = RenderSettings {
+                spp: c.spp,
+                seed: hash_key(&[c.seed, k as u64]),
+                view: v as u64,
+            };
+            let g = if c.two_renders {
+                // I₁ (seed A) gives ∂ℓ/∂I, I₂ (seed B) the derivative: with the pseudo-target
+                // T' = I₂ − (I₁ − T) the residual the gradient render sees is I₂ − T' = I₁ − T.
+                let rs_b = RenderSettings {
+                    seed: hash_key(&[c.seed, k as u64, 0xB]),
+                    ..rs
+                };
+                let i1 = render_image(&scene, t.camera, t.light, &rs, None)?;
+                let i2 = render_image(&scene, t.camera, t.light, &rs_b, None)?;
+                let mut pseudo = t.image.clone();
+                for ((p, a), b) in pseudo.data.iter_mut().zip(&i1.data).zip(&i2.data) {
+                    for ch in 0..3 {
+                        p[ch] = b[ch] - (a[ch] - p[ch]);
+                    }
+                }
+                let mut g = render_loss_gradient(
+                    &scene, t.camera, t.light, &rs_b, &ds, &pseudo, c.loss, false, None,
+                )?;
+                g.loss = image_loss(&i1, t.image, c.loss);
+                g
+            } else {
+                render_loss_gradient(
+                    &scene, t.camera, t.light, &rs, &ds, t.image, c.loss, false, None,
+                )?
+            };
+            loss += g.loss / views.len() as f64;
+            for ch in 0..3 {
+                ds_t[ch] += g.d_sigma_t[ch] / views.len() as f64;
+                da[ch] += g.d_albedo[ch] / views.len() as f64;
+            }
+        }
+        if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
+            return Err(InverseError::Invalid(format!(
+                "iteration {k}: the loss or its gradient is not finite (loss {loss}); check the \
+                 target images for NaN/Inf pixels and the learning rates"
+            )));
+        }
+        let mut g = c.params.chain(&p, ds_t, da);
+        let scale = [
+            c.lr_sigma_t,
+            c.lr_sigma_t,
+            c.lr_sigma_t,
+            c.lr_albedo,
+            c.lr_albedo,
+            c.lr_albedo,
+        ];
+        self.adam.step_scaled(&mut self.u, &mut g, &scale);
+        c.params.clamp(&mut self.u);
+        self.history.push(IterationRecord {
+            iteration: k,
+            loss,
+            params: p,
+            d_sigma_t: ds_t,
+            d_albedo: da,
+            views,
+            seconds: t0.elapsed().as_secs_f64(),
+        });
+        Ok(self.history.last().expect("just pushed"))
+    }
+
+    /// Runs to `config.iterations`, writing a checkpoint every `checkpoint_every` iterations
+    /// (and at the end) when a path is given; `on_iter` sees every record.
+    pub fn run(
+        &mut self,
+        checkpoint: Option<(&Path, u32)>,
+        mut on_iter: impl FnMut(&IterationRecord, &Params),
+    ) -> Result<(), InverseError> {
+        while self.iteration() < self.config.iterations {
+            self.step()?;
+            let p = self.params();
+            on_iter(self.history.last().expect("stepped"), &p);
+            if let Some((path, every)) = checkpoint {
+                let k = self.iteration();
+                if k.is_multiple_of(every.max(1)) || k == self.config.iterations {
+                    self.save_checkpoint(path)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The loss of `img` against `target` (mean over the pixel channels).
+fn image_loss(img: &Image, target: &Image, loss: Loss) -> f64 {
+    let mut sum = 0.0;
+    for (a, b) in img.data.iter().zip(&target.data) {
+        for ch in 0..3 {
+            sum += loss.element(a[ch], b[ch]).0;
+        }
+    }
+    sum / (3 * img.data.len()).max(1) as f64
+}
+
+/// Adam with learning rate 1 (the per-parameter rates are factors), the step decay, no clipping.
+fn adam_config(c: &OptimizeConfig) -> AdamConfig {
+    AdamConfig {
+        lr: 1.0,
+        decay: c.decay,
+        decay_every: c.decay_every.max(1) as u64,
+        floor_fraction: 0.0,
+        clip_norm: 0.0,
+        ..AdamConfig::default()
+    }
+}
+
+/// Adam state accessors for the checkpoint module.
+fn adam_parts(o: &Optimizer) -> AdamState {
+    o.adam.state()
+}

@@ -1,0 +1,141 @@
+//! Checkpoints of an inverse run: one JSON file (configuration, optimiser variables, Adam state,
+//! history), written atomically; resume continues bit-identically.
+
+use std::path::Path;
+
+use bssrdf::nn::ShapeAdaptiveModel;
+use bssrdf::render::VertexFeatures;
+use geometry::Accel;
+use learn::optim::{Adam, AdamState};
+use scene::Medium;
+use serde::{Deserialize, Serialize};
+
+use super::{
+    InverseError, IterationRecord, OptimizeConfig, Optimizer, TargetView, adam_config, adam_parts,
+};
+
+const FORMAT: &str = "translucent-optimize-checkpoint";
+const VERSION: u32 = 1;
+
+/// What a checkpoint file holds.
+#[derive(Serialize, Deserialize)]
+pub struct Checkpoint {
+    format: String,
+    version: u32,
+    /// The run's configuration.
+    pub config: OptimizeConfig,
+    u: Vec<f32>,
+    adam_step: u64,
+    adam_m: Vec<f32>,
+    adam_v: Vec<f32>,
+    /// The history so far.
+    pub history: Vec<IterationRecord>,
+}
+
+fn err(path: &Path, reason: impl Into<String>) -> InverseError {
+    InverseError::Checkpoint {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+impl Checkpoint {
+    /// Reads and checks a checkpoint file.
+    pub fn read(path: &Path) -> Result<Self, InverseError> {
+        let text = std::fs::read_to_string(path).map_err(|e| err(path, e.to_string()))?;
+        let c: Checkpoint = serde_json::from_str(&text)
+            .map_err(|e| err(path, format!("malformed ({e}); the file is damaged")))?;
+        if c.format != FORMAT || c.version != VERSION {
+            return Err(err(
+                path,
+                format!(
+                    "format {} v{}, expected {FORMAT} v{VERSION}",
+                    c.format, c.version
+                ),
+            ));
+        }
+        let n = c.u.len();
+        if n != 6 || c.adam_m.len() != n || c.adam_v.len() != n {
+            return Err(err(path, "wrong number of variables; the file is damaged"));
+        }
+        if c.u.iter().any(|v| !v.is_finite()) {
+            return Err(err(path, "non-finite parameters"));
+        }
+        Ok(c)
+    }
+}
+
+impl<'a> Optimizer<'a> {
+    /// Writes the checkpoint (atomically).
+    pub fn save_checkpoint(&self, path: &Path) -> Result<(), InverseError> {
+        let s = adam_parts(self);
+        let c = Checkpoint {
+            format: FORMAT.into(),
+            version: VERSION,
+            config: self.config.clone(),
+            u: self.u.clone(),
+            adam_step: s.step,
+            adam_m: s.m,
+            adam_v: s.v,
+            history: self.history.clone(),
+        };
+        let json = serde_json::to_vec(&c).map_err(|e| err(path, e.to_string()))?;
+        scene::fsutil::atomic_write(path, &json, true)?;
+        Ok(())
+    }
+
+    /// Resumes the run of `checkpoint` (its configuration wins; `iterations` may extend it).
+    pub fn resume(
+        checkpoint: Checkpoint,
+        iterations: Option<u32>,
+        accel: &'a Accel,
+        model: &'a ShapeAdaptiveModel,
+        base: Medium,
+        targets: Vec<TargetView<'a>>,
+    ) -> Result<Self, InverseError> {
+        let mut config = checkpoint.config;
+        if let Some(n) = iterations {
+            config.iterations = n;
+        }
+        let k = checkpoint.history.len() as u32;
+        // The features of the last refit before iteration k (or of the initial parameters).
+        let fit_at = if config.refit_every > 0 && k > 0 {
+            let r = ((k - 1) / config.refit_every) * config.refit_every;
+            if r > 0 {
+                checkpoint.history[r as usize].params
+            } else {
+                config.init
+            }
+        } else {
+            config.init
+        };
+        let features = VertexFeatures::fit(
+            accel,
+            &fit_at.medium(&base),
+            model.info().c19_quirk,
+            config.seed,
+        )?;
+        let adam = Adam::from_state(
+            adam_config(&config),
+            AdamState {
+                step: checkpoint.adam_step,
+                m: checkpoint.adam_m,
+                v: checkpoint.adam_v,
+            },
+        );
+        if targets.is_empty() {
+            return Err(InverseError::Invalid("no target views".into()));
+        }
+        Ok(Self {
+            config,
+            accel,
+            model,
+            base,
+            targets,
+            features,
+            adam,
+            u: checkpoint.u,
+            history: checkpoint.history,
+        })
+    }
+}
