@@ -9,6 +9,7 @@ mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
+mod gradcheck_cmd;
 mod model_cmd;
 mod optimize_cmd;
 mod render_cmd;
@@ -61,6 +62,9 @@ enum Command {
     /// Recover σ_t and α from a dataset's images by differentiable rendering with the learned
     /// BSSRDF (Son et al. 2024): Adam, checkpoints, convergence plots, result.json.
     Optimize(Box<optimize_cmd::OptimizeArgs>),
+    /// Derivative images ∂I/∂σ_t, ∂I/∂α of one view by several estimators against finite
+    /// differences (Son et al. Fig. 3, 5).
+    Gradcheck(Box<gradcheck_cmd::GradcheckArgs>),
     /// Train the learned BSSRDF: generate data with our random walks, fit the networks.
     #[command(subcommand)]
     Train(train_cmd::TrainCommand),
@@ -127,5 +131,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),
         Command::Optimize(a) => optimize_cmd::run(&a),
+        Command::Gradcheck(a) => gradcheck_cmd::run(&a),
     }
 }

@@ -1290,3 +1290,112 @@ fn shipped_model_is_built_in_and_valid() {
         r.describe()
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Inverse rendering (issue #5): optimize, resume, gradcheck.
+
+#[test]
+fn optimize_writes_results_resumes_and_gradcheck_runs() {
+    let t = tmp();
+    let d = t.path();
+    ok(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--views",
+            "2",
+            "--res",
+            "12",
+            "--spp",
+            "4",
+            "--sigma-t",
+            "60",
+            "--albedo",
+            "0.9",
+            "--out",
+            "ds",
+        ],
+    );
+    let opt = [
+        "optimize",
+        "--dataset",
+        "ds",
+        "--out",
+        "o",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--final-spp",
+        "2",
+        "--checkpoint-every",
+        "2",
+    ];
+    let r = ok(d, &opt);
+    assert!(r.stdout.contains("truth"), "{}", r.describe());
+    let res = read_json(&d.join("o/result.json"));
+    for k in [
+        "estimate",
+        "truth",
+        "iterations",
+        "spp",
+        "seconds_per_iteration",
+        "seconds_total",
+        "method",
+        "seed",
+    ] {
+        assert!(res.get(k).is_some(), "result.json lacks {k}: {res}");
+    }
+    assert_eq!(res["iterations"], 3);
+    assert_eq!(res["method"], "ours");
+    assert_eq!(res["estimate"]["sigma_t"].as_array().unwrap().len(), 3);
+    for f in [
+        "iterations.csv",
+        "convergence.png",
+        "checkpoint.json",
+        "final/view_000.png",
+        "final/view_000_diff.png",
+    ] {
+        assert!(d.join("o").join(f).exists(), "missing {f}");
+    }
+    let again = fails(d, &opt);
+    assert_stderr_has(&again, &["--resume", "--overwrite"]);
+    let mut resume: Vec<&str> = opt.to_vec();
+    resume[6] = "5"; // --iterations 5
+    resume.push("--resume");
+    ok(d, &resume);
+    assert_eq!(read_json(&d.join("o/result.json"))["iterations"], 5);
+    let bad = fails(
+        d,
+        &[
+            "optimize",
+            "--dataset",
+            "ds",
+            "--out",
+            "o2",
+            "--method",
+            "magic",
+        ],
+    );
+    assert_stderr_has(&bad, &["magic", "ours"]);
+
+    let r = ok(
+        d,
+        &["gradcheck", "--dataset", "ds", "--spp", "2", "--out", "g"],
+    );
+    assert!(
+        r.stdout.contains("naive") && r.stdout.contains("fd"),
+        "{}",
+        r.describe()
+    );
+    for f in [
+        "gradcheck.csv",
+        "ours_d_sigma_t.png",
+        "fd_d_albedo.png",
+        "naive_d_sigma_t.exr",
+    ] {
+        assert!(d.join("g").join(f).exists(), "missing {f}");
+    }
+}
