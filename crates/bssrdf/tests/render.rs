@@ -11,27 +11,16 @@
 //! per-sample values (the channel choice makes each value 3v or 0; for a grey medium every sample
 //! serves all channels and has the value v).
 
+mod common;
+
 use bssrdf::boundary::{sw, transmittance};
 use bssrdf::medium::{ReducedMedium, effective_albedo};
-use bssrdf::model::{FrameConvention, ModelInfo};
-use bssrdf::nn::{Dense, Normalisation, ShapeAdaptiveModel};
+use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::polynomial::Poly3;
 use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
-use geometry::{Accel, Mesh, Vec3};
+use common::{layer, slab};
+use geometry::Vec3;
 use scene::{Camera, Medium, PointLight};
-
-fn layer(n_in: usize, n_out: usize, scale: f32, seed: u32) -> Dense {
-    let mut s = seed.wrapping_mul(2_654_435_761).wrapping_add(1);
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 17;
-        s ^= s << 5;
-        (s as f32 / u32::MAX as f32 - 0.5) * 2.0 * scale
-    };
-    let w = (0..n_in * n_out).map(|_| next()).collect();
-    let b = (0..n_out).map(|_| next() * 0.1).collect();
-    Dense::new(n_in, n_out, w, b).unwrap()
-}
 
 /// A small random model; the decoder's last layer is tiny so samples stay within the
 /// projection bound.
@@ -40,56 +29,7 @@ fn model() -> ShapeAdaptiveModel {
     let feature = vec![layer(23, 16, 0.5, 1), layer(16, f, 0.5, 2)];
     let absorption = vec![layer(f, 8, 0.7, 3), layer(8, 1, 0.7, 4)];
     let decoder = vec![layer(4 + f, 8, 0.5, 5), layer(8, 3, 0.02, 6)];
-    let info = ModelInfo {
-        frame_convention: FrameConvention::Vkj19,
-        ..Default::default()
-    };
-    ShapeAdaptiveModel::new(
-        feature,
-        absorption,
-        decoder,
-        None,
-        Normalisation::identity(),
-        info,
-    )
-    .unwrap()
-}
-
-/// Slab |x|, |z| ≤ 0.5, −0.5 ≤ y ≤ 0, CCW outward.
-fn slab() -> Accel {
-    let (a, h) = (0.5f32, 0.5f32);
-    let p = Vec3::new;
-    let positions = vec![
-        p(-a, 0.0, -a),
-        p(a, 0.0, -a),
-        p(a, 0.0, a),
-        p(-a, 0.0, a),
-        p(-a, -h, -a),
-        p(a, -h, -a),
-        p(a, -h, a),
-        p(-a, -h, a),
-    ];
-    let indices = vec![
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [3, 7, 6],
-        [3, 6, 2],
-        [0, 4, 7],
-        [0, 7, 3],
-        [1, 2, 6],
-        [1, 6, 5],
-    ];
-    let mut mesh = Mesh {
-        positions,
-        normals: None,
-        indices,
-    };
-    geometry::mesh::validate(&mut mesh, "slab").unwrap();
-    Accel::new(mesh)
+    common::assemble(feature, absorption, decoder)
 }
 
 #[test]
