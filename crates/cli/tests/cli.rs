@@ -956,7 +956,18 @@ fn bad_unknown_shape_name() {
 fn demo_writes_dataset_reruns_and_protects_other_datasets() {
     let t = tmp();
     let args = [
-        "-q", "demo", "--out", "demo", "--res", "16", "--views", "2", "--spp", "2",
+        "-q",
+        "demo",
+        "--out",
+        "demo",
+        "--res",
+        "16",
+        "--views",
+        "2",
+        "--spp",
+        "2",
+        "--iterations",
+        "3",
     ];
     ok(t.path(), &args);
     let d = t.path().join("demo");
@@ -988,7 +999,18 @@ fn demo_writes_dataset_reruns_and_protects_other_datasets() {
     let r = fails(
         t.path(),
         &[
-            "-q", "demo", "--out", "other", "--res", "16", "--views", "2", "--spp", "2",
+            "-q",
+            "demo",
+            "--out",
+            "other",
+            "--res",
+            "16",
+            "--views",
+            "2",
+            "--spp",
+            "2",
+            "--iterations",
+            "3",
         ],
     );
     assert_stderr_has(&r, &["other", "demo"]);
@@ -1012,7 +1034,18 @@ fn demo_does_not_overwrite_render_outputs() {
     let r = translucent(
         t.path(),
         &[
-            "-q", "demo", "--out", "r", "--res", "16", "--views", "2", "--spp", "2",
+            "-q",
+            "demo",
+            "--out",
+            "r",
+            "--res",
+            "16",
+            "--views",
+            "2",
+            "--spp",
+            "2",
+            "--iterations",
+            "3",
         ],
     );
     assert_ne!(r.code, Some(0), "{}", r.describe());
