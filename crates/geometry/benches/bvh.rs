@@ -9,7 +9,9 @@
 //!   0.85–1.15), uniform direction (the random-walk case);
 //! * occlusion `in` uses a random `tmax` in [0, 1]; occlusion `out` an infinite one;
 //! * `inside_length`: from a point inside to a point on the sphere of radius 3 (the NEE shadow
-//!   segment of the volumetric path tracer).
+//!   segment of the volumetric path tracer);
+//! * `closest_short`: origin inside, uniform direction, `tmax` exponential with mean 0.03 (the
+//!   free-flight boundary test of the volumetric path tracer).
 //!
 //! Every ray benchmark traces the whole batch on an explicit rayon pool of 1 or 2 threads
 //! (`args`), and reports the throughput in rays/s (divan "item/s"); Mrays/s = item/s / 1e6.
@@ -159,6 +161,19 @@ static RAYS_IN: LazyLock<Vec<Ray>> = LazyLock::new(|| {
         .collect()
 });
 
+static RAYS_SHORT: LazyLock<Vec<Ray>> = LazyLock::new(|| {
+    let mut rng = Pcg32::seed_from_u64(400);
+    (0..RAYS)
+        .map(|_| {
+            (
+                in_ball(&mut rng, 0.8),
+                unit_vector(&mut rng),
+                -rng.random::<f32>().ln() * 0.03,
+            )
+        })
+        .collect()
+});
+
 static SEGMENTS: LazyLock<Vec<(Vec3, Vec3)>> = LazyLock::new(|| {
     let mut rng = Pcg32::seed_from_u64(300);
     (0..RAYS)
@@ -231,5 +246,12 @@ fn occluded_in(bencher: divan::Bencher, threads: usize) {
 fn inside_length(bencher: divan::Bencher, threads: usize) {
     run(bencher, threads, &SEGMENTS, |&(a, b)| {
         (ACCEL.inside_length(a, b) > 0.5) as u32
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn closest_short(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &RAYS_SHORT, |&(o, d, tmax)| {
+        ACCEL.closest(o, d, 0.0, tmax).map_or(0, |h| h.tri & 1)
     });
 }
