@@ -280,19 +280,26 @@ fn draw_panel<DB: DrawingBackend>(
                         PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
                     });
             }
-            for (label, y) in &panel.reference_lines {
+            // Reference line k is dashed in the colour of series k (e.g. the truth of channel k
+            // next to its estimate); black when there are more lines than series.
+            for (k, (label, y)) in panel.reference_lines.iter().enumerate() {
                 let y = *y;
                 if !$ok(y) {
                     continue;
                 }
+                let colour = if k < panel.series.len() {
+                    PALETTE[k % PALETTE.len()]
+                } else {
+                    BLACK
+                };
                 let dashes = dashed_segments(x0, x1, 60);
                 chart
                     .draw_series(dashes.into_iter().map(|(a, b)| {
-                        PathElement::new(vec![(a, y), (b, y)], BLACK.stroke_width(1))
+                        PathElement::new(vec![(a, y), (b, y)], colour.stroke_width(1))
                     }))
                     .map_err(|e| e.to_string())?
                     .label(label.as_str())
-                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], colour));
             }
             if !panel.series.is_empty() || !panel.reference_lines.is_empty() {
                 chart
