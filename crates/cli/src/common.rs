@@ -34,6 +34,18 @@ pub fn progress(len: u64, msg: &str) -> ProgressBar {
     pb
 }
 
+/// A command's arguments with every default, given the values of its required arguments
+/// (`["--out", "o"]`), for commands that run other commands with their defaults.
+///
+/// # Panics
+/// If `required` does not satisfy the argument definitions (a programming error).
+pub fn arg_defaults<T: clap::Args + clap::FromArgMatches>(required: &[&str]) -> T {
+    let m = T::augment_args(clap::Command::new("defaults"))
+        .try_get_matches_from(std::iter::once("defaults").chain(required.iter().copied()))
+        .expect("the required arguments parse");
+    T::from_arg_matches(&m).expect("the defaults parse")
+}
+
 /// Parse "a,b,c" or "a" into an RGB triple.
 pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     let v: Result<Vec<f32>, _> = s.split(',').map(|x| x.trim().parse::<f32>()).collect();

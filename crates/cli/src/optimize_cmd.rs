@@ -106,14 +106,11 @@ pub struct OptimizeArgs {
 impl OptimizeArgs {
     /// The command's defaults for `--dataset dataset --out out`.
     pub fn with_defaults(dataset: PathBuf, out: PathBuf) -> Self {
-        use clap::FromArgMatches;
-        let m = <Self as clap::Args>::augment_args(clap::Command::new("x"))
-            .try_get_matches_from(["x", "--dataset", "d"])
-            .expect("defaults parse");
-        let mut a = Self::from_arg_matches(&m).expect("defaults parse");
-        a.dataset = dataset;
-        a.out = out;
-        a
+        Self {
+            dataset,
+            out,
+            ..crate::common::arg_defaults(&["--dataset", "d"])
+        }
     }
 }
 

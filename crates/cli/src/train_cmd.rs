@@ -16,7 +16,7 @@ use clap::{Args, Subcommand};
 use learn::datagen::{DataConfig, generate};
 use learn::samplefile::{SampleFileHeader, write_samples};
 
-use crate::common::progress;
+use crate::common::{arg_defaults, progress};
 use crate::train_fit::run_fit;
 
 #[derive(Subcommand)]
@@ -132,42 +132,22 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
         TrainCommand::Data(a) => run_data(a),
         TrainCommand::Fit(a) => run_fit(a),
         TrainCommand::All(a) => {
-            let data = DataArgs::parse_defaults(a.out.join("data"), a.seed, a.overwrite);
-            run_data(&data)?;
-            let fit = FitArgs::parse_defaults(a.out.join("data"), a.out.join("model"), a.seed);
+            let data: DataArgs = arg_defaults(&["--out", "o"]);
+            run_data(&DataArgs {
+                out: a.out.join("data"),
+                seed: a.seed,
+                overwrite: a.overwrite,
+                ..data
+            })?;
+            let fit: FitArgs = arg_defaults(&["--data", "d", "--out", "o"]);
             run_fit(&FitArgs {
+                data: a.out.join("data"),
+                out: a.out.join("model"),
+                seed: a.seed,
                 overwrite: a.overwrite,
                 ..fit
             })
         }
-    }
-}
-
-impl DataArgs {
-    fn parse_defaults(out: PathBuf, seed: u64, overwrite: bool) -> Self {
-        use clap::FromArgMatches;
-        let m = <Self as clap::Args>::augment_args(clap::Command::new("x"))
-            .try_get_matches_from(["x", "--out", "o"])
-            .expect("defaults parse");
-        let mut a = Self::from_arg_matches(&m).expect("defaults parse");
-        a.out = out;
-        a.seed = seed;
-        a.overwrite = overwrite;
-        a
-    }
-}
-
-impl FitArgs {
-    fn parse_defaults(data: PathBuf, out: PathBuf, seed: u64) -> Self {
-        use clap::FromArgMatches;
-        let m = <Self as clap::Args>::augment_args(clap::Command::new("x"))
-            .try_get_matches_from(["x", "--data", "d", "--out", "o"])
-            .expect("defaults parse");
-        let mut a = Self::from_arg_matches(&m).expect("defaults parse");
-        a.data = data;
-        a.out = out;
-        a.seed = seed;
-        a
     }
 }
 
@@ -236,4 +216,31 @@ fn run_data(a: &DataArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::common::arg_defaults;
+
+    #[test]
+    fn train_all_uses_the_shipped_models_defaults() {
+        let d: DataArgs = arg_defaults(&["--out", "o"]);
+        assert_eq!(
+            (d.meshes, d.val_meshes, d.configs_per_mesh),
+            (160, 16, 1250)
+        );
+        assert_eq!(
+            (d.samples_per_config, d.path_attempts, d.seed),
+            (16, 1024, 0)
+        );
+        assert!(!d.no_c19_quirk);
+        let f: FitArgs = arg_defaults(&["--data", "d", "--out", "o"]);
+        assert_eq!((f.steps, f.batch, f.lr_decay_every), (400_000, 256, 60_000));
+        assert_eq!(
+            (f.lr, f.lr_decay, f.lr_floor, f.clip),
+            (1e-3, 0.5, 0.05, 100.0)
+        );
+        assert_eq!(f.widths, "son24");
+    }
 }
