@@ -116,6 +116,20 @@ fn sphere_setup(medium: Medium) -> Setup {
 /// The sharp edge x = 0.5 of a slab lit from straight above: the side face gets no light, so
 /// samples crossing the edge are lost; the footprint of every pixel straddles the edge.
 fn edge_setup() -> Setup {
+    slab_setup(
+        0.485,
+        1.4,
+        PointLight {
+            position: Vec3::new(0.0, 50.0, 0.0),
+            intensity: [2500.0; 3],
+        },
+    )
+}
+
+/// The slab seen from straight above the point (x, 0, 0) with horizontal field of view `fov`
+/// (degrees), 16×16. The slab's vertices are its corners: per-vertex polynomials say nothing
+/// about the flat faces, so the planar descriptor (projection along −n(x_o)) is used.
+fn slab_setup(x: f32, fov: f32, light: PointLight) -> Setup {
     let accel = slab();
     let medium = rgb_medium();
     let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
@@ -125,19 +139,14 @@ fn edge_setup() -> Setup {
         features,
         medium,
         camera: Camera::look_at(
-            Vec3::new(0.485, 2.0, 0.0),
-            Vec3::new(0.485, 0.0, 0.0),
+            Vec3::new(x, 2.0, 0.0),
+            Vec3::new(x, 0.0, 0.0),
             Vec3::Z,
-            1.4,
+            fov,
             16,
             16,
         ),
-        light: PointLight {
-            position: Vec3::new(0.0, 50.0, 0.0),
-            intensity: [2500.0; 3],
-        },
-        // The slab's vertices are its corners: per-vertex polynomials say nothing about the
-        // flat faces, so the planar descriptor (projection along −n(x_o)) is used.
+        light,
         settings: PLANAR,
     }
 }
@@ -258,30 +267,14 @@ fn ours_sigma_t_matches_finite_differences() {
 /// A slab lit by a near light, seen around the point under the light, away from every edge:
 /// no visibility change in any footprint, so the interior term is the whole derivative.
 fn interior_setup() -> Setup {
-    let accel = slab();
-    let medium = rgb_medium();
-    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
-    Setup {
-        accel,
-        model: model(),
-        features,
-        medium,
-        camera: Camera::look_at(
-            Vec3::new(0.05, 2.0, 0.0),
-            Vec3::new(0.05, 0.0, 0.0),
-            Vec3::Z,
-            4.0,
-            16,
-            16,
-        ),
-        light: PointLight {
+    slab_setup(
+        0.05,
+        4.0,
+        PointLight {
             position: Vec3::new(0.0, 0.25, 0.0),
             intensity: [0.1; 3],
         },
-        // The slab's vertices are its corners: per-vertex polynomials say nothing about the
-        // flat faces, so the planar descriptor (projection along −n(x_o)) is used.
-        settings: PLANAR,
-    }
+    )
 }
 
 #[test]

@@ -88,6 +88,16 @@ fn assert_stderr_has(run: &Run, needles: &[&str]) {
     }
 }
 
+fn assert_stdout_has(run: &Run, needles: &[&str]) {
+    for n in needles {
+        assert!(
+            run.stdout.contains(n),
+            "stdout should mention {n:?}:\n{}",
+            run.describe()
+        );
+    }
+}
+
 fn tmp() -> tempfile::TempDir {
     tempfile::tempdir().expect("cannot create a temporary folder")
 }
@@ -426,11 +436,7 @@ fn render_scene_file_toml_and_json_agree() {
         t.path(),
         &["-q", "render", "scene.toml", "--out", "rt", "--spp", "4"],
     );
-    assert!(
-        r.stdout.contains("rendered 2 view(s) at 4 spp"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["rendered 2 view(s) at 4 spp"]);
     for f in [
         "view_000.exr",
         "view_000.png",
@@ -519,11 +525,7 @@ fn render_dataset_folder_reproduces_its_images() {
     let d = make_dataset(t.path(), "ds", "2", "12", &["--seed", "4"]);
     // Default spp/seed/max_depth come from the dataset's render info: the same images result.
     let r = ok(t.path(), &["-q", "render", "ds", "--out", "r"]);
-    assert!(
-        r.stdout.contains("rendered 2 view(s) at 4 spp"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["rendered 2 view(s) at 4 spp"]);
     for n in exr_names(2) {
         assert_eq!(
             read(&d.join(&n)),
@@ -588,7 +590,7 @@ fn compare_prints_table_and_writes_diff() {
 
     // Folders, matched by name.
     let r = ok(t.path(), &["-q", "compare", "a", "b"]);
-    assert!(r.stdout.contains("mean ratio"), "{}", r.describe());
+    assert_stdout_has(&r, &["mean ratio"]);
     for name in ["view_000", "view_001"] {
         let row = compare_row(&r.stdout, name);
         assert!(
@@ -1156,11 +1158,7 @@ fn validate_mitsuba_passes_on_matching_reference() {
             "ours",
         ],
     );
-    assert!(
-        r.stdout.contains("all 2 views within tolerance"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["all 2 views within tolerance"]);
     assert!(!r.stdout.contains("FAIL"), "{}", r.describe());
     for n in exr_names(2) {
         assert!(t.path().join("ours").join(&n).is_file(), "{n} missing");
@@ -1211,9 +1209,9 @@ fn validate_mitsuba_fails_when_reference_is_twice_as_bright() {
         ],
     );
     assert_stderr_has(&r, &["outside tolerance"]);
-    assert!(r.stdout.contains("FAIL"), "{}", r.describe());
+    assert_stdout_has(&r, &["FAIL"]);
     // Our render at half the light is half the reference: mean ratio 0.5.
-    assert!(r.stdout.contains("0.5000"), "{}", r.describe());
+    assert_stdout_has(&r, &["0.5000"]);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1240,7 +1238,7 @@ fn train_data_fit_resume_and_use_the_model() {
         "1",
     ];
     let r = ok(d, &data_args);
-    assert!(r.stdout.contains("train: 320 samples"), "{}", r.describe());
+    assert_stdout_has(&r, &["train: 320 samples"]);
     let first = read(&d.join("data/train.tlsamples"));
     // Same seed, same bytes; existing files are protected.
     let again = fails(d, &data_args);
@@ -1296,17 +1294,9 @@ fn train_data_fit_resume_and_use_the_model() {
     resume[7] = "60"; // --steps 60
     resume.push("--resume");
     let r = ok(d, &resume);
-    assert!(
-        r.stdout.contains("trained 60 steps (20 this run)"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["trained 60 steps (20 this run)"]);
     let info = ok(d, &["model", "info", "m/model.safetensors"]);
-    assert!(
-        info.stdout.contains("translucent train fit"),
-        "{}",
-        info.describe()
-    );
+    assert_stdout_has(&info, &["translucent train fit"]);
 }
 
 #[test]
@@ -1326,11 +1316,7 @@ fn train_fit_without_data_and_damaged_models_are_clear_errors() {
 fn shipped_model_is_built_in_and_valid() {
     let t = tmp();
     let r = ok(t.path(), &["model", "info", "shipped"]);
-    assert!(
-        r.stdout.contains("translucent train fit"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["translucent train fit"]);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1376,7 +1362,7 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
         "2",
     ];
     let r = ok(d, &opt);
-    assert!(r.stdout.contains("truth"), "{}", r.describe());
+    assert_stdout_has(&r, &["truth"]);
     let res = read_json(&d.join("o/result.json"));
     for k in [
         "estimate",
@@ -1427,11 +1413,7 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
         d,
         &["gradcheck", "--dataset", "ds", "--spp", "2", "--out", "g"],
     );
-    assert!(
-        r.stdout.contains("naive") && r.stdout.contains("fd"),
-        "{}",
-        r.describe()
-    );
+    assert_stdout_has(&r, &["naive", "fd"]);
     for f in [
         "gradcheck.csv",
         "ours_d_sigma_t.png",

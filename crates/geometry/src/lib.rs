@@ -32,4 +32,4 @@ pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 pub use mesh::{Mesh, MeshWarning};
 pub use sampling::{AreaSampler, SurfaceSample};
-pub use shapes::Shape;
+pub use shapes::{Shape, sharp_box};

@@ -882,3 +882,39 @@ fn blob(radius: f64, amplitude: f64, bumps: u32, seed: u64, subdivisions: u32) -
     mesh.normals = Some(mesh.compute_vertex_normals());
     mesh
 }
+
+/// The axis-aligned box `[min, max]` with sharp edges: 8 corners, 12 triangles, CCW-outward,
+/// no vertex normals (flat faces). A fixture for tests with flat faces and sharp edges.
+pub fn sharp_box(min: Vec3, max: Vec3) -> Mesh {
+    let (a, b) = (min, max);
+    let p = Vec3::new;
+    let positions = vec![
+        p(a.x, b.y, a.z),
+        p(b.x, b.y, a.z),
+        p(b.x, b.y, b.z),
+        p(a.x, b.y, b.z),
+        p(a.x, a.y, a.z),
+        p(b.x, a.y, a.z),
+        p(b.x, a.y, b.z),
+        p(a.x, a.y, b.z),
+    ];
+    let indices = vec![
+        [0, 2, 1],
+        [0, 3, 2], // top (+y)
+        [4, 5, 6],
+        [4, 6, 7], // bottom (−y)
+        [0, 1, 5],
+        [0, 5, 4], // −z
+        [3, 7, 6],
+        [3, 6, 2], // +z
+        [0, 4, 7],
+        [0, 7, 3], // −x
+        [1, 2, 6],
+        [1, 6, 5], // +x
+    ];
+    Mesh {
+        positions,
+        normals: None,
+        indices,
+    }
+}

@@ -213,17 +213,35 @@ impl<'a> Optimizer<'a> {
             VertexFeatures::fit(accel, &init_medium, model.info().c19_quirk, config.seed)?;
         let u = config.params.encode(&config.init);
         let adam = Adam::new(u.len(), adam_config(&config));
-        Ok(Self {
+        let parts = Parts {
+            features,
+            adam,
+            u,
+            history: Vec::new(),
+        };
+        Ok(Self::assemble(config, accel, model, base, targets, parts))
+    }
+
+    /// The run from its configuration, inputs and state.
+    fn assemble(
+        config: OptimizeConfig,
+        accel: &'a Accel,
+        model: &'a ShapeAdaptiveModel,
+        base: Medium,
+        targets: Vec<TargetView<'a>>,
+        p: Parts,
+    ) -> Self {
+        Self {
             config,
             accel,
             model,
             base,
             targets,
-            features,
-            adam,
-            u,
-            history: Vec::new(),
-        })
+            features: p.features,
+            adam: p.adam,
+            u: p.u,
+            history: p.history,
+        }
     }
 
     /// Iterations done.
@@ -382,6 +400,14 @@ fn image_loss(img: &Image, target: &Image, loss: Loss) -> f64 {
         }
     }
     sum / (3 * img.data.len()).max(1) as f64
+}
+
+/// The state of a run (what a fresh start and a resume provide differently).
+struct Parts {
+    features: VertexFeatures,
+    adam: Adam,
+    u: Vec<f32>,
+    history: Vec<IterationRecord>,
 }
 
 /// Adam with learning rate 1 (the per-parameter rates are factors), the step decay, no clipping.

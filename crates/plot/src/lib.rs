@@ -133,17 +133,10 @@ impl Figure {
         register_font();
         let (w, h) = self.size();
         let mut buf = vec![255u8; (w * h * 3) as usize];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            self.draw(&root).map_err(|reason| PlotError::Draw {
-                path: path.to_path_buf(),
-                reason,
-            })?;
-            root.present().map_err(|e| PlotError::Draw {
-                path: path.to_path_buf(),
-                reason: e.to_string(),
-            })?;
-        }
+        self.draw_and_present(
+            BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area(),
+            path,
+        )?;
         let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| PlotError::Invalid {
             path: path.to_path_buf(),
             reason: "internal buffer size mismatch".into(),
@@ -166,19 +159,26 @@ impl Figure {
         scene::fsutil::check_overwrite(path, overwrite)?;
         register_font();
         let mut text = String::new();
-        {
-            let root = SVGBackend::with_string(&mut text, self.size()).into_drawing_area();
-            self.draw(&root).map_err(|reason| PlotError::Draw {
-                path: path.to_path_buf(),
-                reason,
-            })?;
-            root.present().map_err(|e| PlotError::Draw {
-                path: path.to_path_buf(),
-                reason: e.to_string(),
-            })?;
-        }
+        self.draw_and_present(
+            SVGBackend::with_string(&mut text, self.size()).into_drawing_area(),
+            path,
+        )?;
         scene::fsutil::atomic_write(path, text.as_bytes(), overwrite)?;
         Ok(())
+    }
+
+    /// Draws into `root` and flushes it; errors name `path`.
+    fn draw_and_present<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, plotters::coord::Shift>,
+        path: &Path,
+    ) -> Result<(), PlotError> {
+        let err = |reason: String| PlotError::Draw {
+            path: path.to_path_buf(),
+            reason,
+        };
+        self.draw(&root).map_err(err)?;
+        root.present().map_err(|e| err(e.to_string()))
     }
 
     fn draw<DB: DrawingBackend>(

@@ -196,41 +196,10 @@ fn flux_factor(accel: &Accel, x: Vec3, dir: Vec3, e: &Exit, light: Vec3, eta: f3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use geometry::Mesh;
 
     /// A slab |x|,|z| ≤ 5, −3 ≤ y ≤ 0 (top face at y = 0), closed and CCW-outward.
     fn slab() -> Accel {
-        let (a, h) = (5.0f32, 3.0f32);
-        let p = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-        let positions = vec![
-            p(-a, 0.0, -a),
-            p(a, 0.0, -a),
-            p(a, 0.0, a),
-            p(-a, 0.0, a),
-            p(-a, -h, -a),
-            p(a, -h, -a),
-            p(a, -h, a),
-            p(-a, -h, a),
-        ];
-        let indices = vec![
-            [0, 2, 1],
-            [0, 3, 2], // top (+y)
-            [4, 5, 6],
-            [4, 6, 7], // bottom (−y)
-            [0, 1, 5],
-            [0, 5, 4], // −z
-            [3, 7, 6],
-            [3, 6, 2], // +z
-            [0, 4, 7],
-            [0, 7, 3], // −x
-            [1, 2, 6],
-            [1, 6, 5], // +x
-        ];
-        let mut mesh = Mesh {
-            positions,
-            normals: None,
-            indices,
-        };
+        let mut mesh = geometry::sharp_box(Vec3::new(-5.0, -3.0, -5.0), Vec3::new(5.0, 0.0, 5.0));
         let w = geometry::mesh::validate(&mut mesh, "slab").unwrap();
         assert!(w.is_empty(), "{w:?}");
         Accel::new(mesh)

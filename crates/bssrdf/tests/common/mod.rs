@@ -5,7 +5,7 @@
 
 use bssrdf::model::{FrameConvention, ModelInfo};
 use bssrdf::nn::{Dense, Normalisation, ShapeAdaptiveModel};
-use geometry::{Accel, Mesh, Vec3};
+use geometry::{Accel, Vec3};
 
 /// A dense layer with xorshift weights uniform in ±`scale` (biases ±0.1·`scale`).
 pub fn layer(n_in: usize, n_out: usize, scale: f32, seed: u32) -> Dense {
@@ -44,37 +44,7 @@ pub fn assemble(
 
 /// Slab |x|, |z| ≤ 0.5, −0.5 ≤ y ≤ 0 (sharp edges), CCW outward.
 pub fn slab() -> Accel {
-    let (a, h) = (0.5f32, 0.5f32);
-    let p = Vec3::new;
-    let positions = vec![
-        p(-a, 0.0, -a),
-        p(a, 0.0, -a),
-        p(a, 0.0, a),
-        p(-a, 0.0, a),
-        p(-a, -h, -a),
-        p(a, -h, -a),
-        p(a, -h, a),
-        p(-a, -h, a),
-    ];
-    let indices = vec![
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [3, 7, 6],
-        [3, 6, 2],
-        [0, 4, 7],
-        [0, 7, 3],
-        [1, 2, 6],
-        [1, 6, 5],
-    ];
-    let mut mesh = Mesh {
-        positions,
-        normals: None,
-        indices,
-    };
+    let mut mesh = geometry::sharp_box(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.5, 0.0, 0.5));
     geometry::mesh::validate(&mut mesh, "slab").unwrap();
     Accel::new(mesh)
 }

@@ -11,7 +11,8 @@ use scene::Medium;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    InverseError, IterationRecord, OptimizeConfig, Optimizer, TargetView, adam_config, adam_parts,
+    InverseError, IterationRecord, OptimizeConfig, Optimizer, Parts, TargetView, adam_config,
+    adam_parts,
 };
 
 const FORMAT: &str = "translucent-optimize-checkpoint";
@@ -126,16 +127,12 @@ impl<'a> Optimizer<'a> {
         if targets.is_empty() {
             return Err(InverseError::Invalid("no target views".into()));
         }
-        Ok(Self {
-            config,
-            accel,
-            model,
-            base,
-            targets,
+        let parts = Parts {
             features,
             adam,
             u: checkpoint.u,
             history: checkpoint.history,
-        })
+        };
+        Ok(Self::assemble(config, accel, model, base, targets, parts))
     }
 }
