@@ -15,27 +15,39 @@
 //! the [`VertexFeatures`](crate::render::VertexFeatures) fit, kept fixed (model-spec A10); the
 //! projection direction is the detached gradient of that fixed polynomial at x̃ (A5).
 //!
+//! The shape descriptor the networks see: the fitted polynomial in units of σ_n,fit, rescaled to
+//! the current σ_n (`Poly3::rescaled`, c_m·k^(deg m − 1), k = σ_n/σ_n,fit), unless
+//! `LearnedSettings::frozen_descriptor` (SON24's fixed features). A rescaled descriptor depends on
+//! σ_t (and α) through σ_n; measured on the shipped model this term dominates ∂I/∂σ_t and has the
+//! opposite sign of the position term (BENCHMARKS.md, "σ_t and the shape descriptor"), and with
+//! it the loss landscape is that of a refit at every σ_t.
+//!
 //! Estimators ([`DiffMethod`]):
 //!
 //! * [`DiffMethod::Ours`] (paper §4.2–4.3, eq. 15–17; model-spec §8.1–8.2, A6): for σ_t the
-//!   correlated offset samples x_i^± = Π(x_o + σ_n(σ_t ± Δ)·R·y) with the SAME z, y, channel,
-//!   S_abs, projection rule and fixed polynomial, each with the full light evaluation (V, cos,
-//!   Sw, 1/r²); per sample ∂C/∂σ_t ≈ (C⁺ − C⁻)/(2Δ), Δ = `delta_rel`·σ_t (A7). A miss or an
-//!   occluded offset sample contributes 0, which is what carries the boundary (visibility) term.
+//!   correlated offset samples x_i^± = Π(x_o + σ_n(σ_t ± Δ)·R·y^±) with the SAME z, channel,
+//!   projection rule and fixed polynomial, each with the full light evaluation (V, cos, Sw,
+//!   1/r²); per sample ∂C/∂σ_t ≈ (S_abs⁺·L(x_i⁺) − S_abs⁻·L(x_i⁻))·(1 − F)/(2Δ),
+//!   Δ = `delta_rel`·σ_t (A7). With a frozen descriptor y^± = y and S_abs^± = S_abs (the paper
+//!   exactly); with the rescaled one y^± and S_abs^± come from the networks run again on the
+//!   descriptor at σ_n(σ_t ± Δ) (same z: the samples stay correlated). A miss or an occluded
+//!   offset sample contributes 0, which is what carries the boundary (visibility) term.
 //!   For α: positions detached; ∂C/∂α = −∂Absorb/∂α · (1 − F) · L(x_i) with
 //!   ∂Absorb/∂α = ∂Absorb/∂input₂₀ · d input₂₀/dα' · dα'/dα (forward-mode tangent through the
 //!   feature and absorption MLPs, [`ShapeAdaptiveModel::absorb_input_derivative_with`];
 //!   `Normalisation::d_albedo_input_d_albedo_red`; `ReducedMedium::d_albedo_red_d_albedo`).
 //! * [`DiffMethod::OursAlphaOffsets`] (model-spec A6, option): as `Ours`, plus the α-dependence
-//!   of σ_n (model-spec §2) by offset samples x_i^± = Π(x_o + σ_n(α ± Δα)·R·y), z and y reused:
-//!   ∂C/∂α += S_abs·(1 − F)·(L(x_i⁺) − L(x_i⁻))/(2Δα).
+//!   of σ_n (model-spec §2) by offset samples x_i^± = Π(x_o + σ_n(α ± Δα)·R·y^±), z reused
+//!   (y^±, S_abs^± as for σ_t): ∂C/∂α += (1 − F)·(S_abs⁺·L(x_i⁺) − S_abs⁻·L(x_i⁻))/(2Δα).
 //! * [`DiffMethod::Naive`] (paper §4.1, the "naive" baseline; architecture.md §4): σ_t by the
 //!   derivative of the sample position with visibility held fixed (interior term only):
-//!   dx̃/dσ_t = (∂σ_n/∂σ_t)·R·y, moved along the surface at x_i with the detached projection
-//!   direction d: dx_i = (I − d n_gᵀ/(n_g·d))·dx̃ (n_g the normal of the hit triangle), then
-//!   ∂C/∂σ_t = S_abs·(1 − F)·V·∇L̃(x_i)·dx_i where L̃ = Sw(n·w_l)(n·w_l)/r² is the smooth light
-//!   term (shading normal re-interpolated on the triangle, no visibility), differentiated by a
-//!   central difference of step [`NAIVE_STEP`] along dx_i. α as `Ours`.
+//!   dx̃/dσ_t = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t), moved along the surface at x_i with the detached
+//!   projection direction d: dx_i = (I − d n_gᵀ/(n_g·d))·dx̃ (n_g the normal of the hit
+//!   triangle), then ∂C/∂σ_t = (1 − F)·V·(∂S_abs/∂σ_t·L̃ + S_abs·∇L̃(x_i)·dx_i) where
+//!   L̃ = Sw(n·w_l)(n·w_l)/r² is the smooth light term (shading normal re-interpolated on the
+//!   triangle, no visibility), differentiated by a central difference of step [`NAIVE_STEP`]
+//!   along dx_i; ∂y/∂σ_t and ∂S_abs/∂σ_t (zero with a frozen descriptor) by central differences
+//!   of the networks at the offset descriptors. α as `Ours`.
 //! * [`DiffMethod::Fd`]: brute-force central differences of two full renders at θ ± Δ with
 //!   identical random numbers (same seed, view and pixel streams), per parameter (12 extra
 //!   renders; a reference). Steps Δ = `delta_rel`·σ_t and Δα = `delta_albedo` (clamped into
@@ -64,10 +76,12 @@ use scene::{Camera, Image, PointLight};
 
 use crate::boundary::sw;
 use crate::medium::{ReducedMedium, sigma_n_derivatives};
+use crate::nn::INPUT_DIM;
 use crate::nn::{ALBEDO_INPUT, POSITION_DIM};
 use crate::render::{
-    LearnedScene, Pending, RenderError, RenderSettings, RowBuffers, light_contribution,
-    place_and_project, prepare_row, projection_gradient, render_row, run_networks,
+    LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers, evaluate_networks,
+    light_contribution, place_and_project, prepare_row, projection_gradient, render_row,
+    run_networks,
 };
 
 /// Step (scene units) of the central difference of the smooth light term in
@@ -254,6 +268,12 @@ pub fn render_loss_gradient(
 struct Consts<'a> {
     /// σ_n(σ_t ± Δ) per channel.
     sn_t: [[f32; 2]; 3],
+    /// Descriptor scale k(σ_t ± Δ) per channel.
+    k_t: [[f32; 2]; 3],
+    /// Descriptor scale k(α ± Δα) per channel.
+    k_a: [[f32; 2]; 3],
+    /// The descriptor follows σ_n (not frozen, not planar): offset samples re-run the networks.
+    moving: bool,
     /// 1/(2Δ) per channel.
     inv_2dt: [f32; 3],
     /// σ_n(α ± Δα) per channel.
@@ -275,6 +295,9 @@ impl<'a> Consts<'a> {
         let norm = scene.model.normalisation();
         let mut c = Consts {
             sn_t: [[0.0; 2]; 3],
+            k_t: [[1.0; 2]; 3],
+            k_a: [[1.0; 2]; 3],
+            moving: !(scene.settings.frozen_descriptor || scene.settings.planar_features),
             inv_2dt: [0.0; 3],
             sn_a: [[0.0; 2]; 3],
             inv_2da: [0.0; 3],
@@ -316,6 +339,14 @@ impl<'a> Consts<'a> {
             c.din_da[ch] =
                 (norm.d_albedo_input_d_albedo_red(r.albedo_red) * r.d_albedo_red_d_albedo()) as f32;
         }
+        for j in 0..2 {
+            let kt = scene.descriptor_scale_at(std::array::from_fn(|ch| c.sn_t[ch][j]));
+            let ka = scene.descriptor_scale_at(std::array::from_fn(|ch| c.sn_a[ch][j]));
+            for ch in 0..3 {
+                c.k_t[ch][j] = kt[ch];
+                c.k_a[ch][j] = ka[ch];
+            }
+        }
         if ds.method == DiffMethod::Fd {
             for param in 0..6 {
                 let ch = param % 3;
@@ -336,6 +367,7 @@ impl<'a> Consts<'a> {
                     )?;
                     if ds.fd_fixed_sigma_n {
                         s.sigma_n = scene.sigma_n;
+                        s.descriptor_scale = scene.descriptor_scale;
                     }
                     Ok(s)
                 };
@@ -354,11 +386,20 @@ impl<'a> Consts<'a> {
     }
 }
 
+/// Network inputs and outputs of one set of offset samples (descriptor at another scale).
+#[derive(Default)]
+struct OffsetNets {
+    inputs: Vec<[f32; INPUT_DIM]>,
+    net: NetOutputs,
+}
+
 /// Reused per worker thread.
 #[derive(Default)]
 struct DiffBuffers {
     row: RowBuffers,
     fd: RowBuffers,
+    /// σ_t + Δ, σ_t − Δ, α + Δα, α − Δα.
+    off: [OffsetNets; 4],
     absorb: Vec<f32>,
     d_absorb: Vec<f32>,
     dsum_t: Vec<[f64; 3]>,
@@ -508,6 +549,30 @@ fn diff_row(
     if n == 0 {
         return Ok(());
     }
+    // Offset samples whose descriptor moves with σ_n: the networks again, same z.
+    let sets = match ds.method {
+        _ if !k.moving => 0,
+        DiffMethod::Ours | DiffMethod::Naive => 2,
+        DiffMethod::OursAlphaOffsets => 4,
+        DiffMethod::Fd => unreachable!(),
+    };
+    for (j, off) in buf.off.iter_mut().enumerate().take(sets) {
+        off.inputs.clear();
+        off.inputs
+            .extend(row.pending.iter().zip(&row.coeffs).map(|(p, coeffs)| {
+                let c = p.channel as usize;
+                let scale = if j < 2 { k.k_t[c][j] } else { k.k_a[c][j - 2] };
+                scene.inputs_at(coeffs, c, scale)
+            }));
+        evaluate_networks(
+            scene.model,
+            &off.inputs,
+            &row.z,
+            &mut row.point,
+            &mut off.net,
+            &mut row.ws,
+        )?;
+    }
     buf.absorb.resize(n, 0.0);
     buf.d_absorb.resize(n, 0.0);
     scene.model.absorb_input_derivative_with(
@@ -521,8 +586,16 @@ fn diff_row(
     for s in 0..n {
         let p = &row.pending[s];
         let c = p.channel as usize;
-        let yk = row.y[s];
-        let s_abs = 1.0 - row.absorb[s];
+        let yk = row.net.y[s];
+        let s_abs = 1.0 - row.net.absorb[s];
+        // (decoder output, S_abs) of offset set j: the main sample's when the descriptor is fixed.
+        let at = |j: usize| -> ([f32; POSITION_DIM], f32) {
+            if j < sets {
+                (buf.off[j].net.y[s], 1.0 - buf.off[j].net.absorb[s])
+            } else {
+                (yk, s_abs)
+            }
+        };
         let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
         let v = main.map_or(0.0, |hit| {
             light_contribution(scene, light, hit.p, hit.ns, hit.ng)
@@ -547,22 +620,25 @@ fn diff_row(
         let d_t = match ds.method {
             DiffMethod::Ours | DiffMethod::OursAlphaOffsets => {
                 let [hi, lo] = k.sn_t[c];
-                let vp = offset_light(scene, light, p, yk, hi);
-                let vm = offset_light(scene, light, p, yk, lo);
-                s_abs * p.t_cam * (vp - vm) * k.inv_2dt[c]
+                let ((yp, sp), (ym, sm)) = (at(0), at(1));
+                let vp = offset_light(scene, light, p, yp, hi);
+                let vm = offset_light(scene, light, p, ym, lo);
+                p.t_cam * (sp * vp - sm * vm) * k.inv_2dt[c]
             }
             DiffMethod::Naive => match main {
                 Some(hit) if v > 0.0 => {
+                    let ((yp, sp), (ym, sm)) = (at(0), at(1));
+                    let dy: [f32; POSITION_DIM] =
+                        std::array::from_fn(|i| (yp[i] - ym[i]) * k.inv_2dt[c]);
                     let dl = naive_light_derivative(
                         scene,
                         light,
                         p,
-                        yk,
-                        scene.sigma_n[c],
-                        k.dsn_dt[c],
+                        (yk, dy),
+                        (scene.sigma_n[c], k.dsn_dt[c]),
                         &hit,
                     );
-                    s_abs * p.t_cam * dl
+                    p.t_cam * ((sp - sm) * k.inv_2dt[c] * v + s_abs * dl)
                 }
                 _ => 0.0,
             },
@@ -572,9 +648,10 @@ fn diff_row(
         let mut d_a = -buf.d_absorb[s] * k.din_da[c] * p.t_cam * v;
         if ds.method == DiffMethod::OursAlphaOffsets {
             let [hi, lo] = k.sn_a[c];
-            let vp = offset_light(scene, light, p, yk, hi);
-            let vm = offset_light(scene, light, p, yk, lo);
-            d_a += s_abs * p.t_cam * (vp - vm) * k.inv_2da[c];
+            let ((yp, sp), (ym, sm)) = (at(2), at(3));
+            let vp = offset_light(scene, light, p, yp, hi);
+            let vm = offset_light(scene, light, p, ym, lo);
+            d_a += p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c];
         }
         let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
         let (acc_t, acc_a) = (
@@ -618,15 +695,15 @@ fn offset_light(
 }
 
 /// ∇L̃(x_i)·dx_i/dσ_t of the Naive estimator (module docs): the surface motion of the projected
-/// point for dx̃ = (∂σ_n/∂σ_t)·R·y along the detached direction d, and the central difference of
-/// the smooth light term (no visibility) along it.
+/// point for dx̃ = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t) along the detached direction d, and the central
+/// difference of the smooth light term (no visibility) along it. `(y, dy)`: decoder output and
+/// its σ_t derivative; `(sigma_n, dsigma_n)`: σ_n and ∂σ_n/∂σ_t.
 fn naive_light_derivative(
     scene: &LearnedScene,
     light: &PointLight,
     p: &Pending,
-    y: [f32; POSITION_DIM],
-    sigma_n: f32,
-    dsigma_n: f32,
+    (y, dy): ([f32; POSITION_DIM], [f32; POSITION_DIM]),
+    (sigma_n, dsigma_n): (f32, f32),
     hit: &Hit,
 ) -> f32 {
     let x_t = crate::render::proposed_point(p, y, sigma_n);
@@ -634,7 +711,8 @@ fn naive_light_derivative(
     let Some(d) = grad.try_normalize() else {
         return 0.0;
     };
-    let dx_t = dsigma_n * p.out_frame.to_world(Vec3::new(y[0], y[1], y[2]));
+    let dy_total = Vec3::from(y) * dsigma_n + Vec3::from(dy) * sigma_n;
+    let dx_t = p.out_frame.to_world(dy_total);
     let nd = hit.ng.dot(d);
     if nd.abs() < 1e-6 {
         return 0.0;

@@ -190,6 +190,25 @@ impl Poly3 {
         Poly3(c)
     }
 
+    /// The same surface at another length scale: with `p` fitted in coordinates u = (q − x)/σ_fit
+    /// (unit gradient on the surface, model-spec §3.2) and k = σ/σ_fit, the polynomial in
+    /// u' = (q − x)/σ is p(k·u')/k, i.e. c'_m = c_m·k^(deg m − 1): linear terms unchanged,
+    /// quadratic ×k, cubic ×k². Exact for the surface (the fit's kernel, also σ-scaled, is not
+    /// re-applied: a refit at σ differs by the change of the weighting only).
+    pub fn rescaled(&self, k: f32) -> Poly3 {
+        let (k1, k2) = (k, k * k);
+        let mut c = self.0;
+        for (i, v) in c.iter_mut().enumerate() {
+            match i {
+                0 => *v /= k,
+                4..=9 => *v *= k1,
+                10..=19 => *v *= k2,
+                _ => {}
+            }
+        }
+        Poly3(c)
+    }
+
     /// The coefficients.
     #[inline]
     pub fn coeffs(&self) -> &[f32; N_COEFFS] {
@@ -434,5 +453,22 @@ mod tests {
             let e = u[0].powi(p[0] as i32) * u[1].powi(p[1] as i32) * u[2].powi(p[2] as i32);
             assert!((m[k] - e).abs() < 1e-12, "k {k}");
         }
+    }
+
+    #[test]
+    fn rescaled_is_the_same_surface_at_another_scale() {
+        let c: [f32; N_COEFFS] = std::array::from_fn(|i| ((i * 37 % 11) as f32 - 5.0) * 0.1);
+        let p = Poly3(c);
+        for k in [0.5f32, 1.0, 1.7] {
+            let q = p.rescaled(k);
+            for u in [Vec3::new(0.3, -0.2, 0.5), Vec3::new(-1.1, 0.4, 0.9)] {
+                // q(u) = p(k·u)/k and ∇q(u) = ∇p(k·u).
+                let (a, b) = (q.eval(u), p.eval(k * u) / k);
+                assert!((a - b).abs() < 1e-5 * (1.0 + b.abs()), "k {k}: {a} vs {b}");
+                let (ga, gb) = (q.gradient(u), p.gradient(k * u));
+                assert!((ga - gb).length() < 1e-5 * (1.0 + gb.length()), "k {k}");
+            }
+        }
+        assert_eq!(p.rescaled(1.0), p);
     }
 }

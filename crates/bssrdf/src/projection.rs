@@ -17,7 +17,7 @@ use geometry::{Accel, Hit};
 use glam::Vec3;
 
 /// Which projection rule to use.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ProjectionRule {
     Son24 {
         max_dist_scale: f32,

@@ -18,6 +18,12 @@
 //! random number comes from the (seed, view, pixel) stream, so images do not depend on the thread
 //! count.
 //!
+//! Descriptor scale: the vertex polynomials are fitted once (at σ_n,fit, model-spec §3.4) but the
+//! networks see them at the current σ_n: the light-space coefficients are rescaled by
+//! k = σ_n/σ_n,fit ([`Poly3::rescaled`]: the same surface in the new units, exact up to the
+//! change of the fit's kernel width), so a fit at the initial medium serves a whole optimisation.
+//! [`LearnedSettings::frozen_descriptor`] keeps SON24's fixed coefficients instead.
+//!
 //! Switches: [`LearnedSettings::planar_features`] replaces the shape descriptor by the plane
 //! p = u_z and projects along −n(x_o) (the "planar" ablation); the model's
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
@@ -53,13 +59,17 @@ pub enum RenderError {
 }
 
 /// Settings of the learned renderer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct LearnedSettings {
     pub projection: ProjectionRule,
     /// Planar-features ablation: plane descriptor p = u_z, projection along −n(x_o).
     pub planar_features: bool,
     /// Frame convention to use instead of the model's own (A/B comparisons, model-spec A4).
     pub frames: Option<FrameConvention>,
+    /// Keep the shape descriptor exactly as fitted (SON24) instead of rescaling it to the
+    /// current σ_n ([`Poly3::rescaled`] with k = σ_n/σ_n,fit); the default rescales.
+    pub frozen_descriptor: bool,
 }
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
@@ -118,6 +128,9 @@ pub struct LearnedScene<'a> {
     pub(crate) sigma_n: [f32; 3],
     /// α_eff(α') per channel (network input).
     pub(crate) eff_albedo: [f32; 3],
+    /// k = σ_n/σ_n,fit per channel: the descriptor the networks see is the fitted one rescaled
+    /// by k (1 with a frozen descriptor or planar features).
+    pub(crate) descriptor_scale: [f32; 3],
     /// All three channels share σ_t and α: one sample serves every channel (no one-hot ×3,
     /// a third of the variance; unbiased because the sample is distributed as each channel's).
     pub(crate) grey: bool,
@@ -154,7 +167,7 @@ impl<'a> LearnedScene<'a> {
         let grey = same(&medium.sigma_t)
             && same(&medium.albedo)
             && features.polys[1..].iter().all(|p| *p == features.polys[0]);
-        Ok(LearnedScene {
+        let mut scene = LearnedScene {
             accel,
             model,
             features,
@@ -162,9 +175,43 @@ impl<'a> LearnedScene<'a> {
             settings,
             sigma_n,
             eff_albedo,
+            descriptor_scale: [1.0; 3],
             grey,
-        })
+        };
+        scene.descriptor_scale = scene.descriptor_scale_at(sigma_n);
+        Ok(scene)
     }
+
+    /// k = σ_n/σ_n,fit per channel for the kernel scales `sigma_n` (module docs).
+    pub(crate) fn descriptor_scale_at(&self, sigma_n: [f32; 3]) -> [f32; 3] {
+        if self.settings.frozen_descriptor || self.settings.planar_features {
+            return [1.0; 3];
+        }
+        std::array::from_fn(|c| sigma_n[c] / self.features.sigma_n[c])
+    }
+
+    /// The normalised network inputs of a light-space descriptor `coeffs` (at the fit scale)
+    /// rescaled by `k`, for channel `c`.
+    #[inline]
+    pub(crate) fn inputs_at(&self, coeffs: &Poly3, c: usize, k: f32) -> [f32; INPUT_DIM] {
+        let m = &self.medium;
+        let norm = self.model.normalisation();
+        if k == 1.0 {
+            norm.inputs(&coeffs.0, self.eff_albedo[c], m.g, m.eta)
+        } else {
+            norm.inputs(&coeffs.rescaled(k).0, self.eff_albedo[c], m.g, m.eta)
+        }
+    }
+}
+
+/// The outputs of the three networks for a batch of samples.
+#[derive(Default)]
+pub(crate) struct NetOutputs {
+    pub(crate) feats: Vec<f32>,
+    /// Absorb (S_abs = 1 − Absorb).
+    pub(crate) absorb: Vec<f32>,
+    /// Decoder outputs (light-space offsets in units of σ_n).
+    pub(crate) y: Vec<[f32; POSITION_DIM]>,
 }
 
 /// One BSSRDF sample between the batched network calls.
@@ -188,11 +235,11 @@ pub(crate) struct Pending {
 pub(crate) struct RowBuffers {
     pub(crate) pending: Vec<Pending>,
     pub(crate) inputs: Vec<[f32; INPUT_DIM]>,
-    pub(crate) feats: Vec<f32>,
-    pub(crate) absorb: Vec<f32>,
+    /// Light-space descriptor of each sample at the fit scale (before the rescaling by k).
+    pub(crate) coeffs: Vec<Poly3>,
     pub(crate) z: Vec<[f32; LATENT_DIM]>,
     pub(crate) point: Vec<u32>,
-    pub(crate) y: Vec<[f32; POSITION_DIM]>,
+    pub(crate) net: NetOutputs,
     pub(crate) sums: Vec<[f64; 3]>,
     pub(crate) ws: Workspace,
 }
@@ -244,14 +291,14 @@ pub(crate) fn render_row(
     for k in 0..buf.pending.len() {
         let p = &buf.pending[k];
         let c = p.channel as usize;
-        let Some(hit) = place_and_project(scene, p, buf.y[k], scene.sigma_n[c]) else {
+        let Some(hit) = place_and_project(scene, p, buf.net.y[k], scene.sigma_n[c]) else {
             continue;
         };
         let v = light_contribution(scene, light, hit.p, hit.ns, hit.ng);
         if v <= 0.0 {
             continue;
         }
-        let s_abs = 1.0 - buf.absorb[k];
+        let s_abs = 1.0 - buf.net.absorb[k];
         let base = s_abs * p.t_cam * v;
         if !base.is_finite() {
             continue;
@@ -280,7 +327,6 @@ pub(crate) fn prepare_row(
     let w = camera.width;
     let m = &scene.medium;
     let model = scene.model;
-    let norm = model.normalisation();
     let convention = scene
         .settings
         .frames
@@ -288,6 +334,7 @@ pub(crate) fn prepare_row(
     let mesh = scene.accel.mesh();
     buf.pending.clear();
     buf.inputs.clear();
+    buf.coeffs.clear();
     buf.z.clear();
     buf.sums.clear();
     buf.sums.resize(w as usize, [0.0; 3]);
@@ -344,12 +391,13 @@ pub(crate) fn prepare_row(
                 }
             };
             let coeffs = if scene.settings.planar_features {
-                Poly3::plane(Vec3::Z).0
+                Poly3::plane(Vec3::Z)
             } else {
-                ls_poly.0
+                ls_poly
             };
             buf.inputs
-                .push(norm.inputs(&coeffs, scene.eff_albedo[channel], m.g, m.eta));
+                .push(scene.inputs_at(&coeffs, channel, scene.descriptor_scale[channel]));
+            buf.coeffs.push(coeffs);
             buf.z.push(z);
             buf.pending.push(Pending {
                 pixel: x,
@@ -366,22 +414,37 @@ pub(crate) fn prepare_row(
 
 /// Stage 2 of a row: feature MLP, S_abs and the decoder, batched over the row's samples.
 pub(crate) fn run_networks(scene: &LearnedScene, buf: &mut RowBuffers) -> Result<(), RenderError> {
-    let model = scene.model;
-    let n = buf.pending.len();
+    evaluate_networks(
+        scene.model,
+        &buf.inputs,
+        &buf.z,
+        &mut buf.point,
+        &mut buf.net,
+        &mut buf.ws,
+    )
+}
+
+/// Feature MLP, Absorb and decoder for the samples `inputs` with latents `z` (one per input).
+pub(crate) fn evaluate_networks(
+    model: &ShapeAdaptiveModel,
+    inputs: &[[f32; INPUT_DIM]],
+    z: &[[f32; LATENT_DIM]],
+    point: &mut Vec<u32>,
+    out: &mut NetOutputs,
+    ws: &mut Workspace,
+) -> Result<(), RenderError> {
+    let n = inputs.len();
     if n == 0 {
         return Ok(());
     }
-
-    // Stage 2: networks, batched over the row.
-    let f = model.feature_dim();
-    buf.feats.resize(n * f, 0.0);
-    buf.absorb.resize(n, 0.0);
-    buf.y.resize(n, [0.0; POSITION_DIM]);
-    buf.point.clear();
-    buf.point.extend(0..n as u32);
-    model.features_with(&buf.inputs, &mut buf.feats, &mut buf.ws)?;
-    model.absorb_with(&buf.feats, &mut buf.absorb, &mut buf.ws)?;
-    model.decode_with(&buf.feats, &buf.z, &buf.point, &mut buf.y, &mut buf.ws)?;
+    out.feats.resize(n * model.feature_dim(), 0.0);
+    out.absorb.resize(n, 0.0);
+    out.y.resize(n, [0.0; POSITION_DIM]);
+    point.clear();
+    point.extend(0..n as u32);
+    model.features_with(inputs, &mut out.feats, ws)?;
+    model.absorb_with(&out.feats, &mut out.absorb, ws)?;
+    model.decode_with(&out.feats, z, point, &mut out.y, ws)?;
     Ok(())
 }
 

@@ -22,14 +22,30 @@ use scene::{Camera, Image, Medium, PointLight};
 /// Random feature and absorption MLPs; a decoder of z only with outputs of order one (samples
 /// spread over about σ_n).
 fn model() -> ShapeAdaptiveModel {
+    model_with_decoder_features(false)
+}
+
+/// As [`model`]; with `uses_features` the decoder also reads the shape features (y depends on
+/// the descriptor, hence on σ_t when the descriptor is rescaled).
+fn model_with_decoder_features(uses_features: bool) -> ShapeAdaptiveModel {
     let f = 8;
-    let feature = vec![layer(23, 16, 0.5, 1), layer(16, f, 0.5, 2)];
+    let mut f0 = layer(23, 16, 0.5, 1);
+    if uses_features {
+        // Curvature-sensitive features: amplify the quadratic and cubic coefficients' weights
+        // (inputs 4..20), which carry the σ_n dependence of a rescaled descriptor.
+        for (i, w) in f0.weights_mut().iter_mut().enumerate() {
+            if (4..20).contains(&(i % 23)) {
+                *w *= 8.0;
+            }
+        }
+    }
+    let feature = vec![f0, layer(16, f, 0.5, 2)];
     let absorption = vec![layer(f, 8, 0.7, 3), layer(8, 1, 0.7, 4)];
     let mut d0 = layer(4 + f, 16, 0.8, 5);
     let n_in = d0.n_in();
     for (i, w) in d0.weights_mut().iter_mut().enumerate() {
         if i % n_in >= 4 {
-            *w = 0.0;
+            *w = if uses_features { *w } else { 0.0 };
         }
     }
     // The depth output y₃ (along e₃, into the medium) is kept small: proposals stay within the
@@ -61,6 +77,7 @@ const PLANAR: LearnedSettings = LearnedSettings {
     },
     planar_features: true,
     frames: None,
+    frozen_descriptor: false,
 };
 
 fn rgb_medium() -> Medium {
@@ -241,8 +258,8 @@ fn ours_sigma_t_matches_finite_differences() {
     let (spp, r) = (32, 16);
     let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
     let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, r..2 * r);
-    // Same random numbers: the offset samples ARE the samples of the FD renders (A10: the
-    // polynomial is fixed, S_abs and y do not depend on σ_t), equal up to rounding.
+    // Same random numbers: the offset samples ARE the samples of the FD renders (same z; the
+    // descriptor rescaled to σ_n(σ_t ± Δ) in both), equal up to rounding.
     let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
     report("sphere ours dσ_t", &ours, D_T);
     report("sphere fd dσ_t", &fd, D_T);
@@ -260,6 +277,49 @@ fn ours_sigma_t_matches_finite_differences() {
         assert!(
             rel < 1e-3,
             "channel {c}: same-seed relative difference {rel:.2e}"
+        );
+    }
+}
+
+/// The descriptor moves with σ_t (features fitted at another medium, k = σ_n/σ_n,fit ≠ 1, and a
+/// decoder that reads them): the offset samples re-run the networks at the offset descriptor and
+/// equal the FD renders sample for sample; with a frozen descriptor both drop that term, and the
+/// term is clearly non-zero.
+#[test]
+fn offset_samples_follow_the_descriptor() {
+    let mut s = sphere_setup(rgb_medium());
+    s.model = model_with_decoder_features(true);
+    let fit_medium = Medium {
+        sigma_t: [21.0, 28.0, 35.0],
+        ..rgb_medium()
+    };
+    s.features = VertexFeatures::fit(&s.accel, &fit_medium, true, 0).unwrap();
+    let (spp, r) = (32, 16);
+    let mut results = Vec::new();
+    for frozen in [false, true] {
+        s.settings.frozen_descriptor = frozen;
+        let scene = s.scene();
+        let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+        let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
+        for c in 0..3 {
+            let rel = (ours.mean[D_T][c] - fd_same.mean[D_T][c]).abs() / ours.mean[D_T][c].abs();
+            eprintln!(
+                "frozen {frozen} channel {c}: ours {:.5e}, same-seed fd {:.5e}, rel {rel:.2e}",
+                ours.mean[D_T][c], fd_same.mean[D_T][c]
+            );
+            assert!(rel < 1e-3, "frozen {frozen} channel {c}: {rel:.2e}");
+        }
+        results.push(ours);
+    }
+    // Same random numbers in both: the difference is the descriptor term, not noise; it must
+    // stand far above the 1e-3 agreement asserted above.
+    for c in 0..3 {
+        let (a, b) = (results[0].mean[D_T][c], results[1].mean[D_T][c]);
+        let rel = (a - b).abs() / a.abs().max(b.abs());
+        eprintln!("channel {c}: rescaled {a:.5e} vs frozen {b:.5e}: {rel:.2e}");
+        assert!(
+            rel > 2e-2,
+            "channel {c}: the descriptor term should matter ({rel:.2e})"
         );
     }
 }

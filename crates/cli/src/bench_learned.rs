@@ -13,11 +13,12 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::dataset_cmd::house_rig;
 use anyhow::{Context, Result};
 use clap::Args;
 use geometry::Shape;
 use glam::Vec3;
-use scene::rig::{Rig, RigLight};
+use scene::rig::RigLight;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
@@ -106,19 +107,14 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     for shape_name in &a.shapes {
         let shape = Shape::from_name(shape_name)?;
         let accel = build_accel(shape.build()?, &[], shape_name);
-        let rig = Rig {
-            views: a.views,
-            radius: 2.0,
-            target: Vec3::ZERO,
-            fov_x_deg: 35.0,
-            width: a.res,
-            height: a.res,
-            light: RigLight::Attached {
+        let rig = house_rig(
+            a.views,
+            a.res,
+            RigLight::Attached {
                 offset: Vec3::new(0.8, 0.8, 0.0),
             },
-            intensity: [12.0; 3],
-            elevation_deg: (-60.0, 60.0),
-        };
+            (-60.0, 60.0),
+        );
         rig.validate("bench rig")?;
         let views = rig.build();
         for &st in &a.sigma_t {

@@ -181,6 +181,11 @@ pub struct LearnedArgs {
     /// `son24-compat` (model-spec A4).
     #[arg(long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
     pub frames: String,
+    /// Keep the polynomial descriptor exactly as fitted while σ_t, α change (SON24) instead of
+    /// rescaling it to the current σ_n (c_m·k^(deg−1), k = σ_n/σ_n,fit; the default). Only
+    /// matters when the features were fitted at another medium (optimize).
+    #[arg(long)]
+    pub frozen_descriptor: bool,
 }
 
 impl LearnedArgs {
@@ -196,6 +201,7 @@ impl LearnedArgs {
                 "son24-compat" => Some(bssrdf::model::FrameConvention::Son24Compat),
                 _ => None,
             },
+            frozen_descriptor: self.frozen_descriptor,
         }
     }
 

@@ -151,6 +151,34 @@ impl MediumArgs {
     }
 }
 
+/// The house rig: `views` cameras at radius 2 around the origin (fov 35°, `res`²), intensity 12 on
+/// every channel, with the given light placement and elevation range (degrees).
+pub fn house_rig(views: usize, res: u32, light: RigLight, elevation_deg: (f32, f32)) -> Rig {
+    Rig {
+        views,
+        radius: 2.0,
+        target: Vec3::ZERO,
+        fov_x_deg: 35.0,
+        width: res,
+        height: res,
+        light,
+        intensity: [12.0; 3],
+        elevation_deg,
+    }
+}
+
+/// The paper's kind of data (model-spec §8.3): views all around, ONE fixed point light.
+pub fn paper_rig(views: usize, res: u32) -> Rig {
+    house_rig(
+        views,
+        res,
+        RigLight::Fixed {
+            position: Vec3::new(1.2, 1.6, 0.8),
+        },
+        (-90.0, 90.0),
+    )
+}
+
 /// σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel (Son et al. 2024, §5), g = 0, η = 1.
 pub fn random_medium(seed: u64) -> Medium {
     let mut s = Sampler::new(seed, u64::MAX, 0, 0x6d65_6469_756d);

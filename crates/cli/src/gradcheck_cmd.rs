@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, render_diff};
-use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures};
+use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
 use clap::Args;
 use scene::{Dataset, Image, Medium};
 
@@ -111,13 +111,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
     let model = a.learned.load_model()?;
     let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, a.seed)?;
-    let scene = LearnedScene::new(
-        &accel,
-        &model,
-        &features,
-        medium,
-        LearnedSettings::default(),
-    )?;
+    let scene = LearnedScene::new(&accel, &model, &features, medium, a.learned.settings())?;
     let rs = RenderSettings {
         spp: a.spp,
         seed: a.seed,

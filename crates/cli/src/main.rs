@@ -9,6 +9,7 @@ mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
+mod experiment;
 mod gradcheck_cmd;
 mod model_cmd;
 mod optimize_cmd;
@@ -71,6 +72,9 @@ enum Command {
     /// Speed measurements (results go into BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// The paper's experiments, each one command that prints a table and draws plots.
+    #[command(subcommand)]
+    Experiment(experiment::ExperimentCommand),
 }
 
 #[derive(Args)]
@@ -128,6 +132,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
         Command::Bench(b) => bench::run(&b),
+        Command::Experiment(e) => experiment::run(&e),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),
         Command::Optimize(a) => optimize_cmd::run(&a),

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use bssrdf::diff::{DiffMethod, Loss};
-use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, render_image};
+use bssrdf::render::{LearnedScene, RenderSettings, render_image};
 use clap::Args;
 use inverse::optimize::{Checkpoint, OptimizeConfig, Optimizer, TargetView};
 use inverse::params::{ParamSpec, Parameterisation, Params};
@@ -132,6 +132,7 @@ fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.decay_every = a.decay_every;
     c.refit_every = a.refit_every;
     c.delta_rel = a.delta_rel;
+    c.learned = a.learned.settings();
     c.seed = a.seed;
     c.params = ParamSpec {
         parameterisation: if a.log_sigma_t {
@@ -273,13 +274,7 @@ fn rerender(
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, "re-render");
     let model = a.learned.load_model()?;
-    let scene = LearnedScene::new(
-        &accel,
-        &model,
-        opt.features(),
-        medium,
-        LearnedSettings::default(),
-    )?;
+    let scene = LearnedScene::new(&accel, &model, opt.features(), medium, a.learned.settings())?;
     let mut imgs = Vec::new();
     for (i, v) in ds.views.iter().take(n).enumerate() {
         let rs = RenderSettings {

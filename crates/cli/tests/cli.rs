@@ -1423,3 +1423,78 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
         assert!(d.join("g").join(f).exists(), "missing {f}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// experiment accuracy
+
+#[test]
+fn experiment_accuracy_writes_table_and_reuses_its_runs() {
+    let d = tmp();
+    let args = [
+        "experiment",
+        "accuracy",
+        "--out",
+        "exp",
+        "--shapes",
+        "sphere",
+        "--media",
+        "1",
+        "--views",
+        "2",
+        "--res",
+        "12",
+        "--target-spp",
+        "4",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--inits",
+        "2",
+        "--methods",
+        "ours,naive",
+        "-q",
+    ];
+    let first = ok(d.path(), &args);
+    assert_stdout_has(
+        &first,
+        &[
+            "| sphere-m0 | ours |",
+            "| sphere-m0 | naive |",
+            "| random inits | 2 |",
+        ],
+    );
+    let csv = String::from_utf8(read(&d.path().join("exp/results.csv"))).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 + 2, "{csv}");
+    assert!(d.path().join("exp/inits.png").exists());
+    for run in [
+        "sphere-m0-ours",
+        "sphere-m0-naive",
+        "sphere-m0-init0",
+        "sphere-m0-init1",
+    ] {
+        let r = read_json(&d.path().join("exp/runs").join(run).join("result.json"));
+        assert_eq!(r["iterations"], 3, "{run}");
+    }
+    // A second run reuses the datasets and the finished runs and prints the same table.
+    let second = ok(d.path(), &args);
+    assert_stdout_has(&second, &["dataset sphere-m0: reusing", "reusing"]);
+    let table = |s: &str| {
+        s.lines()
+            .filter(|l| l.starts_with('|'))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(table(&first.stdout), table(&second.stdout));
+    // Unknown shapes and methods are refused before any work.
+    let bad = fails(
+        d.path(),
+        &["experiment", "accuracy", "--out", "x", "--shapes", "teapot"],
+    );
+    assert_stderr_has(&bad, &["teapot"]);
+    let bad = fails(
+        d.path(),
+        &["experiment", "accuracy", "--out", "x", "--methods", "magic"],
+    );
+    assert_stderr_has(&bad, &["magic"]);
+}

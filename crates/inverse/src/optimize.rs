@@ -16,7 +16,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use bssrdf::diff::{DiffMethod, DiffSettings, Loss, render_loss_gradient};
+use bssrdf::diff::{
+    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, render_diff, render_loss_gradient,
+};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
 use geometry::Accel;
@@ -81,6 +83,9 @@ pub struct OptimizeConfig {
     pub refit_every: u32,
     /// Relative σ_t offset Δ/σ_t of the offset samples and of `fd`.
     pub delta_rel: f32,
+    /// Settings of the learned renderer (projection rule, descriptor handling, ablations).
+    #[serde(default)]
+    pub learned: LearnedSettings,
     /// Parameterisation, sharing and fixing.
     pub params: ParamSpec,
     /// Initial parameters.
@@ -136,6 +141,7 @@ impl OptimizeConfig {
             decay_every: 50,
             refit_every: 0,
             delta_rel: 0.02,
+            learned: LearnedSettings::default(),
             params: ParamSpec::default(),
             init,
             seed: 0,
@@ -284,13 +290,7 @@ impl<'a> Optimizer<'a> {
             )?;
         }
         let medium = p.medium(&self.base);
-        let scene = LearnedScene::new(
-            self.accel,
-            self.model,
-            &self.features,
-            medium,
-            LearnedSettings::default(),
-        )?;
+        let scene = LearnedScene::new(self.accel, self.model, &self.features, medium, c.learned)?;
         let ds = DiffSettings {
             method: c.method,
             delta_rel: c.delta_rel,
@@ -310,25 +310,15 @@ impl<'a> Optimizer<'a> {
                 view: v as u64,
             };
             let g = if c.two_renders {
-                // I₁ (seed A) gives ∂ℓ/∂I, I₂ (seed B) the derivative: with the pseudo-target
-                // T' = I₂ − (I₁ − T) the residual the gradient render sees is I₂ − T' = I₁ − T.
+                // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
+                // ∂I/∂θ: two renders, independent samples (no covariance bias).
                 let rs_b = RenderSettings {
                     seed: hash_key(&[c.seed, k as u64, 0xB]),
                     ..rs
                 };
                 let i1 = render_image(&scene, t.camera, t.light, &rs, None)?;
-                let i2 = render_image(&scene, t.camera, t.light, &rs_b, None)?;
-                let mut pseudo = t.image.clone();
-                for ((p, a), b) in pseudo.data.iter_mut().zip(&i1.data).zip(&i2.data) {
-                    for ch in 0..3 {
-                        p[ch] = b[ch] - (a[ch] - p[ch]);
-                    }
-                }
-                let mut g = render_loss_gradient(
-                    &scene, t.camera, t.light, &rs_b, &ds, &pseudo, c.loss, false, None,
-                )?;
-                g.loss = image_loss(&i1, t.image, c.loss);
-                g
+                let d2 = render_diff(&scene, t.camera, t.light, &rs_b, &ds, None)?;
+                decorrelated_gradient(&i1, &d2, t.image, c.loss)
             } else {
                 render_loss_gradient(
                     &scene, t.camera, t.light, &rs, &ds, t.image, c.loss, false, None,
@@ -391,15 +381,29 @@ impl<'a> Optimizer<'a> {
     }
 }
 
-/// The loss of `img` against `target` (mean over the pixel channels).
-fn image_loss(img: &Image, target: &Image, loss: Loss) -> f64 {
-    let mut sum = 0.0;
-    for (a, b) in img.data.iter().zip(&target.data) {
+/// The decorrelated loss gradient: ℓ and ∂ℓ/∂I from the render `i1`, ∂I/∂θ from the derivative
+/// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ.
+fn decorrelated_gradient(i1: &Image, d2: &DiffImages, target: &Image, loss: Loss) -> LossGradient {
+    let mut g = LossGradient {
+        loss: 0.0,
+        d_sigma_t: [0.0; 3],
+        d_albedo: [0.0; 3],
+        images: None,
+    };
+    let pixels = i1.data.iter().zip(&target.data);
+    for ((a, t), (dt, da)) in pixels.zip(d2.d_sigma_t.data.iter().zip(&d2.d_albedo.data)) {
         for ch in 0..3 {
-            sum += loss.element(a[ch], b[ch]).0;
+            let (l, dl) = loss.element(a[ch], t[ch]);
+            g.loss += l;
+            g.d_sigma_t[ch] += dl * dt[ch] as f64;
+            g.d_albedo[ch] += dl * da[ch] as f64;
         }
     }
-    sum / (3 * img.data.len()).max(1) as f64
+    let n_inv = 1.0 / (3 * i1.data.len()).max(1) as f64;
+    g.loss *= n_inv;
+    g.d_sigma_t = g.d_sigma_t.map(|v| v * n_inv);
+    g.d_albedo = g.d_albedo.map(|v| v * n_inv);
+    g
 }
 
 /// The state of a run (what a fresh start and a resume provide differently).

@@ -1,0 +1,498 @@
+//! `translucent experiment accuracy`: the paper's accuracy experiment (Son et al. 2024 §5,
+//! Table 1 and Fig. 7; issue #5 acceptance 2) as one command.
+//!
+//! 1. Datasets: each built-in shape of `--shapes` × `--media` hidden media drawn from the paper's
+//!    ranges (σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel; medium k is the same for every shape),
+//!    rendered by our volumetric path tracer: `--views` cameras on a sphere of radius 2 around the
+//!    object, one fixed point light for all views (the paper's data, model-spec §8.3).
+//! 2. Recovery: `translucent optimize` with each method of `--methods` from σ_t = 50, α = 0.5
+//!    (`--iterations`, `--spp`), and `--inits` random initialisations on the first case (Fig. 7).
+//! 3. Report: per case and method σ_t relative error and α absolute error per channel, the
+//!    paper-style RMSE over the channels (σ_t in 1/unit), seconds per iteration; per method the
+//!    medians against the goal (σ_t ≤ 5 %, α ≤ 0.01). Printed, and written as `OUT/table.md` and
+//!    `OUT/results.csv`; `OUT/inits.png` draws the trajectories of the random initialisations.
+//!
+//! Every step reuses what a previous run of the same command left in `OUT` (datasets with the
+//! same settings, finished runs; unfinished runs resume from their checkpoints), so an interrupted
+//! experiment continues where it stopped.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use geometry::Shape;
+use inverse::params::Params;
+use plot::{Figure, Panel, Series};
+use scene::rig::Rig;
+use scene::{Dataset, Medium, MeshSource};
+use volpath::rng::Sampler;
+
+use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::optimize_cmd::OptimizeArgs;
+
+#[derive(Subcommand)]
+pub enum ExperimentCommand {
+    /// Accuracy of the recovered σ_t and α on volumetric-path-traced datasets (paper Table 1,
+    /// Fig. 7): shapes × media, methods, random initialisations.
+    Accuracy(AccuracyArgs),
+}
+
+#[derive(Args)]
+pub struct AccuracyArgs {
+    /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
+    #[arg(long, default_value = "out/experiment-accuracy")]
+    pub out: PathBuf,
+    /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob).
+    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
+    pub shapes: Vec<String>,
+    /// Hidden media per shape, drawn from the paper's ranges.
+    #[arg(long, default_value_t = 2)]
+    pub media: u64,
+    /// Views per dataset.
+    #[arg(long, default_value_t = 40)]
+    pub views: usize,
+    /// Image width and height.
+    #[arg(long, default_value_t = 256)]
+    pub res: u32,
+    /// Samples per pixel of the volumetric target renders.
+    #[arg(long, default_value_t = 128)]
+    pub target_spp: u32,
+    /// Optimisation methods (comma-separated).
+    #[arg(long, default_value = "ours,naive", value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// Iterations per run.
+    #[arg(long, default_value_t = 300)]
+    pub iterations: u32,
+    /// Samples per pixel per iteration.
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    /// Views per iteration.
+    #[arg(long, default_value_t = 1)]
+    pub views_per_iter: usize,
+    /// Optimise ln σ_t instead of σ_t/100 (the paper's; lr then applies to ln σ_t).
+    #[arg(long)]
+    pub log_sigma_t: bool,
+    /// Random initialisations on the first case with the first method (0: none).
+    #[arg(long, default_value_t = 8)]
+    pub inits: u32,
+    /// Seed of the media, the renders and the runs.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+pub fn run(cmd: &ExperimentCommand) -> Result<()> {
+    match cmd {
+        ExperimentCommand::Accuracy(a) => accuracy(a),
+    }
+}
+
+/// One finished run.
+struct Row {
+    case: String,
+    method: String,
+    init: Params,
+    truth: Params,
+    estimate: Params,
+    seconds_per_iteration: f64,
+    run_dir: PathBuf,
+}
+
+impl Row {
+    fn sigma_rel(&self) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            (self.estimate.sigma_t[c] - self.truth.sigma_t[c]) / self.truth.sigma_t[c]
+        })
+    }
+    fn albedo_err(&self) -> [f64; 3] {
+        std::array::from_fn(|c| self.estimate.albedo[c] - self.truth.albedo[c])
+    }
+    /// RMSE over the channels (paper Table 1).
+    fn rmse(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+        ((0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>() / 3.0).sqrt()
+    }
+}
+
+fn accuracy(a: &AccuracyArgs) -> Result<()> {
+    if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
+        bail!("--shapes, --methods and --media must name at least one of each");
+    }
+    for m in &a.methods {
+        m.parse::<bssrdf::diff::DiffMethod>()?;
+    }
+    let shapes: Vec<Shape> = a
+        .shapes
+        .iter()
+        .map(|s| {
+            Shape::from_name(s).with_context(|| format!("--shapes: {s:?} is not a built-in shape"))
+        })
+        .collect::<Result<_>>()?;
+    std::fs::create_dir_all(a.out.join("data"))?;
+    std::fs::create_dir_all(a.out.join("runs"))?;
+    let rig = paper_rig(a.views, a.res);
+    rig.validate("experiment")?;
+
+    let mut cases: Vec<(String, PathBuf, Medium)> = Vec::new();
+    for (shape, built) in a.shapes.iter().zip(&shapes) {
+        for k in 0..a.media {
+            let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
+            let name = format!("{shape}-m{k}");
+            let dir = a.out.join("data").join(&name);
+            ensure_dataset(a, &rig, built.clone(), medium, &dir, &name)?;
+            cases.push((name, dir, medium));
+        }
+    }
+
+    let default_init = Params {
+        sigma_t: [50.0; 3],
+        albedo: [0.5; 3],
+    };
+    let mut rows = Vec::new();
+    for (name, dir, medium) in &cases {
+        for method in &a.methods {
+            let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
+            rows.push(optimize(
+                a,
+                dir,
+                &run_dir,
+                method,
+                default_init,
+                medium,
+                name,
+            )?);
+        }
+    }
+    let mut init_rows = Vec::new();
+    if let Some((name, dir, medium)) = cases.first() {
+        let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
+        for i in 0..a.inits {
+            let init = Params {
+                sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
+                albedo: [0; 3].map(|_| 0.3 + 0.65 * s.next_f32() as f64),
+            };
+            let run_dir = a.out.join("runs").join(format!("{name}-init{i}"));
+            init_rows.push(optimize(
+                a,
+                dir,
+                &run_dir,
+                &a.methods[0],
+                init,
+                medium,
+                &format!("{name} init {i}"),
+            )?);
+        }
+    }
+
+    let table = report(a, &rows, &init_rows);
+    print!("{table}");
+    std::fs::write(a.out.join("table.md"), &table)?;
+    std::fs::write(
+        a.out.join("results.csv"),
+        results_csv(rows.iter().chain(&init_rows)),
+    )?;
+    if !init_rows.is_empty() {
+        inits_plot(&init_rows, &a.out.join("inits.png"))?;
+    }
+    println!(
+        "wrote {} (table.md, results.csv{})",
+        a.out.display(),
+        if init_rows.is_empty() {
+            ""
+        } else {
+            ", inits.png"
+        }
+    );
+    Ok(())
+}
+
+/// Render the dataset unless `dir` already holds one with these settings.
+fn ensure_dataset(
+    a: &AccuracyArgs,
+    rig: &Rig,
+    shape: Shape,
+    medium: Medium,
+    dir: &Path,
+    name: &str,
+) -> Result<()> {
+    if dir.join("dataset.json").exists() {
+        let ds = Dataset::load(dir)?;
+        let same = ds.truth == Some(medium)
+            && ds.views.len() == a.views
+            && ds
+                .views
+                .first()
+                .is_some_and(|v| v.camera.width == a.res && v.camera.height == a.res)
+            && ds.render.spp == Some(a.target_spp);
+        if same {
+            println!("dataset {name}: reusing {}", dir.display());
+            return Ok(());
+        }
+        bail!(
+            "{} holds a dataset made with other settings; remove it or choose another --out",
+            dir.display()
+        );
+    }
+    println!(
+        "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",
+        a.views, a.res, a.res, a.target_spp, medium.sigma_t, medium.albedo
+    );
+    make_dataset(
+        rig,
+        MeshSource::Shape(shape),
+        medium,
+        RenderOpts {
+            spp: a.target_spp,
+            seed: a.seed,
+            max_depth: 32,
+        },
+        dir,
+        false,
+    )?;
+    Ok(())
+}
+
+/// Run (or resume, or reuse) one optimisation and read its result.
+fn optimize(
+    a: &AccuracyArgs,
+    dataset: &Path,
+    run_dir: &Path,
+    method: &str,
+    init: Params,
+    truth: &Medium,
+    label: &str,
+) -> Result<Row> {
+    let result = run_dir.join("result.json");
+    let done = read_result(&result)
+        .ok()
+        .is_some_and(|v| v["iterations"].as_u64() == Some(a.iterations as u64));
+    if done {
+        println!("run {label} ({method}): reusing {}", run_dir.display());
+    } else {
+        println!("run {label} ({method}): {} iterations", a.iterations);
+        let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
+        o.method = method.to_string();
+        o.iterations = a.iterations;
+        o.spp = a.spp;
+        o.views_per_iter = a.views_per_iter;
+        o.two_renders = true;
+        o.log_sigma_t = a.log_sigma_t;
+        o.init_sigma_t = init.sigma_t.map(|v| v as f32);
+        o.init_albedo = init.albedo.map(|v| v as f32);
+        o.seed = a.seed;
+        o.final_spp = 16;
+        o.resume = run_dir.join("checkpoint.json").exists();
+        crate::optimize_cmd::run(&o)?;
+    }
+    let v = read_result(&result)?;
+    let p = |key: &str, field: &str| -> Result<[f64; 3]> {
+        let arr = v[key][field]
+            .as_array()
+            .filter(|a| a.len() == 3)
+            .with_context(|| format!("{}: no {key}.{field}", result.display()))?;
+        Ok(std::array::from_fn(|c| arr[c].as_f64().unwrap_or(f64::NAN)))
+    };
+    Ok(Row {
+        case: label.to_string(),
+        method: method.to_string(),
+        init,
+        truth: Params::of(truth),
+        estimate: Params {
+            sigma_t: p("estimate", "sigma_t")?,
+            albedo: p("estimate", "albedo")?,
+        },
+        seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+        run_dir: run_dir.to_path_buf(),
+    })
+}
+
+fn read_result(path: &Path) -> Result<serde_json::Value> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not valid JSON", path.display()))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// The Markdown table and the per-method summary.
+fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s), seed {}\n",
+        a.views, a.res, a.res, a.target_spp, a.iterations, a.spp, a.views_per_iter, a.seed
+    );
+    let _ = writeln!(
+        s,
+        "| case | method | init σ_t / α | truth σ_t (R,G,B) | estimate σ_t | σ_t rel. err. % | σ_t RMSE | truth α | estimate α | α err. | α RMSE | s/it |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let f = |v: &[f64; 3], p: usize| {
+        v.iter()
+            .map(|x| format!("{x:.p$}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    for r in rows.iter().chain(init_rows) {
+        let rel = r.sigma_rel().map(|x| 100.0 * x);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0}/{:.2} | {} | {} | {} | {:.2} | {} | {} | {} | {:.4} | {:.2} |",
+            r.case,
+            r.method,
+            r.init.sigma_t[0],
+            r.init.albedo[0],
+            f(&r.truth.sigma_t, 1),
+            f(&r.estimate.sigma_t, 1),
+            f(&rel, 1),
+            Row::rmse(&r.estimate.sigma_t, &r.truth.sigma_t),
+            f(&r.truth.albedo, 3),
+            f(&r.estimate.albedo, 3),
+            f(&r.albedo_err(), 4),
+            Row::rmse(&r.estimate.albedo, &r.truth.albedo),
+            r.seconds_per_iteration,
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n| method | runs | median |σ_t rel. err.| % | median |α err.| | mean σ_t RMSE | mean α RMSE | goal (≤ 5 %, ≤ 0.01) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let mut groups: Vec<(&str, Vec<&Row>)> = Vec::new();
+    for m in &a.methods {
+        groups.push((m.as_str(), rows.iter().filter(|r| &r.method == m).collect()));
+    }
+    if !init_rows.is_empty() {
+        groups.push(("random inits", init_rows.iter().collect()));
+    }
+    for (name, g) in groups {
+        if g.is_empty() {
+            continue;
+        }
+        let ms = median(
+            g.iter()
+                .flat_map(|r| r.sigma_rel().map(|x| 100.0 * x.abs()))
+                .collect(),
+        );
+        let ma = median(
+            g.iter()
+                .flat_map(|r| r.albedo_err().map(f64::abs))
+                .collect(),
+        );
+        let n = g.len() as f64;
+        let rs = g
+            .iter()
+            .map(|r| Row::rmse(&r.estimate.sigma_t, &r.truth.sigma_t))
+            .sum::<f64>()
+            / n;
+        let ra = g
+            .iter()
+            .map(|r| Row::rmse(&r.estimate.albedo, &r.truth.albedo))
+            .sum::<f64>()
+            / n;
+        let met = if ms <= 5.0 && ma <= 0.01 {
+            "met"
+        } else {
+            "not met"
+        };
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {ms:.1} | {ma:.4} | {rs:.2} | {ra:.4} | {met} |",
+            g.len()
+        );
+    }
+    s
+}
+
+fn results_csv<'a>(rows: impl Iterator<Item = &'a Row>) -> String {
+    let mut s = String::from(
+        "case,method,init_sigma_t_r,init_sigma_t_g,init_sigma_t_b,init_albedo_r,init_albedo_g,init_albedo_b,\
+         truth_sigma_t_r,truth_sigma_t_g,truth_sigma_t_b,truth_albedo_r,truth_albedo_g,truth_albedo_b,\
+         sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,seconds_per_iteration,run\n",
+    );
+    for r in rows {
+        let mut v: Vec<String> = vec![r.case.clone(), r.method.clone()];
+        for arr in [
+            r.init.sigma_t,
+            r.init.albedo,
+            r.truth.sigma_t,
+            r.truth.albedo,
+            r.estimate.sigma_t,
+            r.estimate.albedo,
+        ] {
+            v.extend(arr.iter().map(|x| format!("{x}")));
+        }
+        v.push(format!("{}", r.seconds_per_iteration));
+        v.push(r.run_dir.display().to_string());
+        s += &v.join(",");
+        s.push('\n');
+    }
+    s
+}
+
+/// σ_t and α of every random initialisation against the iteration (from the runs'
+/// iterations.csv), truth dashed: paper Fig. 7.
+fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
+    const CH: [&str; 3] = ["R", "G", "B"];
+    let traj: Vec<Vec<[f64; 7]>> = rows
+        .iter()
+        .map(|r| read_trajectory(&r.run_dir.join("iterations.csv")))
+        .collect::<Result<_>>()?;
+    let mut panels = Vec::new();
+    for (what, off) in [("σ_t", 1usize), ("α", 4)] {
+        for c in 0..3 {
+            let truth = if off == 1 {
+                rows[0].truth.sigma_t[c]
+            } else {
+                rows[0].truth.albedo[c]
+            };
+            panels.push(Panel {
+                title: format!("{what} {} (random initialisations)", CH[c]),
+                x_label: "iteration".into(),
+                y_label: what.into(),
+                log_y: false,
+                series: traj
+                    .iter()
+                    .enumerate()
+                    .map(|(i, t)| {
+                        Series::new(
+                            format!("init {i}"),
+                            t.iter().map(|p| (p[0], p[off + c])).collect(),
+                        )
+                    })
+                    .collect(),
+                reference_lines: vec![(format!("truth {}", CH[c]), truth)],
+            });
+        }
+    }
+    Figure::new(panels, 3).write_png(path, true)?;
+    Ok(())
+}
+
+/// (iteration, σ_t R/G/B, α R/G/B) per row of an `iterations.csv`.
+fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .take(8)
+                .map(|x| x.trim().parse::<f64>().unwrap_or(f64::NAN))
+                .collect();
+            if f.len() < 8 {
+                bail!("{}: short row {l:?}", path.display());
+            }
+            // Columns: iteration, loss, σ_t ×3, α ×3.
+            Ok([f[0], f[2], f[3], f[4], f[5], f[6], f[7]])
+        })
+        .collect()
+}
