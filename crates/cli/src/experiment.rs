@@ -361,7 +361,7 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
     }
     let _ = writeln!(
         s,
-        "\n| method | runs | median |σ_t rel. err.| % | median |α err.| | mean σ_t RMSE | mean α RMSE | goal (≤ 5 %, ≤ 0.01) |"
+        "\n| method | runs | median abs. σ_t rel. err. % | median abs. α err. | mean σ_t RMSE | mean α RMSE | goal (≤ 5 %, ≤ 0.01) |"
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     let mut groups: Vec<(&str, Vec<&Row>)> = Vec::new();
