@@ -382,37 +382,35 @@ fn alpha_derivatives() {
     }
 }
 
+/// `ours`, `naive` and `fd` on independent random numbers, with their z scores against `fd` per
+/// channel (ours, naive).
+fn ours_naive_fd(s: &Setup, label: &str, spp: u32, r: u64) -> (Est, [(f64, f64); 3]) {
+    let scene = s.scene();
+    let ours = replicate(s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let naive = replicate(s, &scene, &ds(DiffMethod::Naive), spp, r..2 * r);
+    let fd = replicate(s, &scene, &ds(DiffMethod::Fd), spp, 2 * r..3 * r);
+    for (name, e) in [("ours", &ours), ("naive", &naive), ("fd", &fd)] {
+        report(&format!("{label} {name} dσ_t"), e, D_T);
+    }
+    let zs = std::array::from_fn(|c| {
+        let (zo, zn) = (z(&ours, &fd, D_T, c), z(&naive, &fd, D_T, c));
+        eprintln!("{label} channel {c}: z(ours, fd) = {zo:.2}, z(naive, fd) = {zn:.2}");
+        (zo, zn)
+    });
+    (fd, zs)
+}
+
 #[test]
 fn naive_misses_the_boundary_term_and_ours_does_not() {
-    let (spp, r) = (16, 16);
     // Interior only: all three agree.
-    let s = interior_setup();
-    let scene = s.scene();
-    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
-    let naive = replicate(&s, &scene, &ds(DiffMethod::Naive), spp, r..2 * r);
-    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 2 * r..3 * r);
-    report("interior ours dσ_t", &ours, D_T);
-    report("interior naive dσ_t", &naive, D_T);
-    report("interior fd dσ_t", &fd, D_T);
-    for c in 0..3 {
-        let (zo, zn) = (z(&ours, &fd, D_T, c), z(&naive, &fd, D_T, c));
-        eprintln!("interior channel {c}: z(ours, fd) = {zo:.2}, z(naive, fd) = {zn:.2}");
+    let (fd, zs) = ours_naive_fd(&interior_setup(), "interior", 16, 16);
+    for (c, (zo, zn)) in zs.into_iter().enumerate() {
         assert!(fd.mean[D_T][c].abs() > 6.0 * fd.se[D_T][c]);
         assert!(zo < 4.0 && zn < 4.0);
     }
     // A sharp edge in every footprint: the boundary term dominates.
-    let (spp, r) = (64, 16);
-    let s = edge_setup();
-    let scene = s.scene();
-    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
-    let naive = replicate(&s, &scene, &ds(DiffMethod::Naive), spp, r..2 * r);
-    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 2 * r..3 * r);
-    report("edge ours dσ_t", &ours, D_T);
-    report("edge naive dσ_t", &naive, D_T);
-    report("edge fd dσ_t", &fd, D_T);
-    for c in 0..3 {
-        let (zo, zn) = (z(&ours, &fd, D_T, c), z(&naive, &fd, D_T, c));
-        eprintln!("edge channel {c}: z(ours, fd) = {zo:.2}, z(naive, fd) = {zn:.2}");
+    let (_, zs) = ours_naive_fd(&edge_setup(), "edge", 64, 16);
+    for (c, (zo, zn)) in zs.into_iter().enumerate() {
         assert!(zo < 4.0, "channel {c}: ours vs fd z = {zo:.2}");
         assert!(zn > 6.0, "channel {c}: naive vs fd z = {zn:.2}");
     }

@@ -954,14 +954,13 @@ fn bad_unknown_shape_name() {
 // ---------------------------------------------------------------------------------------------
 // 5. demo
 
-#[test]
-fn demo_writes_dataset_reruns_and_protects_other_datasets() {
-    let t = tmp();
-    let args = [
+/// A tiny demo into `out`: 2 views of 16², 2 spp, 3 iterations.
+fn demo_args(out: &str) -> [&str; 12] {
+    [
         "-q",
         "demo",
         "--out",
-        "demo",
+        out,
         "--res",
         "16",
         "--views",
@@ -970,7 +969,13 @@ fn demo_writes_dataset_reruns_and_protects_other_datasets() {
         "2",
         "--iterations",
         "3",
-    ];
+    ]
+}
+
+#[test]
+fn demo_writes_dataset_reruns_and_protects_other_datasets() {
+    let t = tmp();
+    let args = demo_args("demo");
     ok(t.path(), &args);
     let d = t.path().join("demo");
     let j = read_json(&d.join("dataset.json"));
@@ -998,23 +1003,7 @@ fn demo_writes_dataset_reruns_and_protects_other_datasets() {
     let other = make_dataset(t.path(), "other", "1", "8", &[]);
     let json_before = read(&other.join("dataset.json"));
     let exr_before = read(&other.join("view_000.exr"));
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "demo",
-            "--out",
-            "other",
-            "--res",
-            "16",
-            "--views",
-            "2",
-            "--spp",
-            "2",
-            "--iterations",
-            "3",
-        ],
-    );
+    let r = fails(t.path(), &demo_args("other"));
     assert_stderr_has(&r, &["other", "demo"]);
     assert_eq!(read(&other.join("dataset.json")), json_before);
     assert_eq!(read(&other.join("view_000.exr")), exr_before);
@@ -1033,23 +1022,7 @@ fn demo_does_not_overwrite_render_outputs() {
         &["-q", "render", "scene.toml", "--out", "r", "--spp", "2"],
     );
     let before = read(&t.path().join("r/view_000.exr"));
-    let r = translucent(
-        t.path(),
-        &[
-            "-q",
-            "demo",
-            "--out",
-            "r",
-            "--res",
-            "16",
-            "--views",
-            "2",
-            "--spp",
-            "2",
-            "--iterations",
-            "3",
-        ],
-    );
+    let r = translucent(t.path(), &demo_args("r"));
     assert_ne!(r.code, Some(0), "{}", r.describe());
     assert_eq!(read(&t.path().join("r/view_000.exr")), before);
 }

@@ -86,6 +86,46 @@ fn forward64(p: &[f64], mut off: usize, shapes: &[Shape], x: &[f64], margin: &mu
     h
 }
 
+/// Central differences of ⟨c, MLP(x)⟩ (summed over `rows` rows) with respect to every parameter
+/// `p0` and every input `x0` of the f64 reference network `shapes`; asserts that no ReLU kink
+/// lies within [`MARGIN`] of the evaluation point.
+fn fd_linear_functional(
+    shapes: &[Shape],
+    p0: &[f64],
+    x0: &[f64],
+    c: &[f32],
+    rows: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let (n_in, n_out) = (shapes[0].0, shapes[shapes.len() - 1].1);
+    let loss = |p: &[f64], x: &[f64]| {
+        let mut margin = f64::INFINITY;
+        let mut l = 0.0;
+        for r in 0..rows {
+            let y = forward64(p, 0, shapes, &x[r * n_in..(r + 1) * n_in], &mut margin);
+            l += (0..n_out)
+                .map(|j| c[r * n_out + j] as f64 * y[j])
+                .sum::<f64>();
+        }
+        (l, margin)
+    };
+    assert!(loss(p0, x0).1 > MARGIN, "ReLU kink too close");
+    let fd = |i: usize, wrt_x: bool| {
+        let (mut pa, mut pb, mut xa, mut xb) = (p0.to_vec(), p0.to_vec(), x0.to_vec(), x0.to_vec());
+        if wrt_x {
+            xa[i] += H;
+            xb[i] -= H;
+        } else {
+            pa[i] += H;
+            pb[i] -= H;
+        }
+        (loss(&pa, &xa).0 - loss(&pb, &xb).0) / (2.0 * H)
+    };
+    (
+        (0..p0.len()).map(|i| fd(i, false)).collect(),
+        (0..x0.len()).map(|i| fd(i, true)).collect(),
+    )
+}
+
 fn n_shape_params(shapes: &[Shape]) -> usize {
     shapes.iter().map(|&(i, o, _)| i * o + o).sum()
 }
@@ -264,34 +304,7 @@ fn dense_layer_gradient_matches_f64_finite_differences() {
             .map(|&v| v as f64)
             .collect();
         let x0: Vec<f64> = x.iter().map(|&v| v as f64).collect();
-        let loss = |p: &[f64], x: &[f64]| {
-            let mut margin = f64::INFINITY;
-            let mut l = 0.0;
-            for r in 0..rows {
-                let y = forward64(p, 0, &shapes, &x[r * n_in..(r + 1) * n_in], &mut margin);
-                l += (0..n_out)
-                    .map(|j| c[r * n_out + j] as f64 * y[j])
-                    .sum::<f64>();
-            }
-            (l, margin)
-        };
-        assert!(loss(&p0, &x0).1 > MARGIN, "ReLU kink too close");
-        let fd_p: Vec<f64> = (0..p0.len())
-            .map(|i| {
-                let (mut a, mut b) = (p0.clone(), p0.clone());
-                a[i] += H;
-                b[i] -= H;
-                (loss(&a, &x0).0 - loss(&b, &x0).0) / (2.0 * H)
-            })
-            .collect();
-        let fd_x: Vec<f64> = (0..x0.len())
-            .map(|i| {
-                let (mut a, mut b) = (x0.clone(), x0.clone());
-                a[i] += H;
-                b[i] -= H;
-                (loss(&p0, &a).0 - loss(&p0, &b).0) / (2.0 * H)
-            })
-            .collect();
+        let (fd_p, fd_x) = fd_linear_functional(&shapes, &p0, &x0, &c, rows);
         assert_close(&format!("dense relu={relu} dW,db"), &grad, &fd_p);
         assert_close(&format!("dense relu={relu} dX"), &dx, &fd_x);
     }
@@ -334,29 +347,7 @@ fn mlp_gradient_matches_f64_finite_differences() {
             .map(|&v| v as f64)
             .collect();
         let x0: Vec<f64> = x.iter().map(|&v| v as f64).collect();
-        let loss = |p: &[f64], x: &[f64]| {
-            let mut margin = f64::INFINITY;
-            let mut l = 0.0;
-            for r in 0..rows {
-                let y = forward64(p, 0, &shapes, &x[r * 6..(r + 1) * 6], &mut margin);
-                l += (0..4).map(|j| c[r * 4 + j] as f64 * y[j]).sum::<f64>();
-            }
-            (l, margin)
-        };
-        assert!(loss(&p0, &x0).1 > MARGIN, "ReLU kink too close");
-        let fd = |i: usize, wrt_x: bool| {
-            let (mut pa, mut pb, mut xa, mut xb) = (p0.clone(), p0.clone(), x0.clone(), x0.clone());
-            if wrt_x {
-                xa[i] += H;
-                xb[i] -= H;
-            } else {
-                pa[i] += H;
-                pb[i] -= H;
-            }
-            (loss(&pa, &xa).0 - loss(&pb, &xb).0) / (2.0 * H)
-        };
-        let fd_p: Vec<f64> = (0..p0.len()).map(|i| fd(i, false)).collect();
-        let fd_x: Vec<f64> = (0..x0.len()).map(|i| fd(i, true)).collect();
+        let (fd_p, fd_x) = fd_linear_functional(&shapes, &p0, &x0, &c, rows);
         assert_close(
             &format!("mlp relu_output={relu_output} params"),
             grad,
