@@ -5,7 +5,8 @@
 //! inside, ∇p ≈ outward normal, so the surface lies along d = −sign(p(x̃))·∇p/|∇p|).
 //!
 //! Rules:
-//! * [`ProjectionRule::Son24`] (default; Son et al.'s psdr-cuda `vaesub`): two rays, from
+//! * [`ProjectionRule::Son24`] (default; Son et al.'s psdr-cuda `vaesub`): two rays (traced in one
+//!   BVH traversal, [`Accel::first_hits_both_ways`]), from
 //!   x̃ − o·d along +d and from x̃ + o·d along −d (o = `origin_offset`, 0.01 scene units), each
 //!   with t_max = `max_dist_scale`·σ_n + o (`max_dist_scale` = 2); the hit nearer to x̃ wins; no
 //!   second pass, so a miss is an invalid sample (it still counts in the average, with value 0).
@@ -55,8 +56,10 @@ pub fn project(
             // Towards the surface: against the gradient when outside (p > 0).
             let d = if value > 0.0 { -g } else { g };
             let tmax = max_dist_scale * sigma_n + origin_offset;
-            let a = accel.closest(x - origin_offset * d, d, 0.0, tmax);
-            let b = accel.closest(x + origin_offset * d, -d, 0.0, tmax);
+            // Ray a: from x̃ − o·d along d, t < t_max (s ∈ (−o, t_max − o) on the line x̃ + s·d);
+            // ray b: from x̃ + o·d along −d (s ∈ (o − t_max, o)); both in one traversal.
+            let o = origin_offset;
+            let (a, b) = accel.first_hits_both_ways(x, d, (-o, tmax - o), (o - tmax, o));
             nearer(x, a, b)
         }
         ProjectionRule::Vkj19 => {

@@ -376,6 +376,68 @@ impl Accel {
         best
     }
 
+    /// The first hit in each direction from two open ranges of the line `x + s·dir` (`dir` unit
+    /// length), found in ONE traversal: `.0` is the hit with the smallest `s` in `ahead` (what
+    /// [`closest`](Self::closest) returns for the ray from `x + ahead.0·dir` along `dir` with
+    /// `t_max = ahead.1 − ahead.0`), `.1` the hit with the largest `s` in `behind` (the ray from
+    /// `x + behind.1·dir` along `−dir`). Ties at equal `s` go to the smaller triangle index, and
+    /// [`Hit::t`] is `s`. The traversal stops at `max(s_ahead, behind.1)`: nothing beyond can
+    /// change either answer. Used by the two-sided projection of the learned BSSRDF, where it
+    /// replaces two root-to-leaf descents by one.
+    pub fn first_hits_both_ways(
+        &self,
+        x: Vec3,
+        dir: Vec3,
+        ahead: (f32, f32),
+        behind: (f32, f32),
+    ) -> (Option<Hit>, Option<Hit>) {
+        let s_lo = ahead.0.min(behind.0);
+        let s_hi = ahead.1.max(behind.1);
+        let len = s_hi - s_lo;
+        if !valid_ray(dir, 0.0, len) || self.tris.is_empty() {
+            return (None, None);
+        }
+        let (o, d) = (Vec3A::from(x + s_lo * dir), Vec3A::from(dir));
+        let wr = WatertightRay::new(o, d);
+        let br = BoxRay::new(o, d, 0.0);
+        let mut fwd: Option<(u32, TriHit, f32)> = None;
+        let mut back: Option<(u32, TriHit, f32)> = None;
+        let tri_of = |prim: u32| self.prim_tri[prim as usize];
+        let cutoff = |fwd: &Option<(u32, TriHit, f32)>| {
+            let a = fwd.map_or(ahead.1, |(_, _, s)| s);
+            (a.max(behind.1) - s_lo).min(len)
+        };
+        self.bvh_traverse(&br, d, len, |first, count| {
+            for prim in first..first + count {
+                let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
+                let Some(th) = wr.intersect_hit(v0, v1, v2, 0.0, cutoff(&fwd).next_up()) else {
+                    continue;
+                };
+                let s = th.t + s_lo;
+                if s > ahead.0
+                    && s < ahead.1
+                    && fwd.is_none_or(|(p, _, b)| s < b || (s == b && tri_of(prim) < tri_of(p)))
+                {
+                    fwd = Some((prim, th, s));
+                }
+                if s > behind.0
+                    && s < behind.1
+                    && back.is_none_or(|(p, _, b)| s > b || (s == b && tri_of(prim) < tri_of(p)))
+                {
+                    back = Some((prim, th, s));
+                }
+            }
+            cutoff(&fwd)
+        });
+        let hit = |h: Option<(u32, TriHit, f32)>| {
+            h.map(|(prim, th, s)| Hit {
+                t: s,
+                ..self.make_hit(prim, th, dir)
+            })
+        };
+        (hit(fwd), hit(back))
+    }
+
     /// True when anything is hit with `tmin < t < tmax`.
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {

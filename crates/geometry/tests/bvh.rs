@@ -922,3 +922,51 @@ fn builtin_shapes_are_watertight() {
         }
     }
 }
+
+/// `first_hits_both_ways` (one traversal) against its definition: two `closest` rays, one from
+/// `x + a₀·d` along `d` and one from `x + b₁·d` along `−d`, on a bumpy sphere with points near
+/// the surface (the learned BSSRDF's projection queries).
+#[test]
+fn first_hits_both_ways_match_two_closest_rays() {
+    let mesh = noisy_icosphere(4, 0.12, 0.05, 31);
+    let accel = Accel::new(mesh.clone());
+    let mut rng = Pcg32::seed_from_u64(32);
+    let same =
+        |got: Option<geometry::Hit>, want: Option<geometry::Hit>, s_want: f32, what: &str| {
+            match (got, want) {
+                (None, None) => {}
+                (Some(g), Some(w)) => {
+                    // Rounding may pick the neighbour at a shared edge; the point must agree.
+                    assert!(
+                        (g.t - s_want).abs() <= 1e-5 && (g.p - w.p).length() <= 1e-5,
+                        "{what}: s {} vs {s_want}, p {} vs {}",
+                        g.t,
+                        g.p,
+                        w.p
+                    );
+                    if g.tri != w.tri {
+                        assert!((g.t - s_want).abs() <= 1e-6, "{what}: another triangle");
+                    }
+                }
+                (g, w) => panic!("{what}: {g:?} vs {w:?}"),
+            }
+        };
+    let (mut found_ahead, mut found_behind) = (0, 0);
+    for _ in 0..4000 {
+        let (p, n) = surface_point(&mut rng, &mesh);
+        let x = p + n * rng.random_range(-0.08f32..0.08) + unit_vector(&mut rng) * 0.02;
+        let d = unit_vector(&mut rng);
+        let o = rng.random_range(0.0f32..0.02);
+        let tmax = o + rng.random_range(0.001f32..0.3);
+        let (ahead, behind) = accel.first_hits_both_ways(x, d, (-o, tmax - o), (o - tmax, o));
+        let a = accel.closest(x - o * d, d, 0.0, tmax);
+        let b = accel.closest(x + o * d, -d, 0.0, tmax);
+        same(ahead, a, a.map_or(0.0, |h| h.t - o), "ahead");
+        same(behind, b, b.map_or(0.0, |h| o - h.t), "behind");
+        found_ahead += a.is_some() as u32;
+        found_behind += b.is_some() as u32;
+    }
+    // Both sides were exercised with hits and misses.
+    assert!((500..3500).contains(&found_ahead), "{found_ahead}");
+    assert!((500..3500).contains(&found_behind), "{found_behind}");
+}
