@@ -100,6 +100,26 @@ struct Setup {
 }
 
 impl Setup {
+    /// The scene with the shipped test model and features fitted at `medium`.
+    fn new(
+        accel: Accel,
+        medium: Medium,
+        camera: Camera,
+        light: PointLight,
+        settings: LearnedSettings,
+    ) -> Self {
+        let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
+        Setup {
+            accel,
+            model: model(),
+            features,
+            medium,
+            camera,
+            light,
+            settings,
+        }
+    }
+
     fn scene(&self) -> LearnedScene<'_> {
         LearnedScene::new(
             &self.accel,
@@ -114,20 +134,16 @@ impl Setup {
 
 /// Sphere lit from the side, its terminator and shadowed half in view.
 fn sphere_setup(medium: Medium) -> Setup {
-    let accel = sphere();
-    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
-    Setup {
-        accel,
-        model: model(),
-        features,
+    Setup::new(
+        sphere(),
         medium,
-        camera: Camera::look_at(Vec3::new(0.0, 0.3, 2.0), Vec3::ZERO, Vec3::Y, 32.0, 16, 16),
-        light: PointLight {
+        Camera::look_at(Vec3::new(0.0, 0.3, 2.0), Vec3::ZERO, Vec3::Y, 32.0, 16, 16),
+        PointLight {
             position: Vec3::new(1.5, 0.5, 0.3),
             intensity: [2.0; 3],
         },
-        settings: LearnedSettings::default(),
-    }
+        LearnedSettings::default(),
+    )
 }
 
 /// The sharp edge x = 0.5 of a slab lit from straight above: the side face gets no light, so
@@ -147,15 +163,10 @@ fn edge_setup() -> Setup {
 /// (degrees), 16×16. The slab's vertices are its corners: per-vertex polynomials say nothing
 /// about the flat faces, so the planar descriptor (projection along −n(x_o)) is used.
 fn slab_setup(x: f32, fov: f32, light: PointLight) -> Setup {
-    let accel = slab();
-    let medium = rgb_medium();
-    let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
-    Setup {
-        accel,
-        model: model(),
-        features,
-        medium,
-        camera: Camera::look_at(
+    Setup::new(
+        slab(),
+        rgb_medium(),
+        Camera::look_at(
             Vec3::new(x, 2.0, 0.0),
             Vec3::new(x, 0.0, 0.0),
             Vec3::Z,
@@ -164,8 +175,8 @@ fn slab_setup(x: f32, fov: f32, light: PointLight) -> Setup {
             16,
         ),
         light,
-        settings: PLANAR,
-    }
+        PLANAR,
+    )
 }
 
 fn rs(spp: u32, view: u64) -> RenderSettings {

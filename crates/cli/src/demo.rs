@@ -120,7 +120,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     );
     let mut o =
         crate::optimize_cmd::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
-    o.iterations = a.iterations;
+    o.budget.iterations = a.iterations;
     o.seed = a.seed;
     o.two_renders = true;
     // ln σ_t converged better than σ_t/100 on this scene (BENCHMARKS.md, "demo").

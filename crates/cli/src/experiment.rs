@@ -29,7 +29,7 @@ use scene::{Dataset, Medium, MeshSource};
 use volpath::rng::Sampler;
 
 use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
-use crate::optimize_cmd::OptimizeArgs;
+use crate::optimize_cmd::{IterationArgs, OptimizeArgs};
 
 #[derive(Subcommand)]
 pub enum ExperimentCommand {
@@ -61,15 +61,8 @@ pub struct AccuracyArgs {
     /// Optimisation methods (comma-separated).
     #[arg(long, default_value = "ours,naive", value_delimiter = ',')]
     pub methods: Vec<String>,
-    /// Iterations per run.
-    #[arg(long, default_value_t = 300)]
-    pub iterations: u32,
-    /// Samples per pixel per iteration.
-    #[arg(long, default_value_t = 32)]
-    pub spp: u32,
-    /// Views per iteration.
-    #[arg(long, default_value_t = 1)]
-    pub views_per_iter: usize,
+    #[command(flatten)]
+    pub budget: IterationArgs,
     /// Optimise ln σ_t instead of σ_t/100 (the paper's; lr then applies to ln σ_t).
     #[arg(long)]
     pub log_sigma_t: bool,
@@ -264,16 +257,14 @@ fn optimize(
     let result = run_dir.join("result.json");
     let done = read_result(&result)
         .ok()
-        .is_some_and(|v| v["iterations"].as_u64() == Some(a.iterations as u64));
+        .is_some_and(|v| v["iterations"].as_u64() == Some(a.budget.iterations as u64));
     if done {
         println!("run {label} ({method}): reusing {}", run_dir.display());
     } else {
-        println!("run {label} ({method}): {} iterations", a.iterations);
+        println!("run {label} ({method}): {} iterations", a.budget.iterations);
         let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
         o.method = method.to_string();
-        o.iterations = a.iterations;
-        o.spp = a.spp;
-        o.views_per_iter = a.views_per_iter;
+        o.budget = a.budget;
         o.two_renders = true;
         o.log_sigma_t = a.log_sigma_t;
         o.init_sigma_t = init.sigma_t.map(|v| v as f32);
@@ -326,7 +317,14 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
     let _ = writeln!(
         s,
         "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s), seed {}\n",
-        a.views, a.res, a.res, a.target_spp, a.iterations, a.spp, a.views_per_iter, a.seed
+        a.views,
+        a.res,
+        a.res,
+        a.target_spp,
+        a.budget.iterations,
+        a.budget.spp,
+        a.budget.views_per_iter,
+        a.seed
     );
     let _ = writeln!(
         s,

@@ -32,15 +32,8 @@ pub struct OptimizeArgs {
     /// Gradient estimator: ours, ours-alpha-offsets, naive or fd.
     #[arg(long, default_value = "ours")]
     pub method: String,
-    /// Iterations.
-    #[arg(long, default_value_t = 300)]
-    pub iterations: u32,
-    /// Samples per pixel per iteration.
-    #[arg(long, default_value_t = 32)]
-    pub spp: u32,
-    /// Views rendered per iteration (drawn at random).
-    #[arg(long, default_value_t = 1)]
-    pub views_per_iter: usize,
+    #[command(flatten)]
+    pub budget: IterationArgs,
     /// Image loss: l2 or l1.
     #[arg(long, default_value = "l2", value_parser = ["l2", "l1"])]
     pub loss: String,
@@ -103,6 +96,20 @@ pub struct OptimizeArgs {
     pub learned: LearnedArgs,
 }
 
+/// The work of an optimisation run (shared by `optimize` and `experiment`).
+#[derive(Args, Clone, Copy, Debug)]
+pub struct IterationArgs {
+    /// Iterations (per run).
+    #[arg(long, default_value_t = 300)]
+    pub iterations: u32,
+    /// Samples per pixel per iteration.
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    /// Views rendered per iteration (drawn at random).
+    #[arg(long, default_value_t = 1)]
+    pub views_per_iter: usize,
+}
+
 impl OptimizeArgs {
     /// The command's defaults for `--dataset dataset --out out`.
     pub fn with_defaults(dataset: PathBuf, out: PathBuf) -> Self {
@@ -121,9 +128,9 @@ fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
         albedo: a.init_albedo.map(|v| v as f64),
     });
     c.method = method;
-    c.iterations = a.iterations;
-    c.spp = a.spp;
-    c.views_per_iter = a.views_per_iter;
+    c.iterations = a.budget.iterations;
+    c.spp = a.budget.spp;
+    c.views_per_iter = a.budget.views_per_iter;
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
     c.two_renders = a.two_renders;
     c.lr_sigma_t = a.lr_sigma_t;
@@ -187,7 +194,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     let ckpt = a.out.join("checkpoint.json");
     let mut opt = if a.resume {
         let c = Checkpoint::read(&ckpt)?;
-        Optimizer::resume(c, Some(a.iterations), &accel, &model, base, targets)?
+        Optimizer::resume(c, Some(a.budget.iterations), &accel, &model, base, targets)?
     } else {
         if ckpt.exists() && !a.overwrite {
             bail!(
