@@ -63,6 +63,11 @@ pub struct OptimizeConfig {
     pub spp: u32,
     /// Views rendered per iteration.
     pub views_per_iter: usize,
+    /// Render a random `crop × crop` window of each view per iteration instead of the whole
+    /// image (as the paper's released optimiser does; clamped to the image). `None`: whole
+    /// images.
+    #[serde(default)]
+    pub crop: Option<u32>,
     /// Image loss.
     #[serde(with = "loss_name")]
     pub loss: Loss,
@@ -133,6 +138,7 @@ impl OptimizeConfig {
             iterations: 300,
             spp: 32,
             views_per_iter: 1,
+            crop: None,
             loss: Loss::L2,
             two_renders: false,
             lr_sigma_t: 0.015,
@@ -301,9 +307,35 @@ impl<'a> Optimizer<'a> {
         let views: Vec<usize> = (0..c.views_per_iter)
             .map(|_| rng.next_below(n) as usize)
             .collect();
+        // Crop windows, drawn after the views (so the views do not depend on the crop).
+        let crops: Vec<Option<(Camera, Image)>> = views
+            .iter()
+            .map(|&v| {
+                let t = &self.targets[v];
+                let Some(size) = c.crop else {
+                    return Ok(None);
+                };
+                let (w, h) = (size.min(t.camera.width), size.min(t.camera.height));
+                let x0 = rng.next_below(t.camera.width - w + 1);
+                let y0 = rng.next_below(t.camera.height - h + 1);
+                let camera = t
+                    .camera
+                    .cropped(x0, y0, w, h)
+                    .map_err(|e| InverseError::Invalid(format!("view {v}: {e}")))?;
+                Ok(Some((camera, t.image.crop(x0, y0, w, h))))
+            })
+            .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
-        for &v in &views {
-            let t = &self.targets[v];
+        for (&v, crop) in views.iter().zip(&crops) {
+            let full = &self.targets[v];
+            let t = match crop {
+                Some((camera, image)) => TargetView {
+                    camera,
+                    light: full.light,
+                    image,
+                },
+                None => TargetView { ..*full },
+            };
             let rs = RenderSettings {
                 spp: c.spp,
                 seed: hash_key(&[c.seed, k as u64]),

@@ -157,6 +157,41 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
     }
 }
 
+/// Random crops (the paper's released optimiser): a crop as large as the image is the whole
+/// image (same iterations), and 12×12 crops of the 20×20 views still recover α.
+#[test]
+fn crops_are_windows_and_still_recover_albedo() {
+    let s = setup();
+    let run = |crop: Option<u32>, iterations: u32| {
+        let mut c = config(iterations);
+        c.crop = crop;
+        let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        o.run(None, |_, _| {}).unwrap();
+        o
+    };
+    let (whole, covering) = (run(None, 4), run(Some(64), 4));
+    for (a, b) in whole.history().iter().zip(covering.history()) {
+        assert!(
+            (a.loss - b.loss).abs() <= 1e-9 * a.loss.abs(),
+            "{} vs {}",
+            a.loss,
+            b.loss
+        );
+    }
+    let truth = Params::of(&s.truth);
+    let err = |p: &Params| {
+        (0..3)
+            .map(|c| (p.albedo[c] - truth.albedo[c]).abs())
+            .fold(0.0, f64::max)
+    };
+    let cropped = run(Some(12), 40);
+    let (start, end) = (err(&config(1).init), err(&cropped.params()));
+    assert!(
+        end < 0.25 * start,
+        "α error with crops did not fall substantially: {start:.3} -> {end:.3}"
+    );
+}
+
 #[test]
 fn damaged_checkpoint_is_refused() {
     let dir = tempfile::tempdir().unwrap();

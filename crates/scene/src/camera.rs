@@ -21,6 +21,20 @@ pub struct Camera {
     pub fov_x_deg: f32,
     pub width: u32,
     pub height: u32,
+    /// A crop window of a larger film (the paper's released optimiser renders random crops):
+    /// this camera's pixel (px, py) is pixel (x0 + px, y0 + py) of the full film. `None`: the
+    /// film is `width × height`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<Crop>,
+}
+
+/// Where a cropped [`Camera`]'s pixels lie on its full film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Crop {
+    pub x0: u32,
+    pub y0: u32,
+    pub film_width: u32,
+    pub film_height: u32,
 }
 
 impl Camera {
@@ -43,6 +57,7 @@ impl Camera {
             fov_x_deg,
             width,
             height,
+            crop: None,
         }
     }
 
@@ -50,8 +65,8 @@ impl Camera {
     #[inline]
     pub fn ray(&self, px: f32, py: f32) -> (Vec3, Vec3) {
         let t = (0.5 * self.fov_x_deg.to_radians()).tan();
-        let w = self.width as f32;
-        let h = self.height as f32;
+        let (x0, y0, w, h) = self.film();
+        let (px, py) = (px + x0, py + y0);
         let d = Vec3::new(
             (1.0 - 2.0 * px / w) * t,
             (1.0 - 2.0 * py / h) * t * h / w,
@@ -60,18 +75,67 @@ impl Camera {
         (self.origin, (self.rotation * d).normalize())
     }
 
-    /// Project a world point to film coordinates (px, py), or `None` behind the camera.
+    /// Project a world point to film coordinates (px, py) of this camera's pixels, or `None`
+    /// behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let d = self.rotation.transpose() * (p - self.origin);
         if d.z <= 0.0 {
             return None;
         }
         let t = (0.5 * self.fov_x_deg.to_radians()).tan();
-        let w = self.width as f32;
-        let h = self.height as f32;
+        let (x0, y0, w, h) = self.film();
         let px = (1.0 - d.x / d.z / t) * 0.5 * w;
         let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
-        Some((px, py))
+        Some((px - x0, py - y0))
+    }
+
+    /// (x0, y0, film width, film height) in pixels, as f32.
+    #[inline]
+    fn film(&self) -> (f32, f32, f32, f32) {
+        match self.crop {
+            Some(c) => (
+                c.x0 as f32,
+                c.y0 as f32,
+                c.film_width as f32,
+                c.film_height as f32,
+            ),
+            None => (0.0, 0.0, self.width as f32, self.height as f32),
+        }
+    }
+
+    /// The camera that renders the `width × height` pixels from (x0, y0) of this camera's
+    /// image: its pixel (px, py) sees exactly what pixel (x0 + px, y0 + py) of this one sees.
+    pub fn cropped(&self, x0: u32, y0: u32, width: u32, height: u32) -> Result<Camera, SceneError> {
+        if width == 0
+            || height == 0
+            || x0.checked_add(width).is_none_or(|x1| x1 > self.width)
+            || y0.checked_add(height).is_none_or(|y1| y1 > self.height)
+        {
+            return Err(SceneError::Invalid {
+                location: "camera: crop".into(),
+                reason: format!(
+                    "{width}×{height} at ({x0}, {y0}) does not fit in the {}×{} image; use a \
+                     smaller crop",
+                    self.width, self.height
+                ),
+            });
+        }
+        let base = self.crop.unwrap_or(Crop {
+            x0: 0,
+            y0: 0,
+            film_width: self.width,
+            film_height: self.height,
+        });
+        Ok(Camera {
+            width,
+            height,
+            crop: Some(Crop {
+                x0: base.x0 + x0,
+                y0: base.y0 + y0,
+                ..base
+            }),
+            ..self.clone()
+        })
     }
 
     /// Build from a Mitsuba `to_world` matrix given row-major (`rows[r][c]`): columns 0, 1, 2 are
@@ -85,6 +149,7 @@ impl Camera {
             fov_x_deg,
             width,
             height,
+            crop: None,
         }
     }
 
@@ -187,6 +252,36 @@ mod tests {
             w,
             h,
         )
+    }
+
+    /// A crop sees exactly what the full camera sees at the shifted pixels, crops compose, and
+    /// projection returns crop-local coordinates.
+    #[test]
+    fn crops_are_windows_of_the_full_film() {
+        let full = cam(64, 48);
+        let c = full.cropped(10, 7, 20, 16).unwrap();
+        assert_eq!((c.width, c.height), (20, 16));
+        for (px, py) in [(0.0, 0.0), (3.5, 2.25), (19.9, 15.9)] {
+            assert_eq!(c.ray(px, py), full.ray(px + 10.0, py + 7.0));
+        }
+        let cc = c.cropped(4, 5, 8, 8).unwrap();
+        assert_eq!(cc.ray(1.5, 2.5), full.ray(15.5, 14.5));
+        let p = full.ray(33.25, 20.5).1 * 2.0 + full.origin;
+        let (fx, fy) = full.project(p).unwrap();
+        let (cx, cy) = c.project(p).unwrap();
+        assert!((cx + 10.0 - fx).abs() < 1e-3 && (cy + 7.0 - fy).abs() < 1e-3);
+        // Survives serialization (datasets and checkpoints store cameras).
+        let back: Camera = serde_json::from_str(&serde_json::to_string(&cc).unwrap()).unwrap();
+        assert_eq!(back, cc);
+        for (x0, y0, w, h) in [
+            (60, 0, 5, 5),
+            (0, 40, 4, 9),
+            (0, 0, 0, 4),
+            (u32::MAX, 0, 2, 2),
+        ] {
+            let e = full.cropped(x0, y0, w, h).unwrap_err().to_string();
+            assert!(e.contains("does not fit in the 64×48 image"), "{e}");
+        }
     }
 
     fn close(a: Vec3, b: Vec3, tol: f32) -> bool {

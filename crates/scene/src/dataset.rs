@@ -939,6 +939,7 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         fov_x_deg: fov_x,
         width,
         height,
+        crop: None,
     };
     probe.validate_named(&format!("{name}: camera"), "fov_deg")?;
 

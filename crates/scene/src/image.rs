@@ -41,6 +41,22 @@ impl Image {
     pub fn set(&mut self, x: u32, y: u32, v: [f32; 3]) {
         self.data[y as usize * self.width as usize + x as usize] = v;
     }
+    /// The `width × height` pixels from (x0, y0) (must lie inside the image; see
+    /// [`Camera::cropped`](crate::Camera::cropped), which checks the same window).
+    pub fn crop(&self, x0: u32, y0: u32, width: u32, height: u32) -> Image {
+        assert!(
+            x0 + width <= self.width && y0 + height <= self.height,
+            "crop outside the image"
+        );
+        let mut out = Image::new(width, height);
+        for y in 0..height {
+            let src = (y0 + y) as usize * self.width as usize + x0 as usize;
+            out.data[(y * width) as usize..((y + 1) * width) as usize]
+                .copy_from_slice(&self.data[src..src + width as usize]);
+        }
+        out
+    }
+
     /// Per-channel mean.
     pub fn mean(&self) -> [f64; 3] {
         let mut m = [0.0f64; 3];

@@ -603,6 +603,7 @@ pub(crate) fn look_at_checked(
         fov_x_deg: fov,
         width,
         height,
+        crop: None,
     };
     probe.validate_named(ctx, fov_field)?;
     let cam = Camera::look_at(o, t, u, fov, width, height);
@@ -809,6 +810,7 @@ impl RawScene {
                     fov_x_deg: r.fov,
                     width: r.width,
                     height: r.height,
+                    crop: None,
                 };
                 probe.validate_named(&ctx, "fov")?;
                 let views = rig.build();
