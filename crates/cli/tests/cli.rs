@@ -79,20 +79,19 @@ fn fails(dir: &Path, args: &[&str]) -> Run {
 
 /// Require every needle in the run's stderr.
 fn assert_stderr_has(run: &Run, needles: &[&str]) {
-    for n in needles {
-        assert!(
-            run.stderr.contains(n),
-            "stderr should mention {n:?}:\n{}",
-            run.describe()
-        );
-    }
+    assert_stream_has(run, "stderr", &run.stderr, needles);
 }
 
+/// Require every needle in the run's stdout.
 fn assert_stdout_has(run: &Run, needles: &[&str]) {
+    assert_stream_has(run, "stdout", &run.stdout, needles);
+}
+
+fn assert_stream_has(run: &Run, name: &str, text: &str, needles: &[&str]) {
     for n in needles {
         assert!(
-            run.stdout.contains(n),
-            "stdout should mention {n:?}:\n{}",
+            text.contains(n),
+            "{name} should mention {n:?}:\n{}",
             run.describe()
         );
     }

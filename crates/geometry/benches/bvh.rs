@@ -148,31 +148,23 @@ static RAYS_OUT: LazyLock<Vec<Ray>> = LazyLock::new(|| {
         .collect()
 });
 
-static RAYS_IN: LazyLock<Vec<Ray>> = LazyLock::new(|| {
-    let mut rng = Pcg32::seed_from_u64(200);
+/// `RAYS` rays from a uniform point of the ball of radius 0.8 along a uniform direction, with
+/// `tmax` drawn by `tmax`.
+fn inside_rays(seed: u64, tmax: impl Fn(&mut Pcg32) -> f32) -> Vec<Ray> {
+    let mut rng = Pcg32::seed_from_u64(seed);
     (0..RAYS)
         .map(|_| {
-            (
-                in_ball(&mut rng, 0.8),
-                unit_vector(&mut rng),
-                rng.random::<f32>(),
-            )
+            let o = in_ball(&mut rng, 0.8);
+            let d = unit_vector(&mut rng);
+            (o, d, tmax(&mut rng))
         })
         .collect()
-});
+}
 
-static RAYS_SHORT: LazyLock<Vec<Ray>> = LazyLock::new(|| {
-    let mut rng = Pcg32::seed_from_u64(400);
-    (0..RAYS)
-        .map(|_| {
-            (
-                in_ball(&mut rng, 0.8),
-                unit_vector(&mut rng),
-                -rng.random::<f32>().ln() * 0.03,
-            )
-        })
-        .collect()
-});
+static RAYS_IN: LazyLock<Vec<Ray>> = LazyLock::new(|| inside_rays(200, |r| r.random::<f32>()));
+
+static RAYS_SHORT: LazyLock<Vec<Ray>> =
+    LazyLock::new(|| inside_rays(400, |r| -r.random::<f32>().ln() * 0.03));
 
 static SEGMENTS: LazyLock<Vec<(Vec3, Vec3)>> = LazyLock::new(|| {
     let mut rng = Pcg32::seed_from_u64(300);
