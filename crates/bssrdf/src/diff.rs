@@ -63,160 +63,32 @@
 //!
 //! Batched and parallel like [`crate::render`]: rows in parallel, one network batch per row,
 //! per-thread buffers; every random number comes from the (seed, view, pixel) stream and the row
-//! results are reduced in row order, so results do not depend on the thread count. The value
-//! image is bit-identical to [`render_image`](crate::render::render_image) for the same settings.
+//! results are reduced in row order, so results do not depend on the thread count. With
+//! [`Primal::Sample`] the value image is bit-identical to
+//! [`render_image`](crate::render::render_image) for the same settings; with the default
+//! [`Primal::OffsetMean`] `Ours` takes it from the σ_t offset pair (O(Δ²) bias, no unperturbed
+//! projection, shadow ray or network pass), and ∂Absorb/∂α is evaluated only for the samples whose
+//! light term is not zero.
 
-use std::str::FromStr;
+mod naive;
+mod settings;
 
-use geometry::{Hit, Mesh};
-use glam::Vec3;
+pub use settings::{
+    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, NAIVE_STEP, Primal, UnknownMethod,
+};
+
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image, PointLight};
 
-use crate::boundary::sw;
 use crate::medium::{ReducedMedium, sigma_n_derivatives};
 use crate::nn::INPUT_DIM;
 use crate::nn::{ALBEDO_INPUT, POSITION_DIM};
 use crate::render::{
     LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers, evaluate_networks,
-    light_contribution, place_and_project, prepare_row, projection_gradient, render_row,
-    run_networks,
+    light_contribution, place_and_project, prepare_row, render_row, run_networks,
 };
-
-/// Step (scene units) of the central difference of the smooth light term in
-/// [`DiffMethod::Naive`]; the light term varies on the scale of the light distance.
-pub const NAIVE_STEP: f32 = 1e-3;
-
-/// How the derivatives are estimated (module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum DiffMethod {
-    /// Correlated offset samples for σ_t, S_abs derivative for α (the paper's method).
-    #[default]
-    Ours,
-    /// `Ours` plus offset samples for the α-dependence of σ_n.
-    OursAlphaOffsets,
-    /// Sample-position derivative with visibility held fixed (interior term only).
-    Naive,
-    /// Brute-force central differences of full renders (reference).
-    Fd,
-}
-
-impl DiffMethod {
-    /// All methods, in the order of their names.
-    pub const ALL: [DiffMethod; 4] = [
-        DiffMethod::Ours,
-        DiffMethod::OursAlphaOffsets,
-        DiffMethod::Naive,
-        DiffMethod::Fd,
-    ];
-
-    /// The name accepted by [`FromStr`].
-    pub fn name(self) -> &'static str {
-        match self {
-            DiffMethod::Ours => "ours",
-            DiffMethod::OursAlphaOffsets => "ours-alpha-offsets",
-            DiffMethod::Naive => "naive",
-            DiffMethod::Fd => "fd",
-        }
-    }
-}
-
-/// An unknown [`DiffMethod`] name.
-#[derive(Debug, thiserror::Error)]
-#[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive or fd)")]
-pub struct UnknownMethod(pub String);
-
-impl FromStr for DiffMethod {
-    type Err = UnknownMethod;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let k = s.trim().to_ascii_lowercase().replace('_', "-");
-        DiffMethod::ALL
-            .into_iter()
-            .find(|m| m.name() == k)
-            .ok_or_else(|| UnknownMethod(s.to_string()))
-    }
-}
-
-impl std::fmt::Display for DiffMethod {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Settings of the differentiable renderer.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DiffSettings {
-    pub method: DiffMethod,
-    /// Relative σ_t offset: Δ = `delta_rel`·σ_t,c (model-spec A7; default 0.02). Used by the
-    /// offset samples and by `Fd`.
-    pub delta_rel: f32,
-    /// Absolute α offset Δα of `OursAlphaOffsets` and `Fd` (default 0.01), reduced where needed
-    /// so that α ± Δα stays in [0, 1].
-    pub delta_albedo: f32,
-    /// `Fd` only: keep σ_n at its unperturbed value in the perturbed renders.
-    pub fd_fixed_sigma_n: bool,
-}
-
-impl Default for DiffSettings {
-    fn default() -> Self {
-        DiffSettings {
-            method: DiffMethod::Ours,
-            delta_rel: 0.02,
-            delta_albedo: 0.01,
-            fd_fixed_sigma_n: false,
-        }
-    }
-}
-
-/// The value image and the two derivative images (channel c: ∂I_c/∂σ_t,c and ∂I_c/∂α_c).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DiffImages {
-    pub value: Image,
-    pub d_sigma_t: Image,
-    pub d_albedo: Image,
-}
-
-/// Image loss, averaged over the 3·W·H pixel channels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Loss {
-    /// ℓ = (1/N) Σ (I − T)²; ∂ℓ/∂I = 2(I − T)/N.
-    #[default]
-    L2,
-    /// ℓ = (1/N) Σ |I − T|; ∂ℓ/∂I = sign(I − T)/N (0 at I = T).
-    L1,
-}
-
-impl Loss {
-    /// Per pixel channel: (ℓ, ∂ℓ/∂I) before the 1/N normalisation.
-    #[inline]
-    pub fn element(self, value: f32, target: f32) -> (f64, f64) {
-        let r = value as f64 - target as f64;
-        match self {
-            Loss::L2 => (r * r, 2.0 * r),
-            Loss::L1 => (
-                r.abs(),
-                if r > 0.0 {
-                    1.0
-                } else if r < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                },
-            ),
-        }
-    }
-}
-
-/// The loss, its gradient with respect to (σ_t,R, σ_t,G, σ_t,B) and (α_R, α_G, α_B), and the
-/// images when asked for.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LossGradient {
-    pub loss: f64,
-    pub d_sigma_t: [f64; 3],
-    pub d_albedo: [f64; 3],
-    pub images: Option<DiffImages>,
-}
+use naive::naive_light_derivative;
 
 /// Render one view with values and derivative images (module docs). `progress` advances by one
 /// per row.
@@ -402,6 +274,9 @@ struct DiffBuffers {
     off: [OffsetNets; 4],
     absorb: Vec<f32>,
     d_absorb: Vec<f32>,
+    /// (sample, (1 − F)·L(x_i)) of the samples with L(x_i) > 0, and their network inputs.
+    lit: Vec<(u32, f32)>,
+    lit_inputs: Vec<[f32; INPUT_DIM]>,
     dsum_t: Vec<[f64; 3]>,
     dsum_a: Vec<[f64; 3]>,
 }
@@ -544,7 +419,6 @@ fn diff_row(
 
     let row = &mut buf.row;
     prepare_row(scene, camera, rs, y, row);
-    run_networks(scene, row)?;
     let n = row.pending.len();
     if n == 0 {
         return Ok(());
@@ -556,6 +430,14 @@ fn diff_row(
         DiffMethod::OursAlphaOffsets => 4,
         DiffMethod::Fd => unreachable!(),
     };
+    // The value from the σ_t offset pair: no unperturbed sample to place (module docs).
+    let pair_primal = ds.primal == Primal::OffsetMean
+        && matches!(ds.method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets);
+    // The unperturbed decoder output and S_abs are needed unless every use reads an offset set.
+    let main_nets = !(pair_primal && sets >= 2);
+    if main_nets {
+        run_networks(scene, row)?;
+    }
     for (j, off) in buf.off.iter_mut().enumerate().take(sets) {
         off.inputs.clear();
         off.inputs
@@ -573,21 +455,18 @@ fn diff_row(
             &mut row.ws,
         )?;
     }
-    buf.absorb.resize(n, 0.0);
-    buf.d_absorb.resize(n, 0.0);
-    scene.model.absorb_input_derivative_with(
-        &row.inputs,
-        ALBEDO_INPUT,
-        &mut buf.absorb,
-        &mut buf.d_absorb,
-        &mut row.ws,
-    )?;
+    // Samples whose light term is not zero: only they need ∂Absorb/∂α (after the loop).
+    buf.lit.clear();
+    buf.lit_inputs.clear();
 
     for s in 0..n {
         let p = &row.pending[s];
         let c = p.channel as usize;
-        let yk = row.net.y[s];
-        let s_abs = 1.0 - row.net.absorb[s];
+        let (yk, s_abs) = if main_nets {
+            (row.net.y[s], 1.0 - row.net.absorb[s])
+        } else {
+            ([0.0; POSITION_DIM], 0.0)
+        };
         // (decoder output, S_abs) of offset set j: the main sample's when the descriptor is fixed.
         let at = |j: usize| -> ([f32; POSITION_DIM], f32) {
             if j < sets {
@@ -596,34 +475,47 @@ fn diff_row(
                 (yk, s_abs)
             }
         };
-        let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
-        let v = main.map_or(0.0, |hit| {
-            light_contribution(scene, light, hit.p, hit.ns, hit.ng)
-        });
+        // σ_t offset pair (Ours, OursAlphaOffsets): S_abs^±·L(x_i^±).
+        let pair =
+            matches!(ds.method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets).then(|| {
+                let [hi, lo] = k.sn_t[c];
+                let ((yp, sp), (ym, sm)) = (at(0), at(1));
+                let vp = offset_light(scene, light, p, yp, hi);
+                let vm = offset_light(scene, light, p, ym, lo);
+                (sp * vp, sm * vm, 0.5 * (vp + vm))
+            });
+        let (main, v) = match pair {
+            Some((_, _, v_mean)) if pair_primal => (None, v_mean),
+            _ => {
+                let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
+                let v = main.map_or(0.0, |hit| {
+                    light_contribution(scene, light, hit.p, hit.ns, hit.ng)
+                });
+                (main, v)
+            }
+        };
 
-        // Value: exactly the arithmetic of `render_row`.
-        if v > 0.0 {
-            let base = s_abs * p.t_cam * v;
-            if base.is_finite() {
-                let sum = &mut row.sums[p.pixel as usize];
-                if scene.grey {
-                    for (ch, acc) in sum.iter_mut().enumerate() {
-                        *acc += (base * light.intensity[ch]) as f64;
-                    }
-                } else {
-                    sum[c] += (3.0 * base * light.intensity[c]) as f64;
+        // Value: with the unperturbed sample exactly the arithmetic of `render_row`.
+        let base = match pair {
+            Some((cp, cm, _)) if pair_primal => 0.5 * (cp + cm) * p.t_cam,
+            _ => s_abs * p.t_cam * v,
+        };
+        if v > 0.0 && base.is_finite() {
+            let sum = &mut row.sums[p.pixel as usize];
+            if scene.grey {
+                for (ch, acc) in sum.iter_mut().enumerate() {
+                    *acc += (base * light.intensity[ch]) as f64;
                 }
+            } else {
+                sum[c] += (3.0 * base * light.intensity[c]) as f64;
             }
         }
 
         // ∂C/∂σ_t without the channel weight.
         let d_t = match ds.method {
             DiffMethod::Ours | DiffMethod::OursAlphaOffsets => {
-                let [hi, lo] = k.sn_t[c];
-                let ((yp, sp), (ym, sm)) = (at(0), at(1));
-                let vp = offset_light(scene, light, p, yp, hi);
-                let vm = offset_light(scene, light, p, ym, lo);
-                p.t_cam * (sp * vp - sm * vm) * k.inv_2dt[c]
+                let (cp, cm, _) = pair.expect("offset pair of Ours");
+                p.t_cam * (cp - cm) * k.inv_2dt[c]
             }
             DiffMethod::Naive => match main {
                 Some(hit) if v > 0.0 => {
@@ -644,8 +536,12 @@ fn diff_row(
             },
             DiffMethod::Fd => unreachable!(),
         };
-        // ∂C/∂α without the channel weight: −∂Absorb/∂α · (1 − F) · L(x_i).
-        let mut d_a = -buf.d_absorb[s] * k.din_da[c] * p.t_cam * v;
+        // ∂C/∂α without the channel weight: −∂Absorb/∂α · (1 − F) · L(x_i), after the loop.
+        if v > 0.0 {
+            buf.lit.push((s as u32, p.t_cam * v));
+            buf.lit_inputs.push(row.inputs[s]);
+        }
+        let mut d_a = 0.0;
         if ds.method == DiffMethod::OursAlphaOffsets {
             let [hi, lo] = k.sn_a[c];
             let ((yp, sp), (ym, sm)) = (at(2), at(3));
@@ -665,6 +561,30 @@ fn diff_row(
             }
         } else {
             acc_t[c] += (3.0 * d_t * light.intensity[c]) as f64;
+            acc_a[c] += (3.0 * d_a * light.intensity[c]) as f64;
+        }
+    }
+    // The S_abs term of ∂C/∂α, one tangent pass over the lit samples.
+    let m = buf.lit.len();
+    buf.absorb.resize(m, 0.0);
+    buf.d_absorb.resize(m, 0.0);
+    scene.model.absorb_input_derivative_with(
+        &buf.lit_inputs,
+        ALBEDO_INPUT,
+        &mut buf.absorb,
+        &mut buf.d_absorb,
+        &mut row.ws,
+    )?;
+    for (&(s, tv), &da) in buf.lit.iter().zip(&buf.d_absorb) {
+        let p = &row.pending[s as usize];
+        let c = p.channel as usize;
+        let d_a = finite_or_zero(-da * k.din_da[c] * tv);
+        let acc_a = &mut buf.dsum_a[p.pixel as usize];
+        if scene.grey {
+            for ch in 0..3 {
+                acc_a[ch] += (d_a * light.intensity[ch]) as f64;
+            }
+        } else {
             acc_a[c] += (3.0 * d_a * light.intensity[c]) as f64;
         }
     }
@@ -692,76 +612,4 @@ fn offset_light(
     place_and_project(scene, p, y, sigma_n).map_or(0.0, |hit| {
         light_contribution(scene, light, hit.p, hit.ns, hit.ng)
     })
-}
-
-/// ∇L̃(x_i)·dx_i/dσ_t of the Naive estimator (module docs): the surface motion of the projected
-/// point for dx̃ = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t) along the detached direction d, and the central
-/// difference of the smooth light term (no visibility) along it. `(y, dy)`: decoder output and
-/// its σ_t derivative; `(sigma_n, dsigma_n)`: σ_n and ∂σ_n/∂σ_t.
-fn naive_light_derivative(
-    scene: &LearnedScene,
-    light: &PointLight,
-    p: &Pending,
-    (y, dy): ([f32; POSITION_DIM], [f32; POSITION_DIM]),
-    (sigma_n, dsigma_n): (f32, f32),
-    hit: &Hit,
-) -> f32 {
-    let x_t = crate::render::proposed_point(p, y, sigma_n);
-    let (grad, _) = projection_gradient(scene, p, x_t);
-    let Some(d) = grad.try_normalize() else {
-        return 0.0;
-    };
-    let dy_total = Vec3::from(y) * dsigma_n + Vec3::from(dy) * sigma_n;
-    let dx_t = p.out_frame.to_world(dy_total);
-    let nd = hit.ng.dot(d);
-    if nd.abs() < 1e-6 {
-        return 0.0;
-    }
-    // Intersection of the line x̃ + t·d with the plane of the hit triangle: the sign of d cancels.
-    let dx_i = dx_t - d * (hit.ng.dot(dx_t) / nd);
-    let len = dx_i.length();
-    if len == 0.0 {
-        return 0.0;
-    }
-    let u = dx_i / len;
-    let mesh = scene.accel.mesh();
-    let l = |x: Vec3| smooth_light(mesh, hit.tri, hit.ng, x, light.position, scene.medium.eta);
-    len * (l(hit.p + NAIVE_STEP * u) - l(hit.p - NAIVE_STEP * u)) / (2.0 * NAIVE_STEP)
-}
-
-/// L̃(x) = Sw(n·w_l)·(n·w_l)/r² on the plane of triangle `tri` (no visibility, no clamping of the
-/// cosine: a smooth extension), with the shading normal n interpolated at x.
-fn smooth_light(mesh: &Mesh, tri: u32, ng: Vec3, x: Vec3, light: Vec3, eta: f32) -> f32 {
-    let n = shading_normal_at(mesh, tri, ng, x);
-    let to_l = light - x;
-    let r2 = to_l.length_squared();
-    let cos = n.dot(to_l) / r2.sqrt();
-    sw(cos, eta) * cos / r2
-}
-
-/// The interpolated vertex normal of triangle `tri` at the point x of its plane (barycentrics
-/// extended linearly outside the triangle), or `ng` for a mesh without normals.
-fn shading_normal_at(mesh: &Mesh, tri: u32, ng: Vec3, x: Vec3) -> Vec3 {
-    let Some(normals) = &mesh.normals else {
-        return ng;
-    };
-    let [i0, i1, i2] = mesh.indices[tri as usize];
-    let [v0, v1, v2] = mesh.triangle(tri as usize);
-    let (e1, e2, q) = (v1 - v0, v2 - v0, x - v0);
-    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (q1, q2) = (q.dot(e1), q.dot(e2));
-    let det = d11 * d22 - d12 * d12;
-    if det == 0.0 {
-        return ng;
-    }
-    let b1 = (d22 * q1 - d12 * q2) / det;
-    let b2 = (d11 * q2 - d12 * q1) / det;
-    let n = normals[i0 as usize] * (1.0 - b1 - b2)
-        + normals[i1 as usize] * b1
-        + normals[i2 as usize] * b2;
-    match n.try_normalize() {
-        Some(n) if n.dot(ng) >= 0.0 => n,
-        Some(n) => (n - 2.0 * n.dot(ng) * ng).try_normalize().unwrap_or(ng),
-        None => ng,
-    }
 }

@@ -59,8 +59,7 @@ pub fn project(
             // Ray a: from x̃ − o·d along d, t < t_max (s ∈ (−o, t_max − o) on the line x̃ + s·d);
             // ray b: from x̃ + o·d along −d (s ∈ (o − t_max, o)); both in one traversal.
             let o = origin_offset;
-            let (a, b) = accel.first_hits_both_ways(x, d, (-o, tmax - o), (o - tmax, o));
-            nearer(x, a, b)
+            accel.nearest_hit_both_ways(x, d, (-o, tmax - o), (o - tmax, o))
         }
         ProjectionRule::Vkj19 => {
             let limit = 2.0 * sigma_n * sigma_n;

@@ -382,12 +382,12 @@ pub(crate) fn prepare_row(
                         None => d_in,
                     };
                     let f = light_space_frame(d_in);
-                    (poly.rotate(f.s, f.t, f.n), f)
+                    (poly.rotate_fast(f.s, f.t, f.n), f)
                 }
                 FrameConvention::Son24Compat => {
                     let wi = -d;
                     let f = Frame::from_normal(wi);
-                    (poly.rotate(-f.s, -f.t, f.n), Frame::from_normal(n_o))
+                    (poly.rotate_fast(-f.s, -f.t, f.n), Frame::from_normal(n_o))
                 }
             };
             let coeffs = if scene.settings.planar_features {

@@ -12,7 +12,9 @@
 
 mod common;
 
-use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Loss, render_diff, render_loss_gradient};
+use bssrdf::diff::{
+    DiffImages, DiffMethod, DiffSettings, Loss, Primal, render_diff, render_loss_gradient,
+};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
 use common::{layer, slab};
@@ -427,6 +429,46 @@ fn naive_misses_the_boundary_term_and_ours_does_not() {
     }
 }
 
+/// The offset-mean primal (the mean of the two σ_t offset samples) estimates the same image as
+/// the unperturbed sample: with identical random numbers, the summed difference of the two value
+/// images lies within 4 standard errors (from the per-pixel differences, pixels independent)
+/// plus the central-difference bias (Δ²/2)·∂²I/∂σ_t², bounded by 2.5·(Δ/σ_t)²·I (|∂ ln I/∂ ln
+/// σ_t| ≤ 2 on this scene); and the derivative images do not depend on the primal.
+#[test]
+fn offset_mean_primal_estimates_the_forward_render() {
+    let s = sphere_setup(Medium {
+        eta: 1.3,
+        ..rgb_medium()
+    });
+    let scene = s.scene();
+    let r = rs(64, 5);
+    let render = |primal| {
+        let d = DiffSettings {
+            primal,
+            ..ds(DiffMethod::Ours)
+        };
+        render_diff(&scene, &s.camera, &s.light, &r, &d, None).unwrap()
+    };
+    let (pair, single) = (render(Primal::OffsetMean), render(Primal::Sample));
+    assert_eq!(pair.d_sigma_t, single.d_sigma_t);
+    let delta_rel = DiffSettings::default().delta_rel as f64;
+    for c in 0..3 {
+        let (mut sum_i, mut sum_d, mut sum_d2) = (0.0f64, 0.0f64, 0.0f64);
+        for (a, b) in pair.value.data.iter().zip(&single.value.data) {
+            let d = a[c] as f64 - b[c] as f64;
+            sum_i += b[c] as f64;
+            sum_d += d;
+            sum_d2 += d * d;
+        }
+        assert!(sum_i > 0.0);
+        let tol = 4.0 * sum_d2.sqrt() + 2.5 * delta_rel * delta_rel * sum_i;
+        println!(
+            "channel {c}: Σ I = {sum_i:.5}, Σ (pair − single) = {sum_d:.3e}, tolerance {tol:.3e}"
+        );
+        assert!(sum_d.abs() <= tol, "channel {c}: {sum_d} vs {tol}");
+    }
+}
+
 #[test]
 fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
     for grey in [false, true] {
@@ -448,8 +490,14 @@ fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
         let r = rs(8, 3);
         let img = render_image(&scene, &s.camera, &s.light, &r, None).unwrap();
         assert!(img.mean()[0] > 0.0);
-        for method in DiffMethod::ALL {
-            let d = ds(method);
+        for (method, primal) in DiffMethod::ALL
+            .into_iter()
+            .flat_map(|m| Primal::ALL.map(|p| (m, p)))
+        {
+            let d = DiffSettings {
+                primal,
+                ..ds(method)
+            };
             let run = |threads: usize| {
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
@@ -458,10 +506,15 @@ fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
                     .install(|| render_diff(&scene, &s.camera, &s.light, &r, &d, None).unwrap())
             };
             let (one, three) = (run(1), run(3));
-            assert_eq!(
-                one.value, img,
-                "{method} (grey {grey}): value differs from render_image"
-            );
+            // The offset-mean primal of Ours is another estimator (next test).
+            let pair = primal == Primal::OffsetMean
+                && matches!(method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets);
+            if !pair {
+                assert_eq!(
+                    one.value, img,
+                    "{method} {primal} (grey {grey}): value differs from render_image"
+                );
+            }
             assert_eq!(
                 one, three,
                 "{method} (grey {grey}): thread count changes the result"

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, render_diff};
+use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Primal, render_diff};
 use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
 use clap::Args;
 use scene::{Dataset, Image, Medium};
@@ -38,6 +38,9 @@ pub struct GradcheckArgs {
     /// Relative σ_t offset Δ/σ_t.
     #[arg(long, default_value_t = 0.02)]
     pub delta_rel: f32,
+    /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples) or `sample`.
+    #[arg(long, default_value = "offset-mean")]
+    pub primal: Primal,
     /// Output folder.
     #[arg(long, default_value = "out/gradcheck")]
     pub out: PathBuf,
@@ -131,6 +134,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         let ds = DiffSettings {
             method: m,
             delta_rel: a.delta_rel,
+            primal: a.primal,
             ..DiffSettings::default()
         };
         let img = render_diff(&scene, &view.camera, &view.light, &rs, &ds, None)?;

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use bssrdf::diff::{DiffMethod, Loss};
+use bssrdf::diff::{DiffMethod, Loss, Primal};
 use bssrdf::render::{LearnedScene, RenderSettings, render_image};
 use clap::Args;
 use inverse::optimize::{Checkpoint, OptimizeConfig, Optimizer, TargetView};
@@ -81,6 +81,10 @@ pub struct OptimizeArgs {
     /// Relative offset Δ/σ_t of the correlated offset samples.
     #[arg(long, default_value_t = 0.02)]
     pub delta_rel: f32,
+    /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples, O(Δ²) bias,
+    /// a third less work) or `sample` (an unperturbed sample of its own).
+    #[arg(long, default_value = "offset-mean")]
+    pub primal: Primal,
     /// Checkpoint every N iterations.
     #[arg(long, default_value_t = 10)]
     pub checkpoint_every: u32,
@@ -144,6 +148,7 @@ fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.decay_every = a.decay_every;
     c.refit_every = a.refit_every;
     c.delta_rel = a.delta_rel;
+    c.primal = a.primal;
     c.learned = a.learned.settings();
     c.seed = a.seed;
     c.params = ParamSpec {

@@ -391,6 +391,46 @@ impl Accel {
         ahead: (f32, f32),
         behind: (f32, f32),
     ) -> (Option<Hit>, Option<Hit>) {
+        let (fwd, back) = self.both_ways_raw(x, dir, ahead, behind);
+        (self.line_hit(fwd, dir), self.line_hit(back, dir))
+    }
+
+    /// Of the two answers of [`first_hits_both_ways`](Self::first_hits_both_ways), the one
+    /// nearer to `x` (smaller |s|; the one ahead on a tie), with only that one's [`Hit`] built.
+    pub fn nearest_hit_both_ways(
+        &self,
+        x: Vec3,
+        dir: Vec3,
+        ahead: (f32, f32),
+        behind: (f32, f32),
+    ) -> Option<Hit> {
+        let (fwd, back) = self.both_ways_raw(x, dir, ahead, behind);
+        let pick = match (fwd, back) {
+            (Some(a), Some(b)) => Some(if a.2.abs() <= b.2.abs() { a } else { b }),
+            (a, b) => a.or(b),
+        };
+        self.line_hit(pick, dir)
+    }
+
+    /// A raw line hit (primitive, triangle hit, line parameter s) as a [`Hit`] with `t = s`.
+    #[inline]
+    fn line_hit(&self, h: Option<(u32, TriHit, f32)>, dir: Vec3) -> Option<Hit> {
+        h.map(|(prim, th, s)| Hit {
+            t: s,
+            ..self.make_hit(prim, th, dir)
+        })
+    }
+
+    /// The traversal of [`first_hits_both_ways`](Self::first_hits_both_ways), without building
+    /// the hits.
+    #[allow(clippy::type_complexity)]
+    fn both_ways_raw(
+        &self,
+        x: Vec3,
+        dir: Vec3,
+        ahead: (f32, f32),
+        behind: (f32, f32),
+    ) -> (Option<(u32, TriHit, f32)>, Option<(u32, TriHit, f32)>) {
         let s_lo = ahead.0.min(behind.0);
         let s_hi = ahead.1.max(behind.1);
         let len = s_hi - s_lo;
@@ -429,13 +469,7 @@ impl Accel {
             }
             cutoff(&fwd)
         });
-        let hit = |h: Option<(u32, TriHit, f32)>| {
-            h.map(|(prim, th, s)| Hit {
-                t: s,
-                ..self.make_hit(prim, th, dir)
-            })
-        };
-        (hit(fwd), hit(back))
+        (fwd, back)
     }
 
     /// True when anything is hit with `tmin < t < tmax`.

@@ -963,6 +963,13 @@ fn first_hits_both_ways_match_two_closest_rays() {
         let b = accel.closest(x + o * d, -d, 0.0, tmax);
         same(ahead, a, a.map_or(0.0, |h| h.t - o), "ahead");
         same(behind, b, b.map_or(0.0, |h| o - h.t), "behind");
+        // The nearest of the two, built alone, is the one of the pair with the smaller |s|.
+        let nearest = accel.nearest_hit_both_ways(x, d, (-o, tmax - o), (o - tmax, o));
+        let want = match (ahead, behind) {
+            (Some(f), Some(b)) => Some(if f.t.abs() <= b.t.abs() { f } else { b }),
+            (f, b) => f.or(b),
+        };
+        assert_eq!(nearest, want, "nearest_hit_both_ways");
         found_ahead += a.is_some() as u32;
         found_behind += b.is_some() as u32;
     }

@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bssrdf::diff::{
-    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, render_diff, render_loss_gradient,
+    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal, render_diff,
+    render_loss_gradient,
 };
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
@@ -88,6 +89,9 @@ pub struct OptimizeConfig {
     pub refit_every: u32,
     /// Relative σ_t offset Δ/σ_t of the offset samples and of `fd`.
     pub delta_rel: f32,
+    /// Where the value image of `ours` comes from (the offset pair by default).
+    #[serde(default)]
+    pub primal: Primal,
     /// Settings of the learned renderer (projection rule, descriptor handling, ablations).
     #[serde(default)]
     pub learned: LearnedSettings,
@@ -147,6 +151,7 @@ impl OptimizeConfig {
             decay_every: 50,
             refit_every: 0,
             delta_rel: 0.02,
+            primal: Primal::default(),
             learned: LearnedSettings::default(),
             params: ParamSpec::default(),
             init,
@@ -300,6 +305,7 @@ impl<'a> Optimizer<'a> {
         let ds = DiffSettings {
             method: c.method,
             delta_rel: c.delta_rel,
+            primal: c.primal,
             ..DiffSettings::default()
         };
         let mut rng = Sampler::new(c.seed, 0x0AD1_0E55, k as u64, 0);

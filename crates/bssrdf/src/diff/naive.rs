@@ -1,0 +1,84 @@
+//! The `Naive` estimator's light derivative (Son et al. 2024 §4.1, the baseline that misses the
+//! boundary term; module docs of [`super`]): the projected point moved along the surface with
+//! visibility held fixed, and the smooth light term differentiated along that motion.
+
+use geometry::{Hit, Mesh};
+use glam::Vec3;
+use scene::PointLight;
+
+use super::NAIVE_STEP;
+use crate::boundary::sw;
+use crate::nn::POSITION_DIM;
+use crate::render::{LearnedScene, Pending, projection_gradient};
+
+/// ∇L̃(x_i)·dx_i/dσ_t of the Naive estimator (module docs): the surface motion of the projected
+/// point for dx̃ = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t) along the detached direction d, and the central
+/// difference of the smooth light term (no visibility) along it. `(y, dy)`: decoder output and
+/// its σ_t derivative; `(sigma_n, dsigma_n)`: σ_n and ∂σ_n/∂σ_t.
+pub(super) fn naive_light_derivative(
+    scene: &LearnedScene,
+    light: &PointLight,
+    p: &Pending,
+    (y, dy): ([f32; POSITION_DIM], [f32; POSITION_DIM]),
+    (sigma_n, dsigma_n): (f32, f32),
+    hit: &Hit,
+) -> f32 {
+    let x_t = crate::render::proposed_point(p, y, sigma_n);
+    let (grad, _) = projection_gradient(scene, p, x_t);
+    let Some(d) = grad.try_normalize() else {
+        return 0.0;
+    };
+    let dy_total = Vec3::from(y) * dsigma_n + Vec3::from(dy) * sigma_n;
+    let dx_t = p.out_frame.to_world(dy_total);
+    let nd = hit.ng.dot(d);
+    if nd.abs() < 1e-6 {
+        return 0.0;
+    }
+    // Intersection of the line x̃ + t·d with the plane of the hit triangle: the sign of d cancels.
+    let dx_i = dx_t - d * (hit.ng.dot(dx_t) / nd);
+    let len = dx_i.length();
+    if len == 0.0 {
+        return 0.0;
+    }
+    let u = dx_i / len;
+    let mesh = scene.accel.mesh();
+    let l = |x: Vec3| smooth_light(mesh, hit.tri, hit.ng, x, light.position, scene.medium.eta);
+    len * (l(hit.p + NAIVE_STEP * u) - l(hit.p - NAIVE_STEP * u)) / (2.0 * NAIVE_STEP)
+}
+
+/// L̃(x) = Sw(n·w_l)·(n·w_l)/r² on the plane of triangle `tri` (no visibility, no clamping of the
+/// cosine: a smooth extension), with the shading normal n interpolated at x.
+fn smooth_light(mesh: &Mesh, tri: u32, ng: Vec3, x: Vec3, light: Vec3, eta: f32) -> f32 {
+    let n = shading_normal_at(mesh, tri, ng, x);
+    let to_l = light - x;
+    let r2 = to_l.length_squared();
+    let cos = n.dot(to_l) / r2.sqrt();
+    sw(cos, eta) * cos / r2
+}
+
+/// The interpolated vertex normal of triangle `tri` at the point x of its plane (barycentrics
+/// extended linearly outside the triangle), or `ng` for a mesh without normals.
+fn shading_normal_at(mesh: &Mesh, tri: u32, ng: Vec3, x: Vec3) -> Vec3 {
+    let Some(normals) = &mesh.normals else {
+        return ng;
+    };
+    let [i0, i1, i2] = mesh.indices[tri as usize];
+    let [v0, v1, v2] = mesh.triangle(tri as usize);
+    let (e1, e2, q) = (v1 - v0, v2 - v0, x - v0);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (q1, q2) = (q.dot(e1), q.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if det == 0.0 {
+        return ng;
+    }
+    let b1 = (d22 * q1 - d12 * q2) / det;
+    let b2 = (d11 * q2 - d12 * q1) / det;
+    let n = normals[i0 as usize] * (1.0 - b1 - b2)
+        + normals[i1 as usize] * b1
+        + normals[i2 as usize] * b2;
+    match n.try_normalize() {
+        Some(n) if n.dot(ng) >= 0.0 => n,
+        Some(n) => (n - 2.0 * n.dot(ng) * ng).try_normalize().unwrap_or(ng),
+        None => ng,
+    }
+}
