@@ -347,12 +347,14 @@ pub(crate) fn prepare_row(
         for i in 0..rs.spp {
             let (jx, jy) = pixel_jitter(i, key, &mut s);
             let channel = s.next_below(3) as usize;
-            let z: [f32; LATENT_DIM] =
-                std::array::from_fn(|_| probit(s.next_f32() as f64 + 0.5 / 16_777_216.0) as f32);
+            // The latent's uniforms are drawn for every sample (same streams), inverted only
+            // for the samples that hit.
+            let u: [f32; LATENT_DIM] = std::array::from_fn(|_| s.next_f32());
             let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
             let Some(hit) = scene.accel.closest(o, d, 0.0, f32::INFINITY) else {
                 continue;
             };
+            let z = u.map(|u| probit(u as f64 + 0.5 / 16_777_216.0) as f32);
             if !hit.entering(d) {
                 continue;
             }
