@@ -316,7 +316,7 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s), seed {}\n",
+        "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s){}, seed {}\n",
         a.views,
         a.res,
         a.res,
@@ -324,6 +324,9 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
         a.budget.iterations,
         a.budget.spp,
         a.budget.views_per_iter,
+        a.budget
+            .crop
+            .map_or(String::new(), |n| format!(" (random {n}×{n} crops)")),
         a.seed
     );
     let _ = writeln!(

@@ -41,10 +41,6 @@ pub struct OptimizeArgs {
     /// other) instead of the single-render product (biased by their covariance).
     #[arg(long)]
     pub two_renders: bool,
-    /// Render a random N×N crop of each chosen view per iteration instead of the whole image
-    /// (the paper's released optimiser; clamped to the image size).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    pub crop: Option<u32>,
     /// Initial σ_t (1/unit; one value or R,G,B).
     #[arg(long, default_value = "50", value_parser = parse_rgb)]
     pub init_sigma_t: [f32; 3],
@@ -116,6 +112,10 @@ pub struct IterationArgs {
     /// Views rendered per iteration (drawn at random).
     #[arg(long, default_value_t = 1)]
     pub views_per_iter: usize,
+    /// Render a random N×N crop of each chosen view per iteration instead of the whole image
+    /// (the paper's released optimiser; clamped to the image size).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub crop: Option<u32>,
 }
 
 impl OptimizeArgs {
@@ -141,7 +141,7 @@ fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.views_per_iter = a.budget.views_per_iter;
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
     c.two_renders = a.two_renders;
-    c.crop = a.crop;
+    c.crop = a.budget.crop;
     c.lr_sigma_t = a.lr_sigma_t;
     c.lr_albedo = a.lr_albedo;
     c.decay = a.decay;

@@ -185,6 +185,9 @@ pub struct IterationRecord {
     pub d_albedo: [f64; 3],
     /// Views used.
     pub views: Vec<usize>,
+    /// Top-left pixel (x0, y0) of each view's crop window (`--crop`; empty without crops).
+    #[serde(default)]
+    pub crop_origins: Vec<[u32; 2]>,
     /// Seconds of this iteration.
     pub seconds: f64,
 }
@@ -314,7 +317,7 @@ impl<'a> Optimizer<'a> {
             .map(|_| rng.next_below(n) as usize)
             .collect();
         // Crop windows, drawn after the views (so the views do not depend on the crop).
-        let crops: Vec<Option<(Camera, Image)>> = views
+        let crops: Vec<Option<(Camera, Image, [u32; 2])>> = views
             .iter()
             .map(|&v| {
                 let t = &self.targets[v];
@@ -328,14 +331,14 @@ impl<'a> Optimizer<'a> {
                     .camera
                     .cropped(x0, y0, w, h)
                     .map_err(|e| InverseError::Invalid(format!("view {v}: {e}")))?;
-                Ok(Some((camera, t.image.crop(x0, y0, w, h))))
+                Ok(Some((camera, t.image.crop(x0, y0, w, h), [x0, y0])))
             })
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
             let t = match crop {
-                Some((camera, image)) => TargetView {
+                Some((camera, image, _)) => TargetView {
                     camera,
                     light: full.light,
                     image,
@@ -392,6 +395,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             views,
+            crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
             seconds: t0.elapsed().as_secs_f64(),
         });
         Ok(self.history.last().expect("just pushed"))

@@ -15,7 +15,7 @@ const CHANNELS: [&str; 3] = ["R", "G", "B"];
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
-         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds\n",
+         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops\n",
     );
     for r in history {
         let _ = write!(s, "{},{:.6e}", r.iteration, r.loss);
@@ -26,7 +26,19 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             let _ = write!(s, ",{v:.6e}");
         }
         let views: Vec<String> = r.views.iter().map(|v| v.to_string()).collect();
-        let _ = writeln!(s, ",{},{:.4}", views.join(" "), r.seconds);
+        // Crop origins as `x0:y0`, one per view, space-separated (empty without `--crop`).
+        let crops: Vec<String> = r
+            .crop_origins
+            .iter()
+            .map(|[x, y]| format!("{x}:{y}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            ",{},{:.4},{}",
+            views.join(" "),
+            r.seconds,
+            crops.join(" ")
+        );
     }
     scene::fsutil::atomic_write(path, s.as_bytes(), true)?;
     Ok(())

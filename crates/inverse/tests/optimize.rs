@@ -185,6 +185,22 @@ fn crops_are_windows_and_still_recover_albedo() {
             .fold(0.0, f64::max)
     };
     let cropped = run(Some(12), 40);
+    // Every iteration records one crop origin per view, inside the 20×20 image, and the
+    // windows move (a fixed window would be a bug of the stream).
+    let origins: Vec<[u32; 2]> = cropped
+        .history()
+        .iter()
+        .flat_map(|r| {
+            assert_eq!(r.crop_origins.len(), r.views.len());
+            r.crop_origins.clone()
+        })
+        .collect();
+    assert!(
+        origins.iter().all(|&[x, y]| x <= 8 && y <= 8),
+        "{origins:?}"
+    );
+    assert!(origins.iter().any(|o| *o != origins[0]), "{origins:?}");
+    assert!(whole.history().iter().all(|r| r.crop_origins.is_empty()));
     let (start, end) = (err(&config(1).init), err(&cropped.params()));
     assert!(
         end < 0.25 * start,
