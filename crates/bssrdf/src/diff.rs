@@ -75,6 +75,7 @@ mod settings;
 
 pub use settings::{
     DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, NAIVE_STEP, Primal, UnknownMethod,
+    UnknownPrimal,
 };
 
 use indicatif::ProgressBar;

@@ -602,6 +602,16 @@ fn method_names_round_trip() {
     );
     assert!("adjoint".parse::<DiffMethod>().is_err());
     assert_eq!(DiffSettings::default().method, DiffMethod::Ours);
+    for p in Primal::ALL {
+        assert_eq!(p.name().parse::<Primal>().unwrap(), p);
+    }
+    assert_eq!("Offset_Mean".parse::<Primal>().unwrap(), Primal::OffsetMean);
+    let err = "main".parse::<Primal>().unwrap_err().to_string();
+    assert!(
+        err.contains("\"main\"") && err.contains("offset-mean"),
+        "{err}"
+    );
+    assert_eq!(DiffSettings::default().primal, Primal::OffsetMean);
 }
 
 /// Timing of a 64×64 view at 32 spp (run with `--release --ignored --nocapture`).

@@ -48,14 +48,16 @@ impl DiffMethod {
 #[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive or fd)")]
 pub struct UnknownMethod(pub String);
 
+/// The choice among `all` whose `name` is `s` (case-insensitive, `_` read as `-`).
+fn by_name<T: Copy>(all: &[T], name: fn(T) -> &'static str, s: &str) -> Option<T> {
+    let k = s.trim().to_ascii_lowercase().replace('_', "-");
+    all.iter().copied().find(|&m| name(m) == k)
+}
+
 impl FromStr for DiffMethod {
     type Err = UnknownMethod;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let k = s.trim().to_ascii_lowercase().replace('_', "-");
-        DiffMethod::ALL
-            .into_iter()
-            .find(|m| m.name() == k)
-            .ok_or_else(|| UnknownMethod(s.to_string()))
+        by_name(&DiffMethod::ALL, DiffMethod::name, s).ok_or_else(|| UnknownMethod(s.to_string()))
     }
 }
 
@@ -117,14 +119,15 @@ impl Primal {
     }
 }
 
+/// An unknown [`Primal`] name.
+#[derive(Debug, thiserror::Error)]
+#[error("unknown primal {0:?} (expected sample or offset-mean)")]
+pub struct UnknownPrimal(pub String);
+
 impl FromStr for Primal {
-    type Err = String;
+    type Err = UnknownPrimal;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let k = s.trim().to_ascii_lowercase().replace('_', "-");
-        Primal::ALL
-            .into_iter()
-            .find(|m| m.name() == k)
-            .ok_or_else(|| format!("unknown primal {s:?} (expected sample or offset-mean)"))
+        by_name(&Primal::ALL, Primal::name, s).ok_or_else(|| UnknownPrimal(s.to_string()))
     }
 }
 
