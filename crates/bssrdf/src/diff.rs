@@ -86,8 +86,9 @@ use crate::medium::{ReducedMedium, sigma_n_derivatives};
 use crate::nn::INPUT_DIM;
 use crate::nn::{ALBEDO_INPUT, POSITION_DIM};
 use crate::render::{
-    LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers, evaluate_networks,
-    light_contribution, place_and_project, prepare_row, render_row, run_networks,
+    LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers, ViewRays,
+    evaluate_networks, light_contribution, place_and_project, prepare_row, render_row,
+    run_networks,
 };
 use naive::naive_light_derivative;
 
@@ -305,10 +306,11 @@ fn run(
 ) -> Result<LossGradient, RenderError> {
     let consts = Consts::new(scene, ds)?;
     let (w, h) = (camera.width, camera.height);
+    let view = ViewRays::new(scene, camera, light);
     let rows: Vec<RowResult> = (0..h)
         .into_par_iter()
         .map_init(DiffBuffers::default, |buf, y| {
-            diff_row(scene, camera, light, rs, ds, &consts, y, buf)?;
+            diff_row(scene, &view, rs, ds, &consts, y, buf)?;
             let mut r = RowResult {
                 value: Vec::new(),
                 d_sigma_t: Vec::new(),
@@ -384,15 +386,15 @@ fn run(
 #[allow(clippy::too_many_arguments)]
 fn diff_row(
     scene: &LearnedScene,
-    camera: &Camera,
-    light: &PointLight,
+    view: &ViewRays,
     rs: &RenderSettings,
     ds: &DiffSettings,
     k: &Consts,
     y: u32,
     buf: &mut DiffBuffers,
 ) -> Result<(), RenderError> {
-    let w = camera.width as usize;
+    let w = view.camera.width as usize;
+    let light = view.light;
     let inv_spp = 1.0 / rs.spp.max(1) as f64;
     buf.dsum_t.clear();
     buf.dsum_t.resize(w, [0.0; 3]);
@@ -400,12 +402,12 @@ fn diff_row(
     buf.dsum_a.resize(w, [0.0; 3]);
 
     if ds.method == DiffMethod::Fd {
-        render_row(scene, camera, light, rs, y, &mut buf.row)?;
+        render_row(scene, view, rs, y, &mut buf.row)?;
         for (param, (hi, lo, inv_diff)) in k.fd.iter().enumerate() {
             let ch = param % 3;
-            render_row(hi, camera, light, rs, y, &mut buf.fd)?;
+            render_row(hi, view, rs, y, &mut buf.fd)?;
             let plus: Vec<f64> = buf.fd.sums.iter().map(|s| s[ch]).collect();
-            render_row(lo, camera, light, rs, y, &mut buf.fd)?;
+            render_row(lo, view, rs, y, &mut buf.fd)?;
             let out = if param < 3 {
                 &mut buf.dsum_t
             } else {
@@ -419,7 +421,7 @@ fn diff_row(
     }
 
     let row = &mut buf.row;
-    prepare_row(scene, camera, rs, y, row);
+    prepare_row(scene, view, rs, y, row);
     let n = row.pending.len();
     if n == 0 {
         return Ok(());
@@ -481,8 +483,8 @@ fn diff_row(
             matches!(ds.method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets).then(|| {
                 let [hi, lo] = k.sn_t[c];
                 let ((yp, sp), (ym, sm)) = (at(0), at(1));
-                let vp = offset_light(scene, light, p, yp, hi);
-                let vm = offset_light(scene, light, p, ym, lo);
+                let vp = offset_light(scene, view, p, yp, hi);
+                let vm = offset_light(scene, view, p, ym, lo);
                 (sp * vp, sm * vm, 0.5 * (vp + vm))
             });
         let (main, v) = match pair {
@@ -490,7 +492,7 @@ fn diff_row(
             _ => {
                 let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
                 let v = main.map_or(0.0, |hit| {
-                    light_contribution(scene, light, hit.p, hit.ns, hit.ng)
+                    light_contribution(scene, view, hit.p, hit.ns, hit.ng)
                 });
                 (main, v)
             }
@@ -546,8 +548,8 @@ fn diff_row(
         if ds.method == DiffMethod::OursAlphaOffsets {
             let [hi, lo] = k.sn_a[c];
             let ((yp, sp), (ym, sm)) = (at(2), at(3));
-            let vp = offset_light(scene, light, p, yp, hi);
-            let vm = offset_light(scene, light, p, ym, lo);
+            let vp = offset_light(scene, view, p, yp, hi);
+            let vm = offset_light(scene, view, p, ym, lo);
             d_a += p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c];
         }
         let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
@@ -605,12 +607,12 @@ fn finite_or_zero(v: f32) -> f32 {
 #[inline]
 fn offset_light(
     scene: &LearnedScene,
-    light: &PointLight,
+    view: &ViewRays,
     p: &Pending,
     y: [f32; POSITION_DIM],
     sigma_n: f32,
 ) -> f32 {
     place_and_project(scene, p, y, sigma_n).map_or(0.0, |hit| {
-        light_contribution(scene, light, hit.p, hit.ns, hit.ng)
+        light_contribution(scene, view, hit.p, hit.ns, hit.ng)
     })
 }

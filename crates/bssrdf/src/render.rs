@@ -16,7 +16,8 @@
 //! Batched: one image row (width × spp samples) per network call, one feature evaluation per
 //! shading point; rows run in parallel (rayon), buffers are reused per worker thread, and every
 //! random number comes from the (seed, view, pixel) stream, so images do not depend on the thread
-//! count.
+//! count. Camera rays are answered by the view's per-pixel triangle lists ([`ViewRays`],
+//! [`geometry::PixelBins`]: the BVH's closest hit, bit for bit, from a few triangle tests).
 //!
 //! Descriptor scale: the vertex polynomials are fitted once (at σ_n,fit, model-spec §3.4) but the
 //! networks see them at the current σ_n: the light-space coefficients are rescaled by
@@ -29,11 +30,11 @@
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
 //! unrefracted camera direction, outputs in the shading frame of x_o), see model-spec A4.
 
-use geometry::{Accel, Frame, bvh::offset_origin};
+use geometry::{Accel, Frame, Hit, PixelBins, bvh::offset_origin};
 use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
-use scene::{Camera, Image, Medium, PointLight};
+use scene::{Camera, Image, Medium, PointLight, RayGen};
 use volpath::fresnel::refract;
 use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
@@ -70,6 +71,48 @@ pub struct LearnedSettings {
     /// Keep the shape descriptor exactly as fitted (SON24) instead of rescaling it to the
     /// current σ_n ([`Poly3::rescaled`] with k = σ_n/σ_n,fit); the default rescales.
     pub frozen_descriptor: bool,
+    /// Trace the camera rays through the BVH instead of the view's per-pixel triangle lists
+    /// ([`geometry::PixelBins`]; the answers are identical, the lists are faster). The reference
+    /// path of the tests.
+    #[serde(skip)]
+    pub bvh_camera_rays: bool,
+}
+
+/// A view's camera rays and its light: the camera, the point light and, unless disabled or
+/// impossible, the per-pixel triangle lists of the camera ([`Camera::pixel_bins`]), built once
+/// per rendered view.
+pub(crate) struct ViewRays<'a> {
+    pub(crate) camera: &'a Camera,
+    pub(crate) light: &'a PointLight,
+    rays: RayGen,
+    bins: Option<PixelBins>,
+}
+
+impl<'a> ViewRays<'a> {
+    pub(crate) fn new(scene: &LearnedScene, camera: &'a Camera, light: &'a PointLight) -> Self {
+        let bins = if scene.settings.bvh_camera_rays {
+            None
+        } else {
+            camera.pixel_bins(scene.accel)
+        };
+        ViewRays {
+            camera,
+            light,
+            rays: camera.ray_gen(),
+            bins,
+        }
+    }
+
+    /// The ray through film point (x + jx, y + jy) and its closest hit (`Accel::closest`).
+    #[inline]
+    fn trace(&self, accel: &Accel, x: u32, y: u32, jx: f32, jy: f32) -> (Vec3, Option<Hit>) {
+        let (o, d) = self.rays.ray(x as f32 + jx, y as f32 + jy);
+        let hit = match &self.bins {
+            Some(b) => b.closest(accel, x, y, d, 0.0, f32::INFINITY),
+            None => accel.closest(o, d, 0.0, f32::INFINITY),
+        };
+        (d, hit)
+    }
 }
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
@@ -257,10 +300,11 @@ pub fn render_image(
 ) -> Result<Image, RenderError> {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let mut img = Image::new(camera.width, camera.height);
+    let view = ViewRays::new(scene, camera, light);
     let result: Result<(), RenderError> = img.data.par_chunks_mut(w).enumerate().try_for_each_init(
         RowBuffers::default,
         |buf, (y, row)| {
-            render_row(scene, camera, light, rs, y as u32, buf)?;
+            render_row(scene, &view, rs, y as u32, buf)?;
             let inv = 1.0 / rs.spp.max(1) as f64;
             for (px, s) in row.iter_mut().zip(&buf.sums) {
                 *px = s.map(|v| (v * inv) as f32);
@@ -279,13 +323,13 @@ pub fn render_image(
 /// Render one image row into `buf.sums` (per pixel, summed over the spp samples).
 pub(crate) fn render_row(
     scene: &LearnedScene,
-    camera: &Camera,
-    light: &PointLight,
+    view: &ViewRays,
     rs: &RenderSettings,
     y: u32,
     buf: &mut RowBuffers,
 ) -> Result<(), RenderError> {
-    prepare_row(scene, camera, rs, y, buf);
+    let light = view.light;
+    prepare_row(scene, view, rs, y, buf);
     run_networks(scene, buf)?;
     // Stage 3: placement, projection, light.
     for k in 0..buf.pending.len() {
@@ -294,7 +338,7 @@ pub(crate) fn render_row(
         let Some(hit) = place_and_project(scene, p, buf.net.y[k], scene.sigma_n[c]) else {
             continue;
         };
-        let v = light_contribution(scene, light, hit.p, hit.ns, hit.ng);
+        let v = light_contribution(scene, view, hit.p, hit.ns, hit.ng);
         if v <= 0.0 {
             continue;
         }
@@ -319,12 +363,12 @@ pub(crate) fn render_row(
 /// samples (all random numbers of the row; `buf.sums` is reset to zeros).
 pub(crate) fn prepare_row(
     scene: &LearnedScene,
-    camera: &Camera,
+    view: &ViewRays,
     rs: &RenderSettings,
     y: u32,
     buf: &mut RowBuffers,
 ) {
-    let w = camera.width;
+    let w = view.camera.width;
     let m = &scene.medium;
     let model = scene.model;
     let convention = scene
@@ -350,8 +394,8 @@ pub(crate) fn prepare_row(
             // The latent's uniforms are drawn for every sample (same streams), inverted only
             // for the samples that hit.
             let u: [f32; LATENT_DIM] = std::array::from_fn(|_| s.next_f32());
-            let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
-            let Some(hit) = scene.accel.closest(o, d, 0.0, f32::INFINITY) else {
+            let (d, hit) = view.trace(scene.accel, x, y, jx, jy);
+            let Some(hit) = hit else {
                 continue;
             };
             let z = u.map(|u| probit(u as f64 + 0.5 / 16_777_216.0) as f32);
@@ -496,12 +540,12 @@ pub(crate) fn proposed_point(p: &Pending, y: [f32; POSITION_DIM], sigma_n: f32) 
 #[inline]
 pub(crate) fn light_contribution(
     scene: &LearnedScene,
-    light: &PointLight,
+    view: &ViewRays,
     x_i: Vec3,
     n_i: Vec3,
     ng: Vec3,
 ) -> f32 {
-    let to_l = light.position - x_i;
+    let to_l = view.light.position - x_i;
     let r2 = to_l.length_squared();
     if r2 <= 0.0 {
         return 0.0;

@@ -80,6 +80,7 @@ const PLANAR: LearnedSettings = LearnedSettings {
     planar_features: true,
     frames: None,
     frozen_descriptor: false,
+    bvh_camera_rays: false,
 };
 
 fn rgb_medium() -> Medium {
@@ -522,6 +523,34 @@ fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
             assert!(one.d_sigma_t.data.iter().any(|p| p[0] != 0.0));
             assert!(one.d_albedo.data.iter().any(|p| p[0] != 0.0));
         }
+    }
+}
+
+/// The per-pixel triangle lists of the camera (the default) and the BVH (the reference path)
+/// give the same camera hits, so every image and derivative image is bit-identical.
+#[test]
+fn camera_ray_lists_and_the_bvh_render_identically() {
+    let s = sphere_setup(Medium {
+        eta: 1.3,
+        ..rgb_medium()
+    });
+    let mut reference = sphere_setup(s.medium);
+    reference.settings.bvh_camera_rays = true;
+    let (scene, bvh) = (s.scene(), reference.scene());
+    let r = rs(8, 5);
+    let img = render_image(&scene, &s.camera, &s.light, &r, None).unwrap();
+    assert!(img.mean()[0] > 0.0);
+    assert_eq!(
+        img,
+        render_image(&bvh, &s.camera, &s.light, &r, None).unwrap()
+    );
+    for method in DiffMethod::ALL {
+        let d = ds(method);
+        assert_eq!(
+            render_diff(&scene, &s.camera, &s.light, &r, &d, None).unwrap(),
+            render_diff(&bvh, &s.camera, &s.light, &r, &d, None).unwrap(),
+            "{method}"
+        );
     }
 }
 

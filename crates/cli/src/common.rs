@@ -186,6 +186,10 @@ pub struct LearnedArgs {
     /// matters when the features were fitted at another medium (optimize).
     #[arg(long)]
     pub frozen_descriptor: bool,
+    /// Trace camera rays through the BVH instead of the per-pixel triangle lists of the view
+    /// (the reference path: identical images, slower).
+    #[arg(long)]
+    pub bvh_camera_rays: bool,
 }
 
 impl LearnedArgs {
@@ -202,6 +206,7 @@ impl LearnedArgs {
                 _ => None,
             },
             frozen_descriptor: self.frozen_descriptor,
+            bvh_camera_rays: self.bvh_camera_rays,
         }
     }
 

@@ -255,6 +255,11 @@ impl Accel {
         &self.mesh
     }
 
+    /// Triangle corners in BVH order (the primitive numbering of the traversal).
+    pub(crate) fn bvh_triangles(&self) -> &[[Vec3; 3]] {
+        &self.tris
+    }
+
     /// Number of BVH nodes (for statistics).
     pub fn node_count(&self) -> usize {
         self.bvh.nodes.len()
@@ -339,7 +344,7 @@ impl Accel {
     /// Upper limit for the triangle test while `best` holds the closest hit so far at `best_t`:
     /// `tmax` before the first hit, then just above `best_t`, so that a tie is seen.
     #[inline(always)]
-    fn limit(best: &Option<(u32, TriHit)>, best_t: f32, tmax: f32) -> f32 {
+    pub(crate) fn limit(best: &Option<(u32, TriHit)>, best_t: f32, tmax: f32) -> f32 {
         if best.is_some() {
             best_t.next_up()
         } else {
@@ -350,7 +355,13 @@ impl Accel {
     /// Whether a hit at `t` on `prim` replaces the best so far (closer, or a tie with a smaller
     /// triangle index). Only called with `t ≤ best_t`.
     #[inline(always)]
-    fn improves(&self, t: f32, prim: u32, best: &Option<(u32, TriHit)>, best_t: f32) -> bool {
+    pub(crate) fn improves(
+        &self,
+        t: f32,
+        prim: u32,
+        best: &Option<(u32, TriHit)>,
+        best_t: f32,
+    ) -> bool {
         t < best_t
             || best.is_some_and(|(b, _)| self.prim_tri[prim as usize] < self.prim_tri[b as usize])
     }
@@ -609,7 +620,7 @@ impl Accel {
 
     /// Full hit record from a BVH-order primitive and the test's results.
     #[inline]
-    fn make_hit(&self, prim: u32, th: TriHit, dir: Vec3) -> Hit {
+    pub(crate) fn make_hit(&self, prim: u32, th: TriHit, dir: Vec3) -> Hit {
         let TriHit { t, b1, b2, front } = th;
         let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
         let b0 = 1.0 - b1 - b2;
@@ -826,7 +837,7 @@ impl<T: Copy, const N: usize> StackVec<T, N> {
 }
 
 #[inline(always)]
-fn valid_ray(dir: Vec3, tmin: f32, tmax: f32) -> bool {
+pub(crate) fn valid_ray(dir: Vec3, tmin: f32, tmax: f32) -> bool {
     let l2 = dir.length_squared();
     l2 > 0.0 && l2.is_finite() && tmin < tmax
 }

@@ -11,12 +11,15 @@
 //! * [`triangle`]: the watertight ray/triangle test of Woop, Benthin and Wald (JCGT 2013).
 //! * [`bvh`]: [`Accel`], an 8-wide compressed BVH (obvhs CWBVH) over a mesh with closest hit,
 //!   occlusion, all hits along a segment and the length of a segment inside the closed mesh.
+//! * [`bins`]: [`PixelBins`], per-pixel triangle lists that answer a pinhole camera's primary
+//!   rays exactly as [`Accel::closest`] does, with a few triangle tests instead of a BVH descent.
 //! * [`sampling`]: area-uniform surface point sampling.
 //! * [`frame`]: orthonormal frames (Duff et al. 2017).
 //!
 //! Conventions (see CONVENTIONS.md): right-handed, +Y up; triangles counter-clockwise seen from
 //! outside, so `cross(v1 − v0, v2 − v0)` points out of the medium.
 
+pub mod bins;
 pub mod bvh;
 pub mod error;
 pub mod frame;
@@ -26,6 +29,7 @@ pub mod sampling;
 pub mod shapes;
 pub mod triangle;
 
+pub use bins::PixelBins;
 pub use bvh::{Accel, Hit};
 pub use error::GeometryError;
 pub use frame::Frame;

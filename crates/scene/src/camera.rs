@@ -5,6 +5,7 @@
 //! film coordinates (px, py) in pixels (py down):
 //! d_cam = ((1 − 2px/W)·t, (1 − 2py/H)·t·H/W, 1), d_world = normalize(R·d_cam).
 
+use geometry::{Accel, PixelBins};
 use glam::{Mat3, Vec3};
 
 use crate::SceneError;
@@ -26,6 +27,32 @@ pub struct Camera {
     /// film is `width × height`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<Crop>,
+}
+
+/// [`Camera::ray`] with the camera's constants precomputed (the same arithmetic, bit for bit).
+#[derive(Clone, Copy, Debug)]
+pub struct RayGen {
+    origin: Vec3,
+    rotation: Mat3,
+    tan_half_fov: f32,
+    /// (x0, y0, film width, film height) in pixels.
+    film: [f32; 4],
+}
+
+impl RayGen {
+    /// Primary ray through film position (px, py) (pixels, py down): (origin, unit direction).
+    #[inline]
+    pub fn ray(&self, px: f32, py: f32) -> (Vec3, Vec3) {
+        let t = self.tan_half_fov;
+        let [x0, y0, w, h] = self.film;
+        let (px, py) = (px + x0, py + y0);
+        let d = Vec3::new(
+            (1.0 - 2.0 * px / w) * t,
+            (1.0 - 2.0 * py / h) * t * h / w,
+            1.0,
+        );
+        (self.origin, (self.rotation * d).normalize())
+    }
 }
 
 /// Where a cropped [`Camera`]'s pixels lie on its full film.
@@ -64,20 +91,28 @@ impl Camera {
     /// Primary ray through film position (px, py) (pixels, py down): (origin, unit direction).
     #[inline]
     pub fn ray(&self, px: f32, py: f32) -> (Vec3, Vec3) {
-        let t = (0.5 * self.fov_x_deg.to_radians()).tan();
+        self.ray_gen().ray(px, py)
+    }
+
+    /// The constants of [`ray`](Self::ray), computed once for generating many rays.
+    pub fn ray_gen(&self) -> RayGen {
         let (x0, y0, w, h) = self.film();
-        let (px, py) = (px + x0, py + y0);
-        let d = Vec3::new(
-            (1.0 - 2.0 * px / w) * t,
-            (1.0 - 2.0 * py / h) * t * h / w,
-            1.0,
-        );
-        (self.origin, (self.rotation * d).normalize())
+        RayGen {
+            origin: self.origin,
+            rotation: self.rotation,
+            tan_half_fov: (0.5 * self.fov_x_deg.to_radians()).tan(),
+            film: [x0, y0, w, h],
+        }
     }
 
     /// Project a world point to film coordinates (px, py) of this camera's pixels, or `None`
     /// behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
+        self.project_depth(p).map(|(px, py, _)| (px, py))
+    }
+
+    /// [`project`](Self::project) plus the depth `(p − origin)·z` along the view direction.
+    pub fn project_depth(&self, p: Vec3) -> Option<(f32, f32, f32)> {
         let d = self.rotation.transpose() * (p - self.origin);
         if d.z <= 0.0 {
             return None;
@@ -86,7 +121,24 @@ impl Camera {
         let (x0, y0, w, h) = self.film();
         let px = (1.0 - d.x / d.z / t) * 0.5 * w;
         let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
-        Some((px - x0, py - y0))
+        Some((px - x0, py - y0, d.z))
+    }
+
+    /// Per-pixel candidate triangles of `accel` for this camera's primary rays
+    /// ([`PixelBins`]): [`PixelBins::closest`] then answers `accel.closest(o, d, …)` for the
+    /// ray `(o, d) = self.ray(x + jx, y + jy)` with `jx, jy ∈ [0, 1)` exactly. `None` when the
+    /// bins cannot be built (geometry on or behind the camera plane, a rotation that is not
+    /// orthonormal, too many overlaps); use the BVH then.
+    pub fn pixel_bins(&self, accel: &Accel) -> Option<PixelBins> {
+        let r = self.rotation;
+        let gram = r.transpose() * r;
+        let off = (gram - Mat3::IDENTITY).to_cols_array();
+        if !off.iter().all(|e| e.abs() <= 1e-5) {
+            return None;
+        }
+        PixelBins::build(accel, self.width, self.height, self.origin, |p| {
+            self.project_depth(p)
+        })
     }
 
     /// (x0, y0, film width, film height) in pixels, as f32.

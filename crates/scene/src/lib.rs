@@ -22,7 +22,7 @@ pub mod medium;
 pub mod rig;
 pub mod scene_file;
 
-pub use camera::{Camera, Crop};
+pub use camera::{Camera, Crop, RayGen};
 pub use dataset::{Dataset, DatasetKind, DatasetMetadata, View, load_reference_folder};
 pub use error::SceneError;
 pub use image::Image;

@@ -1,0 +1,193 @@
+//! The camera's per-pixel triangle lists ([`Camera::pixel_bins`], [`geometry::PixelBins`])
+//! against the BVH they replace for primary rays: for every ray the answer must be exactly
+//! `Accel::closest` of the same ray (same `Hit`, bit for bit). Rays: every pixel at jitters that
+//! include the pixel's corners and its far edge (0.99999994), random jitters, and rays through the
+//! projections of mesh vertices and edge midpoints (a hit on a shared vertex or edge, where the
+//! tie-break decides). Deterministic.
+
+use geometry::{Accel, Mesh, Shape, Vec3, sharp_box};
+use glam::Mat3;
+use scene::Camera;
+
+/// SplitMix64 uniforms in [0, 1) (a fixed, dependency-free stream).
+struct Uniforms(u64);
+
+impl Uniforms {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn meshes() -> Vec<(String, Mesh)> {
+    let mut out: Vec<(String, Mesh)> = Shape::NAMES
+        .iter()
+        .map(|name| {
+            (
+                name.to_string(),
+                Shape::from_name(name).unwrap().build().unwrap(),
+            )
+        })
+        .collect();
+    out.push((
+        "sharp box".into(),
+        sharp_box(Vec3::new(-0.5, -0.3, -0.4), Vec3::new(0.5, 0.3, 0.4)),
+    ));
+    out
+}
+
+fn cameras(center: Vec3, radius: f32) -> Vec<Camera> {
+    let mut out = Vec::new();
+    for (k, (dir, dist, fov)) in [
+        (Vec3::new(0.0, 0.3, 1.0), 3.0f32, 45.0f32),
+        (Vec3::new(1.0, 0.8, -0.6), 2.0, 70.0),
+        (Vec3::new(-0.2, -1.0, 0.1), 6.0, 20.0),
+        // Along an axis: the sharp box's faces are seen exactly edge-on at the silhouette.
+        (Vec3::X, 4.0, 30.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let origin = center + dir.normalize() * dist * radius;
+        let up = if dir.cross(Vec3::Y).length() < 1e-3 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        let (w, h) = if k % 2 == 0 { (40, 32) } else { (33, 47) };
+        out.push(Camera::look_at(origin, center, up, fov, w, h));
+    }
+    // A crop window of a larger film.
+    let full = Camera::look_at(
+        center + Vec3::new(0.4, 0.2, 1.0).normalize() * 3.0 * radius,
+        center,
+        Vec3::Y,
+        40.0,
+        96,
+        80,
+    );
+    out.push(full.cropped(30, 21, 37, 29).unwrap());
+    out
+}
+
+/// `bins.closest` and `accel.closest` for the ray through film point (x + jx, y + jy).
+fn check(
+    cam: &Camera,
+    accel: &Accel,
+    bins: &geometry::PixelBins,
+    x: u32,
+    y: u32,
+    j: (f32, f32),
+) -> bool {
+    let (o, d) = cam.ray(x as f32 + j.0, y as f32 + j.1);
+    let want = accel.closest(o, d, 0.0, f32::INFINITY);
+    let got = bins.closest(accel, x, y, d, 0.0, f32::INFINITY);
+    assert_eq!(got, want, "pixel ({x}, {y}) jitter {j:?}: ray {o} {d}");
+    // The RayGen path the renderers use generates the same ray.
+    assert_eq!(cam.ray_gen().ray(x as f32 + j.0, y as f32 + j.1), (o, d));
+    want.is_some()
+}
+
+#[test]
+fn pixel_bins_answer_primary_rays_exactly_like_the_bvh() {
+    let mut u = Uniforms(11);
+    for (name, mesh) in meshes() {
+        let accel = Accel::new(mesh.clone());
+        let (lo, hi) = mesh.bounds();
+        let (center, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+        let (mut hits, mut misses) = (0, 0);
+        for cam in cameras(center, radius) {
+            let bins = cam
+                .pixel_bins(&accel)
+                .unwrap_or_else(|| panic!("{name}: no bins for {cam:?}"));
+            assert_eq!(bins.size(), (cam.width, cam.height));
+            let mut count = |hit: bool| if hit { hits += 1 } else { misses += 1 };
+            for y in 0..cam.height {
+                for x in 0..cam.width {
+                    for j in [(0.0, 0.0), (0.5, 0.5), (0.999_999_94, 0.999_999_94)] {
+                        count(check(&cam, &accel, &bins, x, y, j));
+                    }
+                    for _ in 0..4 {
+                        let j = (u.next(), u.next());
+                        count(check(&cam, &accel, &bins, x, y, j));
+                    }
+                }
+            }
+            // Rays through vertices and edge midpoints that the camera sees.
+            for (k, tri) in mesh.indices.iter().enumerate().step_by(5) {
+                let a = mesh.positions[tri[0] as usize];
+                let b = mesh.positions[tri[1 + k % 2] as usize];
+                for p in [a, 0.5 * (a + b)] {
+                    let Some((px, py)) = cam.project(p) else {
+                        continue;
+                    };
+                    if px < 0.0 || py < 0.0 || px >= cam.width as f32 || py >= cam.height as f32 {
+                        continue;
+                    }
+                    let (x, y) = (px.floor(), py.floor());
+                    count(check(
+                        &cam,
+                        &accel,
+                        &bins,
+                        x as u32,
+                        y as u32,
+                        (px - x, py - y),
+                    ));
+                }
+            }
+            // Outside the image: nothing.
+            let (_, d) = cam.ray(0.5, 0.5);
+            assert_eq!(
+                bins.closest(&accel, cam.width, 0, d, 0.0, f32::INFINITY),
+                None
+            );
+        }
+        assert!(
+            hits > 1000 && misses > 1000,
+            "{name}: {hits} hits, {misses} misses: not a discriminating test"
+        );
+    }
+}
+
+/// Where the exactness argument does not hold the lists are not built and the renderers keep the
+/// BVH: geometry on or behind the camera plane, a rotation that is not orthonormal (then
+/// `project` is not the inverse of `ray`), and lists too long to pay (huge overlapping
+/// triangles).
+#[test]
+fn pixel_bins_are_not_built_where_they_cannot_be_exact() {
+    let mesh = Shape::from_name("sphere").unwrap().build().unwrap();
+    let accel = Accel::new(mesh);
+    // Inside the sphere: corners behind the camera.
+    let inside = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y, 60.0, 16, 16);
+    assert!(inside.pixel_bins(&accel).is_none());
+    let outside = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 60.0, 16, 16);
+    assert!(outside.pixel_bins(&accel).is_some());
+    let mut skewed = outside.clone();
+    skewed.rotation = Mat3::from_cols(
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.01),
+        Vec3::new(0.0, 0.0, -1.0),
+    );
+    assert!(skewed.pixel_bins(&accel).is_none());
+    // 400 stacked triangles that each cover the whole 16 × 16 image.
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for k in 0..400u32 {
+        let z = -(k as f32) * 0.01;
+        positions.extend([
+            Vec3::new(-50.0, -50.0, z),
+            Vec3::new(50.0, -50.0, z),
+            Vec3::new(0.0, 50.0, z),
+        ]);
+        indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
+    }
+    let wall = Accel::new(Mesh {
+        positions,
+        normals: None,
+        indices,
+    });
+    assert!(outside.pixel_bins(&wall).is_none());
+}
