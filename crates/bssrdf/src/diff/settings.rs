@@ -48,24 +48,30 @@ impl DiffMethod {
 #[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive or fd)")]
 pub struct UnknownMethod(pub String);
 
-/// The choice among `all` whose `name` is `s` (case-insensitive, `_` read as `-`).
-fn by_name<T: Copy>(all: &[T], name: fn(T) -> &'static str, s: &str) -> Option<T> {
-    let k = s.trim().to_ascii_lowercase().replace('_', "-");
-    all.iter().copied().find(|&m| name(m) == k)
+/// `FromStr` (the choice among `ALL` whose `name()` is the string, case-insensitive, `_` read
+/// as `-`; otherwise the error type) and `Display` (`name()`) for a named option enum.
+macro_rules! named_option {
+    ($ty:ty, $err:ident) => {
+        impl FromStr for $ty {
+            type Err = $err;
+            fn from_str(s: &str) -> Result<Self, Self::Err> {
+                let k = s.trim().to_ascii_lowercase().replace('_', "-");
+                <$ty>::ALL
+                    .into_iter()
+                    .find(|m| m.name() == k)
+                    .ok_or_else(|| $err(s.to_string()))
+            }
+        }
+
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
 }
 
-impl FromStr for DiffMethod {
-    type Err = UnknownMethod;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        by_name(&DiffMethod::ALL, DiffMethod::name, s).ok_or_else(|| UnknownMethod(s.to_string()))
-    }
-}
-
-impl std::fmt::Display for DiffMethod {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+named_option!(DiffMethod, UnknownMethod);
 
 /// Settings of the differentiable renderer.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -124,18 +130,7 @@ impl Primal {
 #[error("unknown primal {0:?} (expected sample or offset-mean)")]
 pub struct UnknownPrimal(pub String);
 
-impl FromStr for Primal {
-    type Err = UnknownPrimal;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        by_name(&Primal::ALL, Primal::name, s).ok_or_else(|| UnknownPrimal(s.to_string()))
-    }
-}
-
-impl std::fmt::Display for Primal {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+named_option!(Primal, UnknownPrimal);
 
 impl Default for DiffSettings {
     fn default() -> Self {
