@@ -483,24 +483,30 @@ fn diff_row(
             matches!(ds.method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets).then(|| {
                 let [hi, lo] = k.sn_t[c];
                 let ((yp, sp), (ym, sm)) = (at(0), at(1));
-                let vp = offset_light(scene, view, p, yp, hi);
-                let vm = offset_light(scene, view, p, ym, lo);
-                (sp * vp, sm * vm, 0.5 * (vp + vm))
+                let (vp, dvp) = offset_light(scene, view, p, yp, hi);
+                let (vm, dvm) = offset_light(scene, view, p, ym, lo);
+                (
+                    sp * vp,
+                    sm * vm,
+                    0.5 * (vp + vm),
+                    0.5 * (sp * dvp + sm * dvm),
+                )
             });
-        let (main, v) = match pair {
-            Some((_, _, v_mean)) if pair_primal => (None, v_mean),
+        // v = L(x_i); dv_law = S_abs·∂L/∂α through the exit law (the α-dependence of the
+        // light side, [`crate::exit`]), from the pair when it gives the value.
+        let (main, v, dv_law) = match pair {
+            Some((_, _, v_mean, dv_mean)) if pair_primal => (None, v_mean, dv_mean),
             _ => {
                 let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
-                let v = main.map_or(0.0, |hit| {
-                    light_contribution(scene, view, hit.p, hit.ns, hit.ng)
-                });
-                (main, v)
+                let (v, dv) =
+                    main.map_or((0.0, 0.0), |hit| light_contribution(scene, view, p, &hit));
+                (main, v, s_abs * dv)
             }
         };
 
         // Value: with the unperturbed sample exactly the arithmetic of `render_row`.
         let base = match pair {
-            Some((cp, cm, _)) if pair_primal => 0.5 * (cp + cm) * p.t_cam,
+            Some((cp, cm, _, _)) if pair_primal => 0.5 * (cp + cm) * p.t_cam,
             _ => s_abs * p.t_cam * v,
         };
         if v > 0.0 && base.is_finite() {
@@ -517,7 +523,7 @@ fn diff_row(
         // ∂C/∂σ_t without the channel weight.
         let d_t = match ds.method {
             DiffMethod::Ours | DiffMethod::OursAlphaOffsets => {
-                let (cp, cm, _) = pair.expect("offset pair of Ours");
+                let (cp, cm, _, _) = pair.expect("offset pair of Ours");
                 p.t_cam * (cp - cm) * k.inv_2dt[c]
             }
             DiffMethod::Naive => match main {
@@ -544,12 +550,12 @@ fn diff_row(
             buf.lit.push((s as u32, p.t_cam * v));
             buf.lit_inputs.push(row.inputs[s]);
         }
-        let mut d_a = 0.0;
+        let mut d_a = p.t_cam * dv_law;
         if ds.method == DiffMethod::OursAlphaOffsets {
             let [hi, lo] = k.sn_a[c];
             let ((yp, sp), (ym, sm)) = (at(2), at(3));
-            let vp = offset_light(scene, view, p, yp, hi);
-            let vm = offset_light(scene, view, p, ym, lo);
+            let (vp, _) = offset_light(scene, view, p, yp, hi);
+            let (vm, _) = offset_light(scene, view, p, ym, lo);
             d_a += p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c];
         }
         let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
@@ -602,8 +608,8 @@ fn finite_or_zero(v: f32) -> f32 {
     if v.is_finite() { v } else { 0.0 }
 }
 
-/// L(x_i) of an offset sample: x_i = Π(x_o + σ_n·R·y) with the same rule and polynomial, full
-/// light evaluation (visibility included); 0 for a miss.
+/// L(x_i) and ∂L/∂α (exit law) of an offset sample: x_i = Π(x_o + σ_n·R·y) with the same rule
+/// and polynomial, full light evaluation (visibility included); 0 for a miss.
 #[inline]
 fn offset_light(
     scene: &LearnedScene,
@@ -611,8 +617,7 @@ fn offset_light(
     p: &Pending,
     y: [f32; POSITION_DIM],
     sigma_n: f32,
-) -> f32 {
-    place_and_project(scene, p, y, sigma_n).map_or(0.0, |hit| {
-        light_contribution(scene, view, hit.p, hit.ns, hit.ng)
-    })
+) -> (f32, f32) {
+    place_and_project(scene, p, y, sigma_n)
+        .map_or((0.0, 0.0), |hit| light_contribution(scene, view, p, &hit))
 }

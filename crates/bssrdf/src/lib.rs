@@ -13,6 +13,8 @@
 //! * [`model`]: our model file format (safetensors + JSON metadata) and its validation.
 //! * [`projection`]: the projection Π of proposed points onto the mesh (§7, A5).
 //! * [`boundary`]: Fresnel transmittance, FM1 and the light-side factor Sw (§1).
+//! * [`exit`]: the light-side exit law from half-space walks, conditioned on the camera side
+//!   (replaces the cosine law of Sw by default).
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
@@ -22,6 +24,7 @@
 
 pub mod boundary;
 pub mod diff;
+pub mod exit;
 pub mod fit;
 pub mod gaussian;
 pub mod medium;

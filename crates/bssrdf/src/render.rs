@@ -40,6 +40,7 @@ use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
 
 use crate::boundary::{sw, transmittance};
+use crate::exit::{ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{ConstraintCloud, FitError, interpolate};
 use crate::gaussian::probit;
 use crate::medium::{ReducedMedium, effective_albedo};
@@ -76,6 +77,9 @@ pub struct LearnedSettings {
     /// path of the tests.
     #[serde(skip)]
     pub bvh_camera_rays: bool,
+    /// The light-side exit law: half-space walks conditioned on the camera side (default) or
+    /// the cosine law of Sw ([`crate::exit`]).
+    pub exit: ExitLaw,
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
@@ -177,6 +181,8 @@ pub struct LearnedScene<'a> {
     /// All three channels share σ_t and α: one sample serves every channel (no one-hot ×3,
     /// a third of the variance; unbiased because the sample is distributed as each channel's).
     pub(crate) grey: bool,
+    /// The exit law at each channel's albedo ([`ExitLaw::HalfSpace`]; `None`: the cosine law).
+    pub(crate) exit: Option<Box<[ExitSlice; 3]>>,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -220,7 +226,14 @@ impl<'a> LearnedScene<'a> {
             eff_albedo,
             descriptor_scale: [1.0; 3],
             grey,
+            exit: None,
         };
+        if settings.exit == ExitLaw::HalfSpace {
+            let table = ExitTable::for_medium(medium.g, medium.eta);
+            scene.exit = Some(Box::new(std::array::from_fn(|c| {
+                table.slice(medium.albedo[c])
+            })));
+        }
         scene.descriptor_scale = scene.descriptor_scale_at(sigma_n);
         Ok(scene)
     }
@@ -231,6 +244,23 @@ impl<'a> LearnedScene<'a> {
             return [1.0; 3];
         }
         std::array::from_fn(|c| sigma_n[c] / self.features.sigma_n[c])
+    }
+
+    /// The light-side exit law D(w_l) per steradian-cosine and ∂D/∂α_c for channel `c`, camera
+    /// cosine `mu_cam` and light cosine `cos_l`: f(α_c; μ_cam, cos_l)/π ([`crate::exit`]) or
+    /// the cosine law's Sw(w_l) (model-spec §1; no α dependence).
+    #[inline]
+    pub(crate) fn exit_law(&self, c: usize, mu_cam: f32, cos_l: f32) -> (f32, f32) {
+        match &self.exit {
+            Some(slices) => {
+                let (f, df) = slices[c].eval(mu_cam, cos_l);
+                (
+                    f * std::f32::consts::FRAC_1_PI,
+                    df * std::f32::consts::FRAC_1_PI,
+                )
+            }
+            None => (sw(cos_l, self.medium.eta), 0.0),
+        }
     }
 
     /// The normalised network inputs of a light-space descriptor `coeffs` (at the fit scale)
@@ -271,6 +301,8 @@ pub(crate) struct Pending {
     pub(crate) n_o: Vec3,
     /// (1 − F(cos θ_cam)).
     pub(crate) t_cam: f32,
+    /// cos θ_cam (the camera side of the exit law).
+    pub(crate) mu_cam: f32,
 }
 
 /// Reused per worker thread.
@@ -338,7 +370,7 @@ pub(crate) fn render_row(
         let Some(hit) = place_and_project(scene, p, buf.net.y[k], scene.sigma_n[c]) else {
             continue;
         };
-        let v = light_contribution(scene, view, hit.p, hit.ns, hit.ng);
+        let (v, _) = light_contribution(scene, view, p, &hit);
         if v <= 0.0 {
             continue;
         }
@@ -453,6 +485,7 @@ pub(crate) fn prepare_row(
                 poly,
                 n_o,
                 t_cam,
+                mu_cam: cos_cam,
             });
         }
     }
@@ -536,31 +569,34 @@ pub(crate) fn proposed_point(p: &Pending, y: [f32; POSITION_DIM], sigma_n: f32) 
     p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(y[0], y[1], y[2]))
 }
 
-/// Sw(w_l) · max(0, n_i·w_l) · V / r² at the entry point (without the intensity).
+/// L = D(w_l) · max(0, n_i·w_l) · V / r² at the entry point `hit` of sample `p` (without the
+/// intensity) and ∂L/∂α of the sample's channel; D is the exit law ([`LearnedScene::exit_law`]).
 #[inline]
 pub(crate) fn light_contribution(
     scene: &LearnedScene,
     view: &ViewRays,
-    x_i: Vec3,
-    n_i: Vec3,
-    ng: Vec3,
-) -> f32 {
+    p: &Pending,
+    hit: &geometry::Hit,
+) -> (f32, f32) {
+    let (x_i, n_i, ng) = (hit.p, hit.ns, hit.ng);
     let to_l = view.light.position - x_i;
     let r2 = to_l.length_squared();
     if r2 <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let r = r2.sqrt();
     let dir = to_l / r;
     let cos_l = n_i.dot(dir);
     if cos_l <= 0.0 || ng.dot(dir) <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     if scene
         .accel
         .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
     {
-        return 0.0;
+        return (0.0, 0.0);
     }
-    sw(cos_l, scene.medium.eta) * cos_l / r2
+    let (d, dd) = scene.exit_law(p.channel as usize, p.mu_cam, cos_l);
+    let g = cos_l / r2;
+    (d * g, dd * g)
 }

@@ -3,8 +3,9 @@
 //! A large flat slab lit by a distant point light (uniform irradiance E = I/r² at normal
 //! incidence) and seen from above: with planar features every sample lands on the top face near
 //! x_o, so each pixel's expectation is exactly
-//!   E[C_c] = S_abs,c · (1 − F(cos θ_cam)) · Sw(w_l) · cos θ_l · E
-//! whatever the decoder proposes (the 3× one-hot channel weighting averages to one). S_abs,c is
+//!   E[C_c] = S_abs,c · (1 − F(cos θ_cam)) · D(w_l) · cos θ_l · E
+//! whatever the decoder proposes, with D = Sw for the cosine exit law and D = f(α_c; 1, 1)/π for
+//! the half-space law (camera and light both along the normal; `bssrdf::exit`) (the 3× one-hot channel weighting averages to one). S_abs,c is
 //! computed directly from the model for the plane inputs, so the test checks the assembly of the
 //! estimator (channel selection and weighting, absorption scale, Fresnel and Sw factors,
 //! projection, shadow rays) for an arbitrary network. Tolerance: 4.5 standard errors of the
@@ -14,6 +15,7 @@
 mod common;
 
 use bssrdf::boundary::{sw, transmittance};
+use bssrdf::exit::{ExitLaw, ExitTable};
 use bssrdf::medium::{ReducedMedium, effective_albedo};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::polynomial::Poly3;
@@ -36,7 +38,14 @@ fn model() -> ShapeAdaptiveModel {
 fn planar_estimator_matches_closed_form_on_a_lit_slab() {
     let accel = slab();
     let model = model();
-    for (eta, grey) in [(1.0f32, false), (1.4, false), (1.0, true)] {
+    for (eta, grey, law) in [
+        (1.0f32, false, ExitLaw::Cosine),
+        (1.4, false, ExitLaw::Cosine),
+        (1.0, true, ExitLaw::Cosine),
+        (1.0, false, ExitLaw::HalfSpace),
+        (1.4, false, ExitLaw::HalfSpace),
+        (1.0, true, ExitLaw::HalfSpace),
+    ] {
         let medium = if grey {
             Medium {
                 sigma_t: [60.0; 3],
@@ -55,6 +64,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
         let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
         let settings = LearnedSettings {
             planar_features: true,
+            exit: law,
             ..Default::default()
         };
         let scene = LearnedScene::new(&accel, &model, &features, medium, settings).unwrap();
@@ -91,14 +101,21 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             model.features(&[x], &mut f).unwrap();
             let mut absorb = [0.0];
             model.absorb(&f, &mut absorb).unwrap();
-            let v = (1.0 - absorb[0]) as f64 * transmittance(1.0, eta) as f64 * sw(1.0, eta) as f64;
+            let d = match law {
+                ExitLaw::Cosine => sw(1.0, eta),
+                ExitLaw::HalfSpace => {
+                    let table = ExitTable::for_medium(0.0, eta);
+                    table.slice(medium.albedo[c]).eval(1.0, 1.0).0 / std::f32::consts::PI
+                }
+            };
+            let v = (1.0 - absorb[0]) as f64 * transmittance(1.0, eta) as f64 * d as f64;
             // Each sample is 3v with probability 1/3, else 0: variance 2v². A grey medium gives
             // every sample the value v (zero variance here: uniform light, every sample hits).
             let se = if grey { 1e-5 * v } else { v * (2.0 / n).sqrt() };
             let z = (m[c] - v).abs() / se;
             assert!(
                 z < 4.5,
-                "η={eta} channel {c}: pixel mean {} vs closed form {v} (z = {z:.2})",
+                "η={eta} {law:?} channel {c}: pixel mean {} vs closed form {v} (z = {z:.2})",
                 m[c]
             );
         }

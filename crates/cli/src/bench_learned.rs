@@ -59,6 +59,10 @@ pub struct LearnedBenchArgs {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Light-side exit law of the learned renders: `half-space` (default) or `cosine`
+    /// (VKJ19/SON24's Sw·cos θ_l).
+    #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
+    pub exit_law: String,
 }
 
 /// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
@@ -157,6 +161,11 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     for planar in [false, true] {
                         let settings = bssrdf::render::LearnedSettings {
                             planar_features: planar,
+                            exit: if a.exit_law == "cosine" {
+                                bssrdf::exit::ExitLaw::Cosine
+                            } else {
+                                bssrdf::exit::ExitLaw::HalfSpace
+                            },
                             ..Default::default()
                         };
                         let rep = render_views_learned(

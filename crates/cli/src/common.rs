@@ -190,6 +190,10 @@ pub struct LearnedArgs {
     /// (the reference path: identical images, slower).
     #[arg(long)]
     pub bvh_camera_rays: bool,
+    /// Light-side exit law: `half-space` (the exit direction of half-space walks of the medium,
+    /// conditioned on the camera direction; default) or `cosine` (Sw·cos θ_l of VKJ19/SON24).
+    #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
+    pub exit_law: String,
 }
 
 impl LearnedArgs {
@@ -207,6 +211,10 @@ impl LearnedArgs {
             },
             frozen_descriptor: self.frozen_descriptor,
             bvh_camera_rays: self.bvh_camera_rays,
+            exit: match self.exit_law.as_str() {
+                "cosine" => bssrdf::exit::ExitLaw::Cosine,
+                _ => bssrdf::exit::ExitLaw::HalfSpace,
+            },
         }
     }
 

@@ -6,6 +6,8 @@
 //!   more than 1e-4).
 //! * `info FILE`: architecture, parameter counts per block, normalisation, conventions,
 //!   provenance, and the plane-case outputs.
+//! * `exit-table OUT`: simulate the light-side exit law of a medium ([`bssrdf::exit`]); with
+//!   the defaults it writes the table shipped in `crates/bssrdf/data/exit-g0-eta1.json`.
 
 use std::path::{Path, PathBuf};
 
@@ -35,6 +37,29 @@ pub enum ModelCommand {
         /// Model file (.safetensors), or `shipped` for the built-in model.
         file: PathBuf,
     },
+    /// Simulate the light-side exit law f(α; μ_cam, μ_l) of a medium from half-space random
+    /// walks (bssrdf::exit) and write it as JSON. The defaults reproduce the table built into
+    /// the binary for g = 0, η = 1 (crates/bssrdf/data/exit-g0-eta1.json).
+    #[command(name = "exit-table")]
+    ExitTable {
+        /// Output file (.json).
+        out: PathBuf,
+        /// Henyey–Greenstein g.
+        #[arg(long, default_value_t = 0.0)]
+        g: f32,
+        /// Relative index of refraction n_inside/n_outside (≥ 1).
+        #[arg(long, default_value_t = 1.0)]
+        eta: f32,
+        /// Walks per albedo and entry-cosine bin.
+        #[arg(long, default_value_t = 1_000_000)]
+        walks: u32,
+        /// Seed of the walks.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Replace OUT if it exists.
+        #[arg(long)]
+        overwrite: bool,
+    },
 }
 
 pub fn run(cmd: &ModelCommand) -> Result<()> {
@@ -45,7 +70,43 @@ pub fn run(cmd: &ModelCommand) -> Result<()> {
             overwrite,
         } => import_son24(dir, out, *overwrite),
         ModelCommand::Info { file } => info(file),
+        ModelCommand::ExitTable {
+            out,
+            g,
+            eta,
+            walks,
+            seed,
+            overwrite,
+        } => exit_table(out, *g, *eta, *walks, *seed, *overwrite),
     }
+}
+
+fn exit_table(out: &Path, g: f32, eta: f32, walks: u32, seed: u64, overwrite: bool) -> Result<()> {
+    if !(g > -1.0 && g < 1.0) {
+        bail!("--g {g}: the Henyey–Greenstein g must lie in (−1, 1)");
+    }
+    if !(eta >= 1.0 && eta.is_finite()) {
+        bail!("--eta {eta}: the relative index of refraction must be ≥ 1");
+    }
+    if walks == 0 {
+        bail!("--walks must be at least 1");
+    }
+    let t0 = std::time::Instant::now();
+    let table = bssrdf::exit::ExitTable::generate(bssrdf::exit::ExitTableSettings {
+        g,
+        eta,
+        walks,
+        seed,
+    });
+    let json = serde_json::to_string(&table)?;
+    scene::fsutil::atomic_write(out, json.as_bytes(), overwrite)
+        .with_context(|| format!("writing {}", out.display()))?;
+    eprintln!(
+        "exit table (g = {g}, η = {eta}, {walks} walks per row) in {:.1} s -> {}",
+        t0.elapsed().as_secs_f64(),
+        out.display()
+    );
+    Ok(())
 }
 
 /// Golden values of the reference README (plane p = u_z, α = 0.9, g = 0, η = 1, z = 0).

@@ -7,7 +7,6 @@ use glam::Vec3;
 use scene::PointLight;
 
 use super::NAIVE_STEP;
-use crate::boundary::sw;
 use crate::nn::POSITION_DIM;
 use crate::render::{LearnedScene, Pending, projection_gradient};
 
@@ -41,19 +40,24 @@ pub(super) fn naive_light_derivative(
         return 0.0;
     }
     let u = dx_i / len;
-    let mesh = scene.accel.mesh();
-    let l = |x: Vec3| smooth_light(mesh, hit.tri, hit.ng, x, light.position, scene.medium.eta);
+    let l = |x: Vec3| smooth_light(scene, p, (hit.tri, hit.ng), x, light.position);
     len * (l(hit.p + NAIVE_STEP * u) - l(hit.p - NAIVE_STEP * u)) / (2.0 * NAIVE_STEP)
 }
 
-/// L̃(x) = Sw(n·w_l)·(n·w_l)/r² on the plane of triangle `tri` (no visibility, no clamping of the
+/// L̃(x) = D(w_l)·(n·w_l)/r² (D the exit law of the sample) on the plane of triangle `tri` (no visibility, no clamping of the
 /// cosine: a smooth extension), with the shading normal n interpolated at x.
-fn smooth_light(mesh: &Mesh, tri: u32, ng: Vec3, x: Vec3, light: Vec3, eta: f32) -> f32 {
-    let n = shading_normal_at(mesh, tri, ng, x);
+fn smooth_light(
+    scene: &LearnedScene,
+    p: &Pending,
+    (tri, ng): (u32, Vec3),
+    x: Vec3,
+    light: Vec3,
+) -> f32 {
+    let n = shading_normal_at(scene.accel.mesh(), tri, ng, x);
     let to_l = light - x;
     let r2 = to_l.length_squared();
     let cos = n.dot(to_l) / r2.sqrt();
-    sw(cos, eta) * cos / r2
+    scene.exit_law(p.channel as usize, p.mu_cam, cos).0 * cos / r2
 }
 
 /// The interpolated vertex normal of triangle `tri` at the point x of its plane (barycentrics

@@ -1,0 +1,94 @@
+//! The half-space walker of `bssrdf::exit` (depth and direction cosine only, a specialisation for
+//! speed) against the library walk of the training data, `learn::walk::random_walk`, on the
+//! plane p = u_z: the same exit-cosine histograms (two-sample chi-square) and escaped fractions.
+
+use bssrdf::exit::{ExitTable, ExitTableSettings, MU_BINS};
+use bssrdf::medium::sigma_n;
+use bssrdf::polynomial::Poly3;
+use glam::Vec3;
+use learn::walk::{WalkMedium, WalkOutcome, WalkSurface, random_walk};
+use rayon::prelude::*;
+use volpath::rng::Sampler;
+
+/// χ²(15) quantile at p = 0.999.
+const CHI2_15_999: f64 = 37.70;
+
+fn lambert_mass(j: usize) -> f64 {
+    let (lo, hi) = (j as f64 / MU_BINS as f64, (j + 1) as f64 / MU_BINS as f64);
+    hi * hi - lo * lo
+}
+
+/// Exit-cosine histogram and escaped count of `walks` library walks entering with outside
+/// cosine uniform in bin `i` (refracted into the medium).
+fn library_row(albedo: f64, g: f64, eta: f64, i: usize, walks: u64) -> ([f64; MU_BINS], f64) {
+    let sn = sigma_n(1.0, albedo, g);
+    let surface = WalkSurface::new(&Poly3::plane(Vec3::Z), sn);
+    let medium = WalkMedium {
+        sigma_t: 1.0,
+        albedo,
+        g,
+        eta,
+    };
+    let h = (0..walks)
+        .into_par_iter()
+        .map(|k| {
+            let mut rng = Sampler::new(5, i as u64, k, 0);
+            let mu_c = (i as f64 + rng.next_f32() as f64) / MU_BINS as f64;
+            let mu_in = (1.0 - (1.0 - mu_c * mu_c) / (eta * eta)).max(1e-6).sqrt();
+            let d_in = Vec3::new((1.0 - mu_in * mu_in).sqrt() as f32, 0.0, -mu_in as f32);
+            let mut h = [0.0; MU_BINS];
+            if let WalkOutcome::Exited(e) = random_walk(&surface, &medium, d_in, &mut rng) {
+                let j = ((e.direction.z.max(0.0) * MU_BINS as f32) as usize).min(MU_BINS - 1);
+                h[j] = 1.0;
+            }
+            h
+        })
+        .reduce(
+            || [0.0; MU_BINS],
+            |mut a, b| {
+                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
+    (h, h.iter().sum())
+}
+
+#[test]
+fn the_fast_walker_matches_the_training_walk() {
+    // (g, η, albedo index into ONE_MINUS_ALBEDO, entry bins)
+    for (g, eta, a) in [(0.0f32, 1.0f32, 6usize), (0.5, 1.3, 4)] {
+        let table = ExitTable::generate(ExitTableSettings {
+            g,
+            eta,
+            walks: 40_000,
+            seed: 1,
+        });
+        let albedo = 1.0 - bssrdf::exit::ONE_MINUS_ALBEDO[a] as f64;
+        for i in [1usize, 8, 15] {
+            let r = a * MU_BINS + i;
+            let n1 = table.escaped[r] as f64 * table.settings.walks as f64;
+            let c1: Vec<f64> = (0..MU_BINS)
+                .map(|j| table.f[r * MU_BINS + j] as f64 * lambert_mass(j) * n1)
+                .collect();
+            let walks = 20_000u64;
+            let (c2, n2) = library_row(albedo, g as f64, eta as f64, i, walks);
+            // Two-sample χ² over bins with counts (k1 = √(n2/n1), k2 = √(n1/n2)).
+            let (k1, k2) = ((n2 / n1).sqrt(), (n1 / n2).sqrt());
+            let chi2: f64 = (0..MU_BINS)
+                .filter(|&j| c1[j] + c2[j] > 0.0)
+                .map(|j| (k1 * c1[j] - k2 * c2[j]).powi(2) / (c1[j] + c2[j]))
+                .sum();
+            assert!(
+                chi2 < CHI2_15_999,
+                "g={g} η={eta} α={albedo} entry bin {i}: χ² = {chi2:.1}"
+            );
+            // Escaped fractions: binomial, 5 standard errors of the difference.
+            let (e1, e2) = (table.escaped[r] as f64, n2 / walks as f64);
+            let se = (e1 * (1.0 - e1) * (1.0 / walks as f64 + 1.0 / 40_000.0)).sqrt();
+            assert!(
+                (e1 - e2).abs() < 5.0 * se,
+                "g={g} η={eta} α={albedo} entry bin {i}: escaped {e1} vs {e2}"
+            );
+        }
+    }
+}
