@@ -115,16 +115,19 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     }
     println!(
         "recovering the medium from the images: learned BSSRDF (shipped model), estimator `ours`, \
-         {} iterations from σ_t = 50, α = 0.5 (Adam on ln σ_t and α)",
-        a.iterations
+         {} iterations from σ_t = 50, α = 0.5 (Adam on ln σ_t and α, α alone for the first {})",
+        a.iterations,
+        30.min(a.iterations / 3)
     );
     let mut o =
         crate::optimize_cmd::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
     o.two_renders = true;
-    // ln σ_t converged better than σ_t/100 on this scene (BENCHMARKS.md, "demo").
+    // ln σ_t converged better than σ_t/100 on this scene, and α first keeps σ_t from
+    // collapsing while the images are too dark (BENCHMARKS.md, "demo", "Albedo first").
     o.log_sigma_t = true;
+    o.albedo_warmup = 30.min(a.iterations / 3);
     o.overwrite = true;
     crate::optimize_cmd::run(&o)
 }

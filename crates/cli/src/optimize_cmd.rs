@@ -62,6 +62,10 @@ pub struct OptimizeArgs {
     /// Optimise ln σ_t instead of σ_t/100.
     #[arg(long)]
     pub log_sigma_t: bool,
+    /// Albedo first: keep σ_t at its initial value for this many initial iterations (part of
+    /// the iteration budget) while α converges.
+    #[arg(long, default_value_t = 0)]
+    pub albedo_warmup: u32,
     /// One σ_t and one α for all channels.
     #[arg(long)]
     pub monochrome: bool,
@@ -151,6 +155,7 @@ fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.primal = a.primal;
     c.learned = a.learned.settings();
     c.seed = a.seed;
+    c.albedo_warmup = a.albedo_warmup;
     c.params = ParamSpec {
         parameterisation: if a.log_sigma_t {
             Parameterisation::Log

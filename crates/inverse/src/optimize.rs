@@ -101,6 +101,12 @@ pub struct OptimizeConfig {
     pub init: Params,
     /// Seed.
     pub seed: u64,
+    /// Albedo first: for this many initial iterations σ_t stays at its initial value (zero
+    /// gradient, no Adam moment), and only α moves. From σ_t = 50, α = 0.5 the images start far
+    /// too dark; the joint gradient then pulls σ_t down (darker as σ_t grows) while α climbs,
+    /// and Adam's memory of those steps keeps σ_t low (BENCHMARKS.md, "Albedo first").
+    #[serde(default)]
+    pub albedo_warmup: u32,
 }
 
 mod method_name {
@@ -156,6 +162,7 @@ impl OptimizeConfig {
             params: ParamSpec::default(),
             init,
             seed: 0,
+            albedo_warmup: 0,
         }
     }
 }
@@ -378,14 +385,13 @@ impl<'a> Optimizer<'a> {
             )));
         }
         let mut g = c.params.chain(&p, ds_t, da);
-        let scale = [
-            c.lr_sigma_t,
-            c.lr_sigma_t,
-            c.lr_sigma_t,
-            c.lr_albedo,
-            c.lr_albedo,
-            c.lr_albedo,
-        ];
+        let lr_t = if k < c.albedo_warmup {
+            g[..3].fill(0.0);
+            0.0
+        } else {
+            c.lr_sigma_t
+        };
+        let scale = [lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
         self.adam.step_scaled(&mut self.u, &mut g, &scale);
         c.params.clamp(&mut self.u);
         self.history.push(IterationRecord {

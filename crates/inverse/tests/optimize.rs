@@ -157,6 +157,32 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
     }
 }
 
+/// Albedo first: σ_t keeps its initial value exactly for the warm-up iterations while α moves,
+/// and moves afterwards.
+#[test]
+fn albedo_warmup_holds_sigma_t_then_releases_it() {
+    let s = setup();
+    let mut c = config(8);
+    c.params.fix_sigma_t = false;
+    c.lr_sigma_t = 0.05;
+    c.albedo_warmup = 5;
+    let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    o.run(None, |_, _| {}).unwrap();
+    let h = o.history();
+    let init = h[0].params.sigma_t;
+    for r in &h[..6] {
+        // Record k holds the parameters before step k: steps 0..4 are the warm-up.
+        assert_eq!(r.params.sigma_t, init, "iteration {}", r.iteration);
+    }
+    assert!(h[5].params.albedo != h[0].params.albedo, "α did not move");
+    let end = o.params();
+    assert!(
+        (0..3).all(|ch| end.sigma_t[ch] != init[ch]),
+        "σ_t did not move after the warm-up: {:?}",
+        end.sigma_t
+    );
+}
+
 /// Random crops (the paper's released optimiser): a crop as large as the image is the whole
 /// image (same iterations), and 12×12 crops of the 20×20 views still recover α.
 #[test]
