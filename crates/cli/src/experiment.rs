@@ -259,6 +259,64 @@ fn optimize(
     label: &str,
 ) -> Result<Row> {
     let result = run_dir.join("result.json");
+    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
+    o.method = method.to_string();
+    o.budget = a.budget;
+    o.two_renders = true;
+    o.log_sigma_t = !a.scaled_sigma_t;
+    o.albedo_warmup = a.albedo_warmup;
+    o.init_sigma_t = init.sigma_t.map(|v| v as f32);
+    o.init_albedo = init.albedo.map(|v| v as f32);
+    o.seed = a.seed;
+    o.final_spp = 16;
+    // A finished or interrupted run is reused only if it was made with these settings (the
+    // iteration count aside; numbers compare at f32 precision, as the files write them either
+    // way).
+    let expected = serde_json::to_value(crate::optimize_cmd::config_of(&o)?)?;
+    let same = |c: &serde_json::Value| {
+        let n = |v: &serde_json::Value| v.as_object().map_or(0, |m| m.len());
+        n(c) == n(&expected)
+            && expected.as_object().is_some_and(|m| {
+                m.iter().all(|(k, e)| {
+                    k == "iterations" || c.get(k.as_str()).is_some_and(|v| json_close(v, e))
+                })
+            })
+    };
+    let checkpoint = run_dir.join("checkpoint.json");
+    for file in [&result, &checkpoint] {
+        if let Ok(v) = read_result(file)
+            && !same(&v["config"])
+        {
+            let differing: Vec<&String> = expected
+                .as_object()
+                .map(|m| {
+                    m.iter()
+                        .filter(|(k, e)| {
+                            *k != "iterations"
+                                && !v["config"]
+                                    .get(k.as_str())
+                                    .is_some_and(|c| json_close(c, e))
+                        })
+                        .map(|(k, _)| k)
+                        .collect()
+                })
+                .unwrap_or_default();
+            bail!(
+                "{} holds a run made with other settings than this command's (differing: {}); \
+                 use another --out or remove that folder",
+                run_dir.display(),
+                if differing.is_empty() {
+                    "the format".to_string()
+                } else {
+                    differing
+                        .iter()
+                        .map(|k| k.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            );
+        }
+    }
     let done = read_result(&result)
         .ok()
         .is_some_and(|v| v["iterations"].as_u64() == Some(a.budget.iterations as u64));
@@ -266,17 +324,7 @@ fn optimize(
         println!("run {label} ({method}): reusing {}", run_dir.display());
     } else {
         println!("run {label} ({method}): {} iterations", a.budget.iterations);
-        let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-        o.method = method.to_string();
-        o.budget = a.budget;
-        o.two_renders = true;
-        o.log_sigma_t = !a.scaled_sigma_t;
-        o.albedo_warmup = a.albedo_warmup;
-        o.init_sigma_t = init.sigma_t.map(|v| v as f32);
-        o.init_albedo = init.albedo.map(|v| v as f32);
-        o.seed = a.seed;
-        o.final_spp = 16;
-        o.resume = run_dir.join("checkpoint.json").exists();
+        o.resume = checkpoint.exists();
         crate::optimize_cmd::run(&o)?;
     }
     let v = read_result(&result)?;
@@ -299,6 +347,29 @@ fn optimize(
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
         run_dir: run_dir.to_path_buf(),
     })
+}
+
+/// Equal JSON values, numbers equal to f32 precision (relative 1e-6).
+fn json_close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (
+                x.as_f64().unwrap_or(f64::NAN),
+                y.as_f64().unwrap_or(f64::NAN),
+            );
+            x == y || (x - y).abs() <= 1e-6 * x.abs().max(y.abs())
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(x, y)| json_close(x, y))
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len()
+                && x.iter()
+                    .all(|(k, v)| y.get(k).is_some_and(|w| json_close(v, w)))
+        }
+        _ => a == b,
+    }
 }
 
 fn read_result(path: &Path) -> Result<serde_json::Value> {

@@ -133,7 +133,7 @@ impl OptimizeArgs {
     }
 }
 
-fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
+pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     let method: DiffMethod = a.method.parse()?;
     let mut c = OptimizeConfig::new(Params {
         sigma_t: a.init_sigma_t.map(|v| v as f64),

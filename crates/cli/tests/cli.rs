@@ -1458,6 +1458,11 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
             .join("\n")
     };
     assert_eq!(table(&first.stdout), table(&second.stdout));
+    // Runs made with another schedule are not reused (nor continued): a clear error instead.
+    let mut other = args.to_vec();
+    other.extend(["--albedo-warmup", "1"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["other settings", "sphere-m0-ours"]);
     // Unknown shapes and methods are refused before any work.
     let bad = fails(
         d.path(),
