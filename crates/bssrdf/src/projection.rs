@@ -166,6 +166,20 @@ mod tests {
         )
         .expect("fallback pass");
         assert!((h.p - Vec3::new(0.0, 0.0, 0.5)).length() < 1e-3);
+        // The reach is `max_dist_scale`·σ_n from x̃ on either side: 0.1 away is out of reach at
+        // 9σ_n and within it at 12σ_n.
+        let reach = |k: f32| ProjectionRule::Son24 {
+            max_dist_scale: k,
+            origin_offset: 0.01,
+        };
+        assert!(project(&accel, reach(9.0), x, 2.0 * x, 0.16 - 0.25, sigma_n).is_none());
+        let h = project(&accel, reach(12.0), x, 2.0 * x, 0.16 - 0.25, sigma_n).expect("in reach");
+        assert!((h.p - Vec3::new(0.0, 0.0, 0.5)).length() < 1e-3);
+        let outside = Vec3::new(0.0, 0.0, 0.6);
+        let v = 0.36 - 0.25;
+        assert!(project(&accel, reach(9.0), outside, 2.0 * outside, v, sigma_n).is_none());
+        let h = project(&accel, reach(12.0), outside, 2.0 * outside, v, sigma_n).expect("in reach");
+        assert!((h.p - Vec3::new(0.0, 0.0, 0.5)).length() < 1e-3);
         // Within the bound it hits, and takes the nearer of the two sides.
         let x = Vec3::new(0.0, 0.0, 0.49);
         let h = project(

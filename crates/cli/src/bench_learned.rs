@@ -63,6 +63,12 @@ pub struct LearnedBenchArgs {
     /// (VKJ19/SON24's Sw·cos θ_l).
     #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
     pub exit_law: String,
+    /// Projection rule of the learned renders: `son24` (default) or `vkj19`.
+    #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
+    pub projection: String,
+    /// Reach of the `son24` projection in units of σ_n (SON24: 2).
+    #[arg(long, default_value_t = 2.0, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
+    pub max_dist_scale: f32,
 }
 
 /// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
@@ -161,6 +167,10 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     for planar in [false, true] {
                         let settings = bssrdf::render::LearnedSettings {
                             planar_features: planar,
+                            projection: crate::common::projection_rule(
+                                &a.projection,
+                                a.max_dist_scale,
+                            ),
                             exit: if a.exit_law == "cosine" {
                                 bssrdf::exit::ExitLaw::Cosine
                             } else {

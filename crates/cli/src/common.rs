@@ -173,10 +173,14 @@ pub struct LearnedArgs {
     /// goes along −n(x_o).
     #[arg(long)]
     pub planar_features: bool,
-    /// Projection rule: `son24` (bounded, 2σ_n + 0.01, single pass) or `vkj19` (2σ_n², then
-    /// unbounded).
+    /// Projection rule: `son24` (bounded, `--max-dist-scale`·σ_n + 0.01, single pass) or `vkj19`
+    /// (2σ_n², then unbounded).
     #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
     pub projection: String,
+    /// Reach of the `son24` projection in units of σ_n (SON24: 2). Proposals farther than this
+    /// from the mesh along the polynomial gradient are invalid samples (value 0).
+    #[arg(long, default_value_t = 2.0, value_parser = parse_reach, allow_hyphen_values = true)]
+    pub max_dist_scale: f32,
     /// Frame convention of features and outputs: the model's own (default), `vkj19` or
     /// `son24-compat` (model-spec A4).
     #[arg(long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
@@ -196,13 +200,68 @@ pub struct LearnedArgs {
     pub exit_law: String,
 }
 
+/// `--max-dist-scale`: a finite, positive multiple of σ_n.
+pub fn parse_reach(s: &str) -> std::result::Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number; give the reach in units of σ_n, e.g. 3"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the projection reach must be a positive multiple of σ_n, got {s}"
+        ))
+    }
+}
+
+/// The projection rule named on the command line (`son24` with reach `max_dist_scale`·σ_n, or
+/// `vkj19`).
+pub fn projection_rule(name: &str, max_dist_scale: f32) -> bssrdf::projection::ProjectionRule {
+    match name {
+        "vkj19" => bssrdf::projection::ProjectionRule::Vkj19,
+        _ => match bssrdf::projection::ProjectionRule::default() {
+            bssrdf::projection::ProjectionRule::Son24 { origin_offset, .. } => {
+                bssrdf::projection::ProjectionRule::Son24 {
+                    max_dist_scale,
+                    origin_offset,
+                }
+            }
+            rule => rule,
+        },
+    }
+}
+
 impl LearnedArgs {
+    /// One line naming the model and the settings that differ between runs (for report headers).
+    pub fn describe(&self) -> String {
+        let model = self
+            .model
+            .as_ref()
+            .map_or("shipped".to_string(), |p| p.display().to_string());
+        let projection = match self.projection.as_str() {
+            "vkj19" => "vkj19 projection".to_string(),
+            _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
+        };
+        format!(
+            "model {model}, {} exit law, {projection}{}{}",
+            self.exit_law,
+            if self.planar_features {
+                ", planar features"
+            } else {
+                ""
+            },
+            if self.frozen_descriptor {
+                ", frozen descriptor"
+            } else {
+                ""
+            }
+        )
+    }
+
     pub fn settings(&self) -> bssrdf::render::LearnedSettings {
         bssrdf::render::LearnedSettings {
-            projection: match self.projection.as_str() {
-                "vkj19" => bssrdf::projection::ProjectionRule::Vkj19,
-                _ => bssrdf::projection::ProjectionRule::default(),
-            },
+            projection: projection_rule(&self.projection, self.max_dist_scale),
             planar_features: self.planar_features,
             frames: match self.frames.as_str() {
                 "vkj19" => Some(bssrdf::model::FrameConvention::Vkj19),

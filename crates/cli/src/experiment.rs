@@ -6,7 +6,7 @@
 //!    rendered by our volumetric path tracer: `--views` cameras on a sphere of radius 2 around the
 //!    object, one fixed point light for all views (the paper's data, model-spec §8.3).
 //! 2. Recovery: `translucent optimize` with each method of `--methods` from σ_t = 50, α = 0.5
-//!    (`--iterations`, `--spp`), and `--inits` random initialisations on the first case (Fig. 7).
+//!    (`--iterations`, `--spp`), and `--inits` random initialisations on one case (`--inits-case`, default the first; Fig. 7).
 //! 3. Report: per case and method σ_t relative error and α absolute error per channel, the
 //!    paper-style RMSE over the channels (σ_t in 1/unit), seconds per iteration; per method the
 //!    medians against the goal (σ_t ≤ 5 %, α ≤ 0.01). Printed, and written as `OUT/table.md` and
@@ -70,12 +70,17 @@ pub struct AccuracyArgs {
     /// Albedo first: σ_t stays at its initial value for this many initial iterations.
     #[arg(long, default_value_t = 30)]
     pub albedo_warmup: u32,
-    /// Random initialisations on the first case with the first method (0: none).
+    /// Random initialisations on one case (`--inits-case`) with the first method (0: none).
     #[arg(long, default_value_t = 8)]
     pub inits: u32,
+    /// The case of the random initialisations (e.g. `torus-m0`; default: the first case).
+    #[arg(long)]
+    pub inits_case: Option<String>,
     /// Seed of the media, the renders and the runs.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    #[command(flatten)]
+    pub learned: crate::common::LearnedArgs,
 }
 
 pub fn run(cmd: &ExperimentCommand) -> Result<()> {
@@ -140,6 +145,19 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
         }
     }
 
+    let init_case = match &a.inits_case {
+        Some(want) => Some(cases.iter().find(|(n, ..)| n == want).with_context(|| {
+            format!(
+                "--inits-case: no case named {want:?}; the cases are {}",
+                cases
+                    .iter()
+                    .map(|(n, ..)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?),
+        None => cases.first(),
+    };
     let default_init = Params {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
@@ -160,7 +178,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
         }
     }
     let mut init_rows = Vec::new();
-    if let Some((name, dir, medium)) = cases.first() {
+    if let Some((name, dir, medium)) = init_case {
         let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
         for i in 0..a.inits {
             let init = Params {
@@ -269,6 +287,7 @@ fn optimize(
     o.init_albedo = init.albedo.map(|v| v as f32);
     o.seed = a.seed;
     o.final_spp = 16;
+    o.learned = a.learned.clone();
     // A finished or interrupted run is reused only if it was made with these settings (the
     // iteration count aside; numbers compare at f32 precision, as the files write them either
     // way).
@@ -392,7 +411,7 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s){}, {}, α first for {} iterations, seed {}\n",
+        "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s){}, {}, α first for {} iterations, seed {}; {}\n",
         a.views,
         a.res,
         a.res,
@@ -409,7 +428,8 @@ fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
             "Adam on ln σ_t"
         },
         a.albedo_warmup,
-        a.seed
+        a.seed,
+        a.learned.describe()
     );
     let _ = writeln!(
         s,

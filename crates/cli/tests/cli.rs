@@ -887,6 +887,30 @@ fn bad_spp_zero() {
 }
 
 #[test]
+fn bad_projection_reach() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    for reach in ["0", "-1", "nan", "inf", "two"] {
+        let r = fails(
+            t.path(),
+            &[
+                "-q",
+                "render",
+                "scene.toml",
+                "--method",
+                "learned",
+                "--out",
+                "out",
+                "--max-dist-scale",
+                reach,
+            ],
+        );
+        assert_stderr_has(&r, &["--max-dist-scale", "σ_n"]);
+        assert!(!t.path().join("out").exists());
+    }
+}
+
+#[test]
 fn bad_threads_zero() {
     let t = tmp();
     let r = fails(
@@ -1463,6 +1487,20 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
     other.extend(["--albedo-warmup", "1"]);
     let bad = fails(d.path(), &other);
     assert_stderr_has(&bad, &["other settings", "sphere-m0-ours"]);
+    // So are runs made with another projection reach; the header names the learned settings.
+    assert_stdout_has(
+        &first,
+        &["son24 projection (reach 2σ_n)", "half-space exit law"],
+    );
+    let mut other = args.to_vec();
+    other.extend(["--max-dist-scale", "3"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["other settings", "learned"]);
+    // The random initialisations go to the case named by --inits-case, which must exist.
+    let mut other = args.to_vec();
+    other.extend(["--inits-case", "sphere-m7"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["--inits-case", "sphere-m7", "sphere-m0"]);
     // Unknown shapes and methods are refused before any work.
     let bad = fails(
         d.path(),
