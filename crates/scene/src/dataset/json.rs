@@ -1,0 +1,247 @@
+//! `dataset.json` (DATASET.md): the serialised form (`RawDataset` and its parts; strict: unknown
+//! fields are errors) and reading it into a [`Dataset`], header (format, version) first, then
+//! every field validated and every image checked against its camera.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::{
+    DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View,
+    camera_from_matrix, load_view_image,
+};
+use crate::rig::check_intensity;
+use crate::scene_file::{
+    MediumSpec, RenderInfo, Rgb, ShapeSpec, base_dir, check_finite3, look_at_checked,
+    resolve_mesh_path,
+};
+use crate::{Camera, MeshSource, PointLight, SceneError};
+
+impl Dataset {
+    /// Load a translucent dataset from its `dataset.json` file (images next to it).
+    pub fn load_dataset_json(file: &Path) -> Result<Dataset, SceneError> {
+        let text = std::fs::read_to_string(file).map_err(|source| SceneError::Io {
+            path: file.to_path_buf(),
+            source,
+        })?;
+        let name = file.display().to_string();
+        let dir = base_dir(file);
+
+        // Format and version first, so that a wrong file gets a clear message rather than a list
+        // of unknown fields.
+        #[derive(Deserialize)]
+        struct Header {
+            format: Option<Value>,
+            version: Option<Value>,
+        }
+        let header: Header = serde_json::from_str(&text).map_err(|e| SceneError::Parse {
+            path: file.to_path_buf(),
+            reason: format!("not valid JSON: {e}"),
+        })?;
+        match header.format.as_ref().and_then(Value::as_str) {
+            Some(DATASET_FORMAT) => {}
+            other => {
+                return Err(SceneError::Invalid {
+                    location: format!(
+                        "{name}: format = {}",
+                        other
+                            .map(|s| format!("\"{s}\""))
+                            .unwrap_or_else(|| "(missing)".into())
+                    ),
+                    reason: format!(
+                        "not a translucent dataset; fix: the file must start with \
+                         {{\"format\": \"{DATASET_FORMAT}\", \"version\": {DATASET_VERSION}, …}} \
+                         (DATASET.md); a Mitsuba reference folder has scene.json instead"
+                    ),
+                });
+            }
+        }
+        match header.version.as_ref().and_then(Value::as_u64) {
+            Some(v) if v == DATASET_VERSION as u64 => {}
+            Some(v) if v > DATASET_VERSION as u64 => {
+                return Err(SceneError::Invalid {
+                    location: format!("{name}: version = {v}"),
+                    reason: format!(
+                        "written by a newer translucent (this one reads version \
+                         {DATASET_VERSION}); fix: update translucent"
+                    ),
+                });
+            }
+            _ => {
+                return Err(SceneError::Invalid {
+                    location: format!(
+                        "{name}: version = {}",
+                        header
+                            .version
+                            .map(|v| v.to_string())
+                            .unwrap_or_else(|| "(missing)".into())
+                    ),
+                    reason: format!(
+                        "unsupported dataset version; fix: set \"version\": {DATASET_VERSION} \
+                         and follow DATASET.md"
+                    ),
+                });
+            }
+        }
+
+        let raw: RawDataset = serde_json::from_str(&text).map_err(|e| SceneError::Parse {
+            path: file.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+
+        let mesh = match (raw.mesh, raw.shape) {
+            (Some(_), Some(_)) => {
+                return Err(SceneError::Invalid {
+                    location: format!("{name}: mesh, shape"),
+                    reason: "both are given; fix: keep exactly one".into(),
+                });
+            }
+            (None, None) => {
+                return Err(SceneError::Invalid {
+                    location: format!("{name}: mesh"),
+                    reason: "missing; fix: add \"mesh\": \"mesh.ply\" (relative to the dataset \
+                             folder) or \"shape\": {\"name\": \"sphere\", …}"
+                        .into(),
+                });
+            }
+            (Some(m), None) => {
+                MeshSource::File(resolve_mesh_path(&m, &dir, &format!("{name}: mesh"))?)
+            }
+            (None, Some(s)) => MeshSource::Shape(s.to_shape(&format!("{name}: shape"))?),
+        };
+        let truth = match raw.truth {
+            Some(t) => Some(t.to_medium(&format!("{name}: truth"))?),
+            None => None,
+        };
+        let render = raw.render.unwrap_or_default();
+        render.validate(&format!("{name}: render"))?;
+        if raw.views.is_empty() {
+            return Err(SceneError::Invalid {
+                location: format!("{name}: views"),
+                reason: "no views; fix: add at least one view".into(),
+            });
+        }
+        let mut views = Vec::with_capacity(raw.views.len());
+        for (i, v) in raw.views.into_iter().enumerate() {
+            let ctx = format!("{name}: views[{i}]");
+            let camera = v.camera.to_camera(&format!("{ctx}.camera"))?;
+            let position = check_finite3(v.light.position, &format!("{ctx}.light.position"))?;
+            check_intensity(&v.light.intensity.0, &format!("{ctx}.light.intensity"))?;
+            let (image, image_path) =
+                load_view_image(&dir, &v.image, &format!("{ctx}.image"), &camera)?;
+            views.push(View {
+                camera,
+                light: PointLight {
+                    position,
+                    intensity: v.light.intensity.0,
+                },
+                image: Some(image),
+                image_path: Some(image_path),
+                expected_mean: None,
+            });
+        }
+        Ok(Dataset {
+            views,
+            mesh,
+            truth,
+            render,
+            metadata: DatasetMetadata {
+                units: raw.units,
+                conventions: raw.conventions,
+                generator: raw.generator,
+                notes: raw.notes,
+            },
+            root: dir,
+            kind: DatasetKind::Native,
+            warnings: Vec::new(),
+        })
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawDataset {
+    pub(super) format: String,
+    pub(super) version: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) units: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) conventions: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) generator: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) mesh: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) shape: Option<ShapeSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) truth: Option<MediumSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) render: Option<RenderInfo>,
+    pub(super) views: Vec<RawView>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) notes: Option<Value>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawView {
+    pub(super) camera: RawCamera,
+    pub(super) light: RawLight,
+    pub(super) image: String,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLight {
+    pub(super) position: [f32; 3],
+    pub(super) intensity: Rgb,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawCamera {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) origin: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) target: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) up: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) to_world: Option<[[f64; 4]; 4]>,
+    pub(super) fov_x_deg: f32,
+    pub(super) width: u32,
+    pub(super) height: u32,
+}
+
+impl RawCamera {
+    fn to_camera(&self, ctx: &str) -> Result<Camera, SceneError> {
+        match (&self.to_world, self.origin, self.target) {
+            (Some(m), None, None) if self.up.is_none() => {
+                camera_from_matrix(m, self.fov_x_deg, self.width, self.height, ctx)
+            }
+            (Some(_), ..) => Err(SceneError::Invalid {
+                location: format!("{ctx}.to_world"),
+                reason: "given together with origin/target/up; fix: describe the camera either \
+                         by to_world or by origin + target (+ up), not both"
+                    .into(),
+            }),
+            (None, Some(o), Some(t)) => look_at_checked(
+                ctx,
+                o,
+                t,
+                self.up.unwrap_or([0.0, 1.0, 0.0]),
+                self.fov_x_deg,
+                "fov_x_deg",
+                self.width,
+                self.height,
+            ),
+            (None, o, _) => Err(SceneError::Invalid {
+                location: format!("{ctx}.{}", if o.is_none() { "origin" } else { "target" }),
+                reason: "missing; fix: give either \"to_world\" (4×4, row-major) or \"origin\" \
+                         and \"target\" (and optionally \"up\")"
+                    .into(),
+            }),
+        }
+    }
+}
