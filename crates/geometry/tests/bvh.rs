@@ -13,76 +13,19 @@ mod support {
     use std::collections::HashMap;
 
     /// Icosphere of unit radius with `level` midpoint subdivisions (20·4^level triangles),
-    /// CCW outward.
+    /// CCW outward: the library's `Shape::Sphere`, without normals.
     pub fn icosphere(level: u32) -> Mesh {
-        let t = (1.0 + 5.0f32.sqrt()) / 2.0;
-        let mut positions: Vec<Vec3> = [
-            (-1.0, t, 0.0),
-            (1.0, t, 0.0),
-            (-1.0, -t, 0.0),
-            (1.0, -t, 0.0),
-            (0.0, -1.0, t),
-            (0.0, 1.0, t),
-            (0.0, -1.0, -t),
-            (0.0, 1.0, -t),
-            (t, 0.0, -1.0),
-            (t, 0.0, 1.0),
-            (-t, 0.0, -1.0),
-            (-t, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-        .collect();
-        let mut indices: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..level {
-            let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-            let mut midpoint = |a: u32, b: u32, pos: &mut Vec<Vec3>| -> u32 {
-                let key = (a.min(b), a.max(b));
-                *mid.entry(key).or_insert_with(|| {
-                    pos.push(((pos[a as usize] + pos[b as usize]) * 0.5).normalize());
-                    (pos.len() - 1) as u32
-                })
-            };
-            let mut next = Vec::with_capacity(indices.len() * 4);
-            for &[a, b, c] in &indices {
-                let ab = midpoint(a, b, &mut positions);
-                let bc = midpoint(b, c, &mut positions);
-                let ca = midpoint(c, a, &mut positions);
-                next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            indices = next;
+        let mut mesh = geometry::Shape::Sphere {
+            radius: 1.0,
+            subdivisions: level,
         }
-        let mut mesh = Mesh {
-            positions,
-            normals: None,
-            indices,
-        };
-        if signed_volume(&mesh) < 0.0 {
-            for t in &mut mesh.indices {
-                t.swap(1, 2);
-            }
-        }
+        .build()
+        .expect("valid sphere");
+        mesh.normals = None;
+        assert!(
+            signed_volume(&mesh) > 0.0,
+            "the tests assume CCW-outward triangles"
+        );
         mesh
     }
 

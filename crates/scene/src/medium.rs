@@ -18,7 +18,8 @@ pub struct Medium {
     pub eta: f32,
 }
 
-fn one() -> f32 {
+/// Serde default of η (index-matched boundary), shared with the file specs.
+pub(crate) fn one() -> f32 {
     1.0
 }
 

@@ -62,12 +62,8 @@ pub struct MediumSpec {
     pub albedo: Rgb,
     #[serde(default)]
     pub g: f32,
-    #[serde(default = "one")]
+    #[serde(default = "crate::medium::one")]
     pub eta: f32,
-}
-
-fn one() -> f32 {
-    1.0
 }
 
 impl MediumSpec {
