@@ -361,10 +361,10 @@ fn diff_row(
         // σ_t offset pair (Ours, OursAlphaOffsets): S_abs^±·L(x_i^±).
         let pair =
             matches!(ds.method, DiffMethod::Ours | DiffMethod::OursAlphaOffsets).then(|| {
-                let [hi, lo] = k.sn_t[c];
+                let ([hi, lo], [st_hi, st_lo]) = (k.sn_t[c], k.st_t[c]);
                 let ((yp, sp), (ym, sm)) = (at(0), at(1));
-                let (vp, dvp) = offset_light(scene, view, p, yp, hi);
-                let (vm, dvm) = offset_light(scene, view, p, ym, lo);
+                let (vp, dvp) = offset_light(scene, view, p, yp, (hi, st_hi));
+                let (vm, dvm) = offset_light(scene, view, p, ym, (lo, st_lo));
                 (
                     sp * vp,
                     sm * vm,
@@ -378,8 +378,9 @@ fn diff_row(
             Some((_, _, v_mean, dv_mean)) if pair_primal => (None, v_mean, dv_mean),
             _ => {
                 let main = place_and_project(scene, p, yk, scene.sigma_n[c]);
-                let (v, dv) =
-                    main.map_or((0.0, 0.0), |hit| light_contribution(scene, view, p, &hit));
+                let (v, dv) = main.map_or((0.0, 0.0), |hit| {
+                    light_contribution(scene, view, p, &hit, scene.medium.sigma_t[c])
+                });
                 (main, v, s_abs * dv)
             }
         };
@@ -434,8 +435,9 @@ fn diff_row(
         if ds.method == DiffMethod::OursAlphaOffsets {
             let [hi, lo] = k.sn_a[c];
             let ((yp, sp), (ym, sm)) = (at(2), at(3));
-            let (vp, _) = offset_light(scene, view, p, yp, hi);
-            let (vm, _) = offset_light(scene, view, p, ym, lo);
+            let st = scene.medium.sigma_t[c];
+            let (vp, _) = offset_light(scene, view, p, yp, (hi, st));
+            let (vm, _) = offset_light(scene, view, p, ym, (lo, st));
             d_a += p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c];
         }
         let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
@@ -488,16 +490,18 @@ fn finite_or_zero(v: f32) -> f32 {
     if v.is_finite() { v } else { 0.0 }
 }
 
-/// L(x_i) and ∂L/∂α (exit law) of an offset sample: x_i = Π(x_o + σ_n·R·y) with the same rule
-/// and polynomial, full light evaluation (visibility included); 0 for a miss.
+/// L(x_i) and ∂L/∂α (exit law and incidence factor) of an offset sample: x_i = Π(x_o + σ_n·R·y)
+/// with the same rule and polynomial, full light evaluation (visibility included) at the offset
+/// extinction σ_t; 0 for a miss.
 #[inline]
 fn offset_light(
     scene: &LearnedScene,
     view: &ViewRays,
     p: &Pending,
     y: [f32; POSITION_DIM],
-    sigma_n: f32,
+    (sigma_n, sigma_t): (f32, f32),
 ) -> (f32, f32) {
-    place_and_project(scene, p, y, sigma_n)
-        .map_or((0.0, 0.0), |hit| light_contribution(scene, view, p, &hit))
+    place_and_project(scene, p, y, sigma_n).map_or((0.0, 0.0), |hit| {
+        light_contribution(scene, view, p, &hit, sigma_t)
+    })
 }

@@ -240,64 +240,70 @@ impl ExitTable {
     }
 
     /// The table at albedo `albedo`: a cubic Hermite spline in x = ln(1 − α) through the grid
-    /// albedos (tangents by central differences, one-sided at the ends; C¹, so ∂f/∂α is
-    /// continuous), constant outside the grid. The spline is linear in the rows, so every
-    /// slice keeps the normalisation ∫ f·2μ dμ = 1.
+    /// albedos ([`albedo_spline`]). The spline is linear in the rows, so every slice keeps the
+    /// normalisation ∫ f·2μ dμ = 1.
     pub fn slice(&self, albedo: f32) -> ExitSlice {
-        let xs: Vec<f32> = ONE_MINUS_ALBEDO.iter().map(|x| x.ln()).collect();
-        let x = (1.0 - albedo).clamp(1e-6, 1.0).ln();
-        let last = xs.len() - 1;
-        let n = MU_BINS * MU_BINS;
-        let row = |a: usize| &self.f[a * n..(a + 1) * n];
-        // Outside the grid (xs decreases with a): the end row, no α-dependence.
-        let end = if x >= xs[0] {
-            Some(0)
-        } else if x <= xs[last] {
-            Some(last)
-        } else {
-            None
-        };
-        if let Some(a) = end {
-            return ExitSlice {
-                f: row(a).to_vec(),
-                df: vec![0.0; n],
-            };
-        }
-        let a = (0..last)
-            .find(|&a| x <= xs[a] && x >= xs[a + 1])
-            .unwrap_or(0);
-        let h = xs[a + 1] - xs[a]; // < 0
-        let t = (x - xs[a]) / h;
-        // Tangent dF/dx at node k for cell value index `i`.
-        let tangent = |k: usize, i: usize| {
-            let (lo, hi) = (k.saturating_sub(1), (k + 1).min(last));
-            (row(hi)[i] - row(lo)[i]) / (xs[hi] - xs[lo])
-        };
-        let (t2, t3) = (t * t, t * t * t);
-        let (h00, h10, h01, h11) = (
-            2.0 * t3 - 3.0 * t2 + 1.0,
-            t3 - 2.0 * t2 + t,
-            -2.0 * t3 + 3.0 * t2,
-            t3 - t2,
-        );
-        let (d00, d10, d01, d11) = (
-            6.0 * t2 - 6.0 * t,
-            3.0 * t2 - 4.0 * t + 1.0,
-            -6.0 * t2 + 6.0 * t,
-            3.0 * t2 - 2.0 * t,
-        );
-        // dx/dα = −1/(1 − α); dt/dx = 1/h.
-        let dt_da = -1.0 / ((1.0 - albedo).max(1e-6) * h);
-        let (r0, r1) = (row(a), row(a + 1));
-        let mut f = Vec::with_capacity(n);
-        let mut df = Vec::with_capacity(n);
-        for i in 0..n {
-            let (m0, m1) = (tangent(a, i) * h, tangent(a + 1, i) * h);
-            f.push(h00 * r0[i] + h10 * m0 + h01 * r1[i] + h11 * m1);
-            df.push((d00 * r0[i] + d10 * m0 + d01 * r1[i] + d11 * m1) * dt_da);
-        }
+        let (f, df) = albedo_spline(&self.f, MU_BINS * MU_BINS, albedo);
         ExitSlice { f, df }
     }
+}
+
+/// A table of rows over the albedo grid [`ONE_MINUS_ALBEDO`] (`rows[a·n..(a + 1)·n]` for grid
+/// albedo a) at albedo `albedo`, with its α-derivative: a cubic Hermite spline in
+/// x = ln(1 − α) through the grid albedos (tangents by central differences, one-sided at the
+/// ends; C¹, so the derivative is continuous), constant outside the grid (derivative 0). The
+/// spline is a linear combination of rows, so any linear normalisation of the rows holds for
+/// every albedo.
+pub(crate) fn albedo_spline(rows: &[f32], n: usize, albedo: f32) -> (Vec<f32>, Vec<f32>) {
+    let xs: Vec<f32> = ONE_MINUS_ALBEDO.iter().map(|x| x.ln()).collect();
+    let x = (1.0 - albedo).clamp(1e-6, 1.0).ln();
+    let last = xs.len() - 1;
+    let row = |a: usize| &rows[a * n..(a + 1) * n];
+    // Outside the grid (xs decreases with a): the end row, no α-dependence.
+    let end = if x >= xs[0] {
+        Some(0)
+    } else if x <= xs[last] {
+        Some(last)
+    } else {
+        None
+    };
+    if let Some(a) = end {
+        return (row(a).to_vec(), vec![0.0; n]);
+    }
+    let a = (0..last)
+        .find(|&a| x <= xs[a] && x >= xs[a + 1])
+        .unwrap_or(0);
+    let h = xs[a + 1] - xs[a]; // < 0
+    let t = (x - xs[a]) / h;
+    // Tangent dF/dx at node k for cell value index `i`.
+    let tangent = |k: usize, i: usize| {
+        let (lo, hi) = (k.saturating_sub(1), (k + 1).min(last));
+        (row(hi)[i] - row(lo)[i]) / (xs[hi] - xs[lo])
+    };
+    let (t2, t3) = (t * t, t * t * t);
+    let (h00, h10, h01, h11) = (
+        2.0 * t3 - 3.0 * t2 + 1.0,
+        t3 - 2.0 * t2 + t,
+        -2.0 * t3 + 3.0 * t2,
+        t3 - t2,
+    );
+    let (d00, d10, d01, d11) = (
+        6.0 * t2 - 6.0 * t,
+        3.0 * t2 - 4.0 * t + 1.0,
+        -6.0 * t2 + 6.0 * t,
+        3.0 * t2 - 2.0 * t,
+    );
+    // dx/dα = −1/(1 − α); dt/dx = 1/h.
+    let dt_da = -1.0 / ((1.0 - albedo).max(1e-6) * h);
+    let (r0, r1) = (row(a), row(a + 1));
+    let mut f = Vec::with_capacity(n);
+    let mut df = Vec::with_capacity(n);
+    for i in 0..n {
+        let (m0, m1) = (tangent(a, i) * h, tangent(a + 1, i) * h);
+        f.push(h00 * r0[i] + h10 * m0 + h01 * r1[i] + h11 * m1);
+        df.push((d00 * r0[i] + d10 * m0 + d01 * r1[i] + d11 * m1) * dt_da);
+    }
+    (f, df)
 }
 
 /// Walks per row of a table simulated at run time (the shipped one has more).

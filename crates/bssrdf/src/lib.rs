@@ -15,6 +15,8 @@
 //! * [`boundary`]: Fresnel transmittance, FM1 and the light-side factor Sw (§1).
 //! * [`exit`]: the light-side exit law from half-space walks, conditioned on the camera side
 //!   (replaces the cosine law of Sw by default).
+//! * [`incidence`]: the light-side incidence factor: where obliquely entering light leaves,
+//!   relative to its direction, from half-space walks.
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
@@ -27,6 +29,7 @@ pub mod diff;
 pub mod exit;
 pub mod fit;
 pub mod gaussian;
+pub mod incidence;
 pub mod medium;
 pub mod model;
 pub mod nn;

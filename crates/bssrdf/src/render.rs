@@ -10,7 +10,12 @@
 //! by inversion of the sample's uniforms; decoder → y; x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃);
 //! x_i = Π(x̃) ([`crate::projection`]); shadow ray to the point light;
 //!
-//!   C = 3·e_c · S_abs · (1 − F(cos θ_cam)) · Sw(w_l) · max(0, n_i·w_l) · V · I / r²  (§1, eq. 5).
+//!   C = 3·e_c · S_abs · (1 − F(cos θ_cam)) · D(w_l) · (A/N) · max(0, n_i·w_l) · V · I / r²
+//!
+//! (§1, eq. 5), with D the light-side exit law ([`crate::exit`]; Sw(w_l) of the paper with
+//! `ExitLaw::Cosine`) and A/N the light-side incidence factor ([`crate::incidence`]; 1 with
+//! [`Incidence::Isotropic`]). Stage 3 (placement, projection and the light term at the entry
+//! point) is in the submodule `entry`.
 //!
 //! Invalid samples (projection miss, back-facing light, occlusion) count with value 0.
 //! Batched: one image row (width × spp samples) per network call, one feature evaluation per
@@ -30,7 +35,7 @@
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
 //! unrefracted camera direction, outputs in the shading frame of x_o), see model-spec A4.
 
-use geometry::{Accel, Frame, Hit, PixelBins, bvh::offset_origin};
+use geometry::{Accel, Frame, Hit, PixelBins};
 use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -39,15 +44,22 @@ use volpath::fresnel::refract;
 use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
 
-use crate::boundary::{sw, transmittance};
+use crate::boundary::transmittance;
 use crate::exit::{ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{ConstraintCloud, FitError, interpolate};
 use crate::gaussian::probit;
+use crate::incidence::{IncidenceSlice, IncidenceTable};
 use crate::medium::{ReducedMedium, effective_albedo};
 use crate::model::FrameConvention;
 use crate::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM, ShapeAdaptiveModel, Workspace};
 use crate::polynomial::{Poly3, align_direction, light_space_frame};
-use crate::projection::{ProjectionRule, project};
+use crate::projection::ProjectionRule;
+
+mod entry;
+pub use entry::Incidence;
+pub(crate) use entry::{
+    light_contribution, place_and_project, projection_gradient, proposed_point,
+};
 
 /// Errors of the learned renderer.
 #[derive(Debug, thiserror::Error)]
@@ -80,6 +92,11 @@ pub struct LearnedSettings {
     /// The light-side exit law: half-space walks conditioned on the camera side (default) or
     /// the cosine law of Sw ([`crate::exit`]).
     pub exit: ExitLaw,
+    /// The light-side incidence factor: where obliquely entering light leaves, relative to its
+    /// direction ([`crate::incidence`]; default) or isotropic in azimuth (VKJ19, SON24). Files
+    /// written before the factor existed lack the field and read as isotropic.
+    #[serde(default = "Incidence::absent")]
+    pub incidence: Incidence,
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
@@ -183,6 +200,8 @@ pub struct LearnedScene<'a> {
     pub(crate) grey: bool,
     /// The exit law at each channel's albedo ([`ExitLaw::HalfSpace`]; `None`: the cosine law).
     pub(crate) exit: Option<Box<[ExitSlice; 3]>>,
+    /// The incidence factor at each channel's albedo ([`Incidence::Directional`]).
+    pub(crate) incidence: Option<Box<[IncidenceSlice; 3]>>,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -227,10 +246,17 @@ impl<'a> LearnedScene<'a> {
             descriptor_scale: [1.0; 3],
             grey,
             exit: None,
+            incidence: None,
         };
         if settings.exit == ExitLaw::HalfSpace {
             let table = ExitTable::for_medium(medium.g, medium.eta);
             scene.exit = Some(Box::new(std::array::from_fn(|c| {
+                table.slice(medium.albedo[c])
+            })));
+        }
+        if settings.incidence == Incidence::Directional {
+            let table = IncidenceTable::for_medium(medium.g, medium.eta);
+            scene.incidence = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
         }
@@ -244,23 +270,6 @@ impl<'a> LearnedScene<'a> {
             return [1.0; 3];
         }
         std::array::from_fn(|c| sigma_n[c] / self.features.sigma_n[c])
-    }
-
-    /// The light-side exit law D(w_l) per steradian-cosine and ∂D/∂α_c for channel `c`, camera
-    /// cosine `mu_cam` and light cosine `cos_l`: f(α_c; μ_cam, cos_l)/π ([`crate::exit`]) or
-    /// the cosine law's Sw(w_l) (model-spec §1; no α dependence).
-    #[inline]
-    pub(crate) fn exit_law(&self, c: usize, mu_cam: f32, cos_l: f32) -> (f32, f32) {
-        match &self.exit {
-            Some(slices) => {
-                let (f, df) = slices[c].eval(mu_cam, cos_l);
-                (
-                    f * std::f32::consts::FRAC_1_PI,
-                    df * std::f32::consts::FRAC_1_PI,
-                )
-            }
-            None => (sw(cos_l, self.medium.eta), 0.0),
-        }
     }
 
     /// The normalised network inputs of a light-space descriptor `coeffs` (at the fit scale)
@@ -303,6 +312,9 @@ pub(crate) struct Pending {
     pub(crate) t_cam: f32,
     /// cos θ_cam (the camera side of the exit law).
     pub(crate) mu_cam: f32,
+    /// Unit tangential part of the camera ray's direction at x_o (its forward direction along
+    /// the surface; zero at normal incidence): the camera side of the incidence factor.
+    pub(crate) cam_fwd: Vec3,
 }
 
 /// Reused per worker thread.
@@ -370,7 +382,7 @@ pub(crate) fn render_row(
         let Some(hit) = place_and_project(scene, p, buf.net.y[k], scene.sigma_n[c]) else {
             continue;
         };
-        let (v, _) = light_contribution(scene, view, p, &hit);
+        let (v, _) = light_contribution(scene, view, p, &hit, scene.medium.sigma_t[c]);
         if v <= 0.0 {
             continue;
         }
@@ -486,6 +498,7 @@ pub(crate) fn prepare_row(
                 n_o,
                 t_cam,
                 mu_cam: cos_cam,
+                cam_fwd: (d - n_o * d.dot(n_o)).normalize_or_zero(),
             });
         }
     }
@@ -525,78 +538,4 @@ pub(crate) fn evaluate_networks(
     model.absorb_with(&out.feats, &mut out.absorb, ws)?;
     model.decode_with(&out.feats, z, point, &mut out.y, ws)?;
     Ok(())
-}
-
-/// The (unnormalised, detached) projection direction and the side value at the proposed point
-/// `x_t` of sample `p` (model-spec A5): the gradient and value of the fixed interpolated
-/// polynomial at `(x_t − x_o)/σ_n,fit`, or (n_o, 1) with planar features.
-#[inline]
-pub(crate) fn projection_gradient(scene: &LearnedScene, p: &Pending, x_t: Vec3) -> (Vec3, f32) {
-    if scene.settings.planar_features {
-        (p.n_o, 1.0)
-    } else {
-        let (value, grad) = p
-            .poly
-            .eval_with_gradient((x_t - p.x_o) / scene.features.sigma_n[p.channel as usize]);
-        (grad, value)
-    }
-}
-
-/// x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃) and x_i = Π(x̃) for the decoder output `y` at the kernel
-/// scale `sigma_n` (the offset samples of [`crate::diff`] call this with σ_n(θ ± Δ)).
-#[inline]
-pub(crate) fn place_and_project(
-    scene: &LearnedScene,
-    p: &Pending,
-    y: [f32; POSITION_DIM],
-    sigma_n: f32,
-) -> Option<geometry::Hit> {
-    let x_t = proposed_point(p, y, sigma_n);
-    let (grad, value) = projection_gradient(scene, p, x_t);
-    project(
-        scene.accel,
-        scene.settings.projection,
-        x_t,
-        grad,
-        value,
-        sigma_n,
-    )
-}
-
-/// x̃ = x_o + σ_n·R·y.
-#[inline]
-pub(crate) fn proposed_point(p: &Pending, y: [f32; POSITION_DIM], sigma_n: f32) -> Vec3 {
-    p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(y[0], y[1], y[2]))
-}
-
-/// L = D(w_l) · max(0, n_i·w_l) · V / r² at the entry point `hit` of sample `p` (without the
-/// intensity) and ∂L/∂α of the sample's channel; D is the exit law ([`LearnedScene::exit_law`]).
-#[inline]
-pub(crate) fn light_contribution(
-    scene: &LearnedScene,
-    view: &ViewRays,
-    p: &Pending,
-    hit: &geometry::Hit,
-) -> (f32, f32) {
-    let (x_i, n_i, ng) = (hit.p, hit.ns, hit.ng);
-    let to_l = view.light.position - x_i;
-    let r2 = to_l.length_squared();
-    if r2 <= 0.0 {
-        return (0.0, 0.0);
-    }
-    let r = r2.sqrt();
-    let dir = to_l / r;
-    let cos_l = n_i.dot(dir);
-    if cos_l <= 0.0 || ng.dot(dir) <= 0.0 {
-        return (0.0, 0.0);
-    }
-    if scene
-        .accel
-        .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
-    {
-        return (0.0, 0.0);
-    }
-    let (d, dd) = scene.exit_law(p.channel as usize, p.mu_cam, cos_l);
-    let g = cos_l / r2;
-    (d * g, dd * g)
 }

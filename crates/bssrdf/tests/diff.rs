@@ -82,6 +82,7 @@ const PLANAR: LearnedSettings = LearnedSettings {
     frozen_descriptor: false,
     bvh_camera_rays: false,
     exit: bssrdf::exit::ExitLaw::HalfSpace,
+    incidence: bssrdf::render::Incidence::Directional,
 };
 
 fn rgb_medium() -> Medium {

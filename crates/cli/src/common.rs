@@ -198,6 +198,11 @@ pub struct LearnedArgs {
     /// conditioned on the camera direction; default) or `cosine` (Sw·cos θ_l of VKJ19/SON24).
     #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
     pub exit_law: String,
+    /// Light-side incidence: `directional` (light that enters obliquely leaves mostly ahead of
+    /// its entry point, by half-space walks; default) or `isotropic` (no dependence on the
+    /// light's azimuth, as VKJ19/SON24).
+    #[arg(long, default_value = "directional", value_parser = ["directional", "isotropic"])]
+    pub incidence: String,
 }
 
 /// `--max-dist-scale`: a finite, positive multiple of σ_n.
@@ -244,8 +249,9 @@ impl LearnedArgs {
             _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
         };
         format!(
-            "model {model}, {} exit law, {projection}{}{}",
+            "model {model}, {} exit law, {} incidence, {projection}{}{}",
             self.exit_law,
+            self.incidence,
             if self.planar_features {
                 ", planar features"
             } else {
@@ -273,6 +279,10 @@ impl LearnedArgs {
             exit: match self.exit_law.as_str() {
                 "cosine" => bssrdf::exit::ExitLaw::Cosine,
                 _ => bssrdf::exit::ExitLaw::HalfSpace,
+            },
+            incidence: match self.incidence.as_str() {
+                "isotropic" => bssrdf::render::Incidence::Isotropic,
+                _ => bssrdf::render::Incidence::Directional,
             },
         }
     }

@@ -8,6 +8,9 @@
 //!   provenance, and the plane-case outputs.
 //! * `exit-table OUT`: simulate the light-side exit law of a medium ([`bssrdf::exit`]); with
 //!   the defaults it writes the table shipped in `crates/bssrdf/data/exit-g0-eta1.json`.
+//! * `incidence-table OUT`: simulate the light-side incidence factor of a medium
+//!   ([`bssrdf::incidence`]); with the defaults it writes the table shipped in
+//!   `crates/bssrdf/data/incidence-g0-eta1.json`.
 
 use std::path::{Path, PathBuf};
 
@@ -60,6 +63,37 @@ pub enum ModelCommand {
         #[arg(long)]
         overwrite: bool,
     },
+    /// Simulate the light-side incidence factor A(α; μ_l, ρ, ψ) of a medium (where light that
+    /// entered obliquely leaves, relative to its direction; bssrdf::incidence) from half-space
+    /// random walks and write it as JSON. The defaults reproduce the table built into the binary
+    /// for g = 0, η = 1 (crates/bssrdf/data/incidence-g0-eta1.json).
+    #[command(name = "incidence-table")]
+    IncidenceTable {
+        /// Output file (.json).
+        out: PathBuf,
+        /// Henyey–Greenstein g.
+        #[arg(long, default_value_t = 0.0)]
+        g: f32,
+        /// Relative index of refraction n_inside/n_outside (≥ 1).
+        #[arg(long, default_value_t = 1.0)]
+        eta: f32,
+        /// Walks per albedo and light-cosine bin.
+        #[arg(long, default_value_t = 1_000_000)]
+        walks: u32,
+        /// Seed of the walks.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Replace OUT if it exists.
+        #[arg(long)]
+        overwrite: bool,
+    },
+}
+
+/// Which half-space table `model exit-table` / `model incidence-table` writes.
+#[derive(Clone, Copy)]
+enum WalkTable {
+    Exit,
+    Incidence,
 }
 
 pub fn run(cmd: &ModelCommand) -> Result<()> {
@@ -77,11 +111,29 @@ pub fn run(cmd: &ModelCommand) -> Result<()> {
             walks,
             seed,
             overwrite,
-        } => exit_table(out, *g, *eta, *walks, *seed, *overwrite),
+        } => walk_table(WalkTable::Exit, out, (*g, *eta, *walks, *seed), *overwrite),
+        ModelCommand::IncidenceTable {
+            out,
+            g,
+            eta,
+            walks,
+            seed,
+            overwrite,
+        } => walk_table(
+            WalkTable::Incidence,
+            out,
+            (*g, *eta, *walks, *seed),
+            *overwrite,
+        ),
     }
 }
 
-fn exit_table(out: &Path, g: f32, eta: f32, walks: u32, seed: u64, overwrite: bool) -> Result<()> {
+fn walk_table(
+    kind: WalkTable,
+    out: &Path,
+    (g, eta, walks, seed): (f32, f32, u32, u64),
+    overwrite: bool,
+) -> Result<()> {
     if !(g > -1.0 && g < 1.0) {
         bail!("--g {g}: the Henyey–Greenstein g must lie in (−1, 1)");
     }
@@ -92,17 +144,37 @@ fn exit_table(out: &Path, g: f32, eta: f32, walks: u32, seed: u64, overwrite: bo
         bail!("--walks must be at least 1");
     }
     let t0 = std::time::Instant::now();
-    let table = bssrdf::exit::ExitTable::generate(bssrdf::exit::ExitTableSettings {
-        g,
-        eta,
-        walks,
-        seed,
-    });
-    let json = serde_json::to_string(&table)?;
+    let (json, name) = match kind {
+        WalkTable::Exit => (
+            serde_json::to_string(&bssrdf::exit::ExitTable::generate(
+                bssrdf::exit::ExitTableSettings {
+                    g,
+                    eta,
+                    walks,
+                    seed,
+                },
+            ))?,
+            "exit",
+        ),
+        WalkTable::Incidence => (
+            serde_json::to_string(
+                &bssrdf::incidence::IncidenceTable::generate(
+                    bssrdf::incidence::IncidenceSettings {
+                        g,
+                        eta,
+                        walks,
+                        seed,
+                    },
+                )
+                .rounded(4),
+            )?,
+            "incidence",
+        ),
+    };
     scene::fsutil::atomic_write(out, json.as_bytes(), overwrite)
         .with_context(|| format!("writing {}", out.display()))?;
     eprintln!(
-        "exit table (g = {g}, η = {eta}, {walks} walks per row) in {:.1} s -> {}",
+        "{name} table (g = {g}, η = {eta}, {walks} walks per row) in {:.1} s -> {}",
         t0.elapsed().as_secs_f64(),
         out.display()
     );

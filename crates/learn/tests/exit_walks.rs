@@ -92,3 +92,95 @@ fn the_fast_walker_matches_the_training_walk() {
         }
     }
 }
+
+/// χ² quantile at p = 0.999 for `k` degrees of freedom (Wilson–Hilferty).
+fn chi2_999(k: f64) -> f64 {
+    let z = 3.0902;
+    k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
+}
+
+/// The three-dimensional walker of `bssrdf::incidence` against the library walk on the plane:
+/// the same histograms of the exit point over (distance, angle from the light's forward
+/// direction), by a two-sample χ² over the cells the table resolves, including g = 0.5, η = 1.3.
+#[test]
+fn the_incidence_walker_matches_the_training_walk() {
+    use bssrdf::incidence::{
+        IncidenceSettings, IncidenceTable, MIN_CELL, PSI_BINS, RHO_0, RHO_BINS, RHO_MAX,
+    };
+    for (g, eta, a) in [(0.0f32, 1.0f32, 6usize), (0.5, 1.3, 4)] {
+        let table = IncidenceTable::generate(IncidenceSettings {
+            g,
+            eta,
+            walks: 40_000,
+            seed: 1,
+        });
+        let albedo = 1.0 - bssrdf::exit::ONE_MINUS_ALBEDO[a] as f64;
+        let sn = sigma_n(1.0, albedo, g as f64);
+        let surface = WalkSurface::new(&Poly3::plane(Vec3::Z), sn);
+        let medium = WalkMedium {
+            sigma_t: 1.0,
+            albedo,
+            g: g as f64,
+            eta: eta as f64,
+        };
+        let top = (1.0 + RHO_MAX / RHO_0).ln();
+        for i in [2usize, 9] {
+            let h: Vec<f64> = (0..20_000u64)
+                .into_par_iter()
+                .map(|k| {
+                    let mut rng = Sampler::new(6, i as u64, k, 0);
+                    let mu_c = (i as f64 + rng.next_f32() as f64) / MU_BINS as f64;
+                    let mu_in = (1.0 - (1.0 - mu_c * mu_c) / (eta as f64).powi(2))
+                        .max(1e-6)
+                        .sqrt();
+                    let d_in = Vec3::new((1.0 - mu_in * mu_in).sqrt() as f32, 0.0, -mu_in as f32);
+                    let mut h = vec![0.0; RHO_BINS * PSI_BINS];
+                    if let WalkOutcome::Exited(e) = random_walk(&surface, &medium, d_in, &mut rng) {
+                        let (x, y) = (e.position.x as f32, e.position.y as f32);
+                        let rho = x.hypot(y);
+                        let r = (((1.0 + rho / RHO_0).ln() / top * RHO_BINS as f32) as usize)
+                            .min(RHO_BINS - 1);
+                        let psi = y.abs().atan2(x);
+                        let q = ((psi / std::f32::consts::PI * PSI_BINS as f32) as usize)
+                            .min(PSI_BINS - 1);
+                        h[r * PSI_BINS + q] = 1.0;
+                    }
+                    h
+                })
+                .reduce(
+                    || vec![0.0; RHO_BINS * PSI_BINS],
+                    |mut a, b| {
+                        a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                        a
+                    },
+                );
+            // Cells the table resolves; its counts are A·n/PSI_BINS.
+            let cell0 = (a * MU_BINS + i) * RHO_BINS;
+            let mut c1 = Vec::new();
+            let mut c2 = Vec::new();
+            for r in 0..RHO_BINS {
+                let n = table.cells[cell0 + r] as f64;
+                if n < MIN_CELL as f64 {
+                    continue;
+                }
+                for q in 0..PSI_BINS {
+                    c1.push(table.a[(cell0 + r) * PSI_BINS + q] as f64 * n / PSI_BINS as f64);
+                    c2.push(h[r * PSI_BINS + q]);
+                }
+            }
+            let (n1, n2): (f64, f64) = (c1.iter().sum(), c2.iter().sum());
+            let (k1, k2) = ((n2 / n1).sqrt(), (n1 / n2).sqrt());
+            let used: Vec<usize> = (0..c1.len()).filter(|&j| c1[j] + c2[j] > 0.0).collect();
+            let chi2: f64 = used
+                .iter()
+                .map(|&j| (k1 * c1[j] - k2 * c2[j]).powi(2) / (c1[j] + c2[j]))
+                .sum();
+            let dof = used.len() as f64 - 1.0;
+            assert!(dof > 30.0, "only {} bins resolved", used.len());
+            assert!(
+                chi2 < chi2_999(dof),
+                "g={g} η={eta} α={albedo} light bin {i}: χ² = {chi2:.1} over {dof} dof"
+            );
+        }
+    }
+}

@@ -9,6 +9,8 @@ use super::*;
 pub(super) struct Consts<'a> {
     /// σ_n(σ_t ± Δ) per channel.
     pub(super) sn_t: [[f32; 2]; 3],
+    /// σ_t ± Δ per channel (the incidence factor of the offset samples).
+    pub(super) st_t: [[f32; 2]; 3],
     /// Descriptor scale k(σ_t ± Δ) per channel.
     pub(super) k_t: [[f32; 2]; 3],
     /// Descriptor scale k(α ± Δα) per channel.
@@ -36,6 +38,7 @@ impl<'a> Consts<'a> {
         let norm = scene.model.normalisation();
         let mut c = Consts {
             sn_t: [[0.0; 2]; 3],
+            st_t: [[0.0; 2]; 3],
             k_t: [[1.0; 2]; 3],
             k_a: [[1.0; 2]; 3],
             moving: !(scene.settings.frozen_descriptor || scene.settings.planar_features),
@@ -63,6 +66,7 @@ impl<'a> Consts<'a> {
                 ReducedMedium::new(st + dt, al, g).sigma_n() as f32,
                 ReducedMedium::new(st - dt, al, g).sigma_n() as f32,
             ];
+            c.st_t[ch] = [(st + dt) as f32, (st - dt) as f32];
             c.inv_2dt[ch] = (0.5 / dt) as f32;
             if da > 0.0 {
                 c.sn_a[ch] = [

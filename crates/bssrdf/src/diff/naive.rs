@@ -40,11 +40,22 @@ pub(super) fn naive_light_derivative(
         return 0.0;
     }
     let u = dx_i / len;
-    let l = |x: Vec3| smooth_light(scene, p, (hit.tri, hit.ng), x, light.position);
-    len * (l(hit.p + NAIVE_STEP * u) - l(hit.p - NAIVE_STEP * u)) / (2.0 * NAIVE_STEP)
+    let st = scene.medium.sigma_t[p.channel as usize];
+    let l = |x: Vec3, st: f32| smooth_light(scene, p, (hit.tri, hit.ng), x, light.position, st);
+    let motion =
+        len * (l(hit.p + NAIVE_STEP * u, st) - l(hit.p - NAIVE_STEP * u, st)) / (2.0 * NAIVE_STEP);
+    // The incidence factor also depends on σ_t itself (ρ = |x_o − x_i|·σ_t).
+    let explicit = if scene.incidence.is_some() {
+        let h = 1e-3 * st;
+        (l(hit.p, st + h) - l(hit.p, st - h)) / (2.0 * h)
+    } else {
+        0.0
+    };
+    motion + explicit
 }
 
-/// L̃(x) = D(w_l)·(n·w_l)/r² (D the exit law of the sample) on the plane of triangle `tri` (no visibility, no clamping of the
+/// L̃(x) = D(w_l)·A·(n·w_l)/r² (D the exit law of the sample, A the incidence factor at
+/// extinction `sigma_t`) on the plane of triangle `tri` (no visibility, no clamping of the
 /// cosine: a smooth extension), with the shading normal n interpolated at x.
 fn smooth_light(
     scene: &LearnedScene,
@@ -52,12 +63,20 @@ fn smooth_light(
     (tri, ng): (u32, Vec3),
     x: Vec3,
     light: Vec3,
+    sigma_t: f32,
 ) -> f32 {
     let n = shading_normal_at(scene.accel.mesh(), tri, ng, x);
     let to_l = light - x;
     let r2 = to_l.length_squared();
-    let cos = n.dot(to_l) / r2.sqrt();
-    scene.exit_law(p.channel as usize, p.mu_cam, cos).0 * cos / r2
+    let r = r2.sqrt();
+    let cos = n.dot(to_l) / r;
+    let c = p.channel as usize;
+    let a = if cos > 0.0 {
+        scene.incidence_factor(p, (x, n, to_l / r, cos), sigma_t).0
+    } else {
+        1.0
+    };
+    scene.exit_law(c, p.mu_cam, cos).0 * a * cos / r2
 }
 
 /// The interpolated vertex normal of triangle `tri` at the point x of its plane (barycentrics

@@ -1,0 +1,155 @@
+//! Stage 3 of the learned renderer: the entry point x_i of a sample and the light term there.
+//! x̃ = x_o + σ_n·R·y is projected onto the mesh (Π, [`crate::projection`], along the gradient of
+//! the sample's polynomial), and the light is evaluated at the hit:
+//!
+//!   L = D(w_l) · (A/N) · max(0, n_i·w_l) · V / r²,
+//!
+//! D the light-side exit law ([`crate::exit`]), A/N the light-side incidence factor
+//! ([`crate::incidence`]), V the visibility of the point light. The offset samples of
+//! [`crate::diff`] call the same functions with σ_n(θ ± Δ) and σ_t ± Δ.
+
+use geometry::bvh::offset_origin;
+use glam::Vec3;
+
+use super::{LearnedScene, Pending, ViewRays};
+use crate::boundary::sw;
+use crate::nn::POSITION_DIM;
+use crate::projection::project;
+
+/// Whether the light's direction of incidence moves the light around its entry point
+/// ([`crate::incidence`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Incidence {
+    /// The half-space factor A(α; μ_l, ρ, ψ) of [`crate::incidence`].
+    #[default]
+    Directional,
+    /// No factor (A = 1): the light side is isotropic in azimuth, as in VKJ19 and SON24.
+    Isotropic,
+}
+
+impl Incidence {
+    /// The value of a settings file without the field (written before the factor existed).
+    pub(super) fn absent() -> Self {
+        Incidence::Isotropic
+    }
+}
+
+impl LearnedScene<'_> {
+    /// The light-side exit law D(w_l) per steradian-cosine and ∂D/∂α_c for channel `c`, camera
+    /// cosine `mu_cam` and light cosine `cos_l`: f(α_c; μ_cam, cos_l)/π ([`crate::exit`]) or
+    /// the cosine law's Sw(w_l) (model-spec §1; no α dependence).
+    #[inline]
+    pub(crate) fn exit_law(&self, c: usize, mu_cam: f32, cos_l: f32) -> (f32, f32) {
+        match &self.exit {
+            Some(slices) => {
+                let (f, df) = slices[c].eval(mu_cam, cos_l);
+                (
+                    f * std::f32::consts::FRAC_1_PI,
+                    df * std::f32::consts::FRAC_1_PI,
+                )
+            }
+            None => (sw(cos_l, self.medium.eta), 0.0),
+        }
+    }
+
+    /// The normalised incidence factor A/N and its α-derivative ([`crate::incidence`]) for
+    /// light entering at x_i (shading normal n_i, unit direction w_l to the light, cosine μ_l)
+    /// and leaving at the camera point of sample `p`, at extinction `sigma_t`; (1, 0) with
+    /// [`Incidence::Isotropic`].
+    #[inline]
+    pub(crate) fn incidence_factor(
+        &self,
+        p: &Pending,
+        light_side: (Vec3, Vec3, Vec3, f32),
+        sigma_t: f32,
+    ) -> (f32, f32) {
+        match &self.incidence {
+            Some(slices) => slices[p.channel as usize].at_points(
+                light_side,
+                (p.x_o, p.mu_cam, p.cam_fwd),
+                sigma_t,
+            ),
+            None => (1.0, 0.0),
+        }
+    }
+}
+
+/// The (unnormalised, detached) projection direction and the side value at the proposed point
+/// `x_t` of sample `p` (model-spec A5): the gradient and value of the fixed interpolated
+/// polynomial at `(x_t − x_o)/σ_n,fit`, or (n_o, 1) with planar features.
+#[inline]
+pub(crate) fn projection_gradient(scene: &LearnedScene, p: &Pending, x_t: Vec3) -> (Vec3, f32) {
+    if scene.settings.planar_features {
+        (p.n_o, 1.0)
+    } else {
+        let (value, grad) = p
+            .poly
+            .eval_with_gradient((x_t - p.x_o) / scene.features.sigma_n[p.channel as usize]);
+        (grad, value)
+    }
+}
+
+/// x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃) and x_i = Π(x̃) for the decoder output `y` at the kernel
+/// scale `sigma_n` (the offset samples of [`crate::diff`] call this with σ_n(θ ± Δ)).
+#[inline]
+pub(crate) fn place_and_project(
+    scene: &LearnedScene,
+    p: &Pending,
+    y: [f32; POSITION_DIM],
+    sigma_n: f32,
+) -> Option<geometry::Hit> {
+    let x_t = proposed_point(p, y, sigma_n);
+    let (grad, value) = projection_gradient(scene, p, x_t);
+    project(
+        scene.accel,
+        scene.settings.projection,
+        x_t,
+        grad,
+        value,
+        sigma_n,
+    )
+}
+
+/// x̃ = x_o + σ_n·R·y.
+#[inline]
+pub(crate) fn proposed_point(p: &Pending, y: [f32; POSITION_DIM], sigma_n: f32) -> Vec3 {
+    p.x_o + sigma_n * p.out_frame.to_world(Vec3::new(y[0], y[1], y[2]))
+}
+
+/// L = D(w_l) · A · max(0, n_i·w_l) · V / r² at the entry point `hit` of sample `p` (without
+/// the intensity) and ∂L/∂α of the sample's channel; D is the exit law
+/// ([`LearnedScene::exit_law`]), A the incidence factor ([`LearnedScene::incidence_factor`]) at
+/// extinction `sigma_t` (the σ_t the sample was placed with: the offset samples of
+/// [`crate::diff`] pass σ_t ± Δ).
+#[inline]
+pub(crate) fn light_contribution(
+    scene: &LearnedScene,
+    view: &ViewRays,
+    p: &Pending,
+    hit: &geometry::Hit,
+    sigma_t: f32,
+) -> (f32, f32) {
+    let (x_i, n_i, ng) = (hit.p, hit.ns, hit.ng);
+    let to_l = view.light.position - x_i;
+    let r2 = to_l.length_squared();
+    if r2 <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let r = r2.sqrt();
+    let dir = to_l / r;
+    let cos_l = n_i.dot(dir);
+    if cos_l <= 0.0 || ng.dot(dir) <= 0.0 {
+        return (0.0, 0.0);
+    }
+    if scene
+        .accel
+        .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
+    {
+        return (0.0, 0.0);
+    }
+    let (d, dd) = scene.exit_law(p.channel as usize, p.mu_cam, cos_l);
+    let (a, da) = scene.incidence_factor(p, (x_i, n_i, dir, cos_l), sigma_t);
+    let g = cos_l / r2;
+    ((d * a) * g, (dd * a + d * da) * g)
+}
