@@ -203,40 +203,27 @@ impl ExitTable {
     /// `translucent model exit-table` with the settings it records.
     pub fn index_matched_isotropic() -> std::sync::Arc<ExitTable> {
         static TABLE: std::sync::OnceLock<std::sync::Arc<ExitTable>> = std::sync::OnceLock::new();
-        TABLE
-            .get_or_init(|| {
-                std::sync::Arc::new(
-                    serde_json::from_str(SHIPPED_JSON)
-                        .expect("the shipped exit table parses (checked by a test)"),
-                )
-            })
-            .clone()
+        shipped(&TABLE, SHIPPED_JSON)
     }
 
     /// The table for a medium with phase g and index η: the shipped one for (0, 1), otherwise
     /// simulated once per process ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
     pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<ExitTable> {
-        use std::sync::{Arc, Mutex};
-        static CACHE: Mutex<Vec<Arc<ExitTable>>> = Mutex::new(Vec::new());
-        let shipped = Self::index_matched_isotropic();
-        if shipped.settings.g == g && shipped.settings.eta == eta {
-            return shipped;
-        }
-        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(t) = cache
-            .iter()
-            .find(|t| t.settings.g == g && t.settings.eta == eta)
-        {
-            return t.clone();
-        }
-        let t = Arc::new(Self::generate(ExitTableSettings {
-            g,
-            eta,
-            walks: DEFAULT_RUNTIME_WALKS,
-            seed: 0,
-        }));
-        cache.push(t.clone());
-        t
+        static CACHE: MediumCache<ExitTable> = std::sync::Mutex::new(Vec::new());
+        for_medium(
+            &CACHE,
+            Self::index_matched_isotropic(),
+            (g, eta),
+            |t| (t.settings.g, t.settings.eta),
+            || {
+                Self::generate(ExitTableSettings {
+                    g,
+                    eta,
+                    walks: DEFAULT_RUNTIME_WALKS,
+                    seed: 0,
+                })
+            },
+        )
     }
 
     /// The table at albedo `albedo`: a cubic Hermite spline in x = ln(1 − α) through the grid
@@ -246,6 +233,43 @@ impl ExitTable {
         let (f, df) = albedo_spline(&self.f, MU_BINS * MU_BINS, albedo);
         ExitSlice { f, df }
     }
+}
+
+/// The tables simulated at run time for media other than the shipped one, per process.
+pub(crate) type MediumCache<T> = std::sync::Mutex<Vec<std::sync::Arc<T>>>;
+
+/// A shipped table (JSON built into the binary), parsed once.
+pub(crate) fn shipped<T: serde::de::DeserializeOwned>(
+    cell: &std::sync::OnceLock<std::sync::Arc<T>>,
+    json: &str,
+) -> std::sync::Arc<T> {
+    cell.get_or_init(|| {
+        std::sync::Arc::new(
+            serde_json::from_str(json).expect("a shipped table parses (checked by its tests)"),
+        )
+    })
+    .clone()
+}
+
+/// The table of a medium `(g, η)`: `shipped` when its own (g, η) (read by `key`) match, else one
+/// simulated by `make` once per process and kept in `cache`.
+pub(crate) fn for_medium<T>(
+    cache: &MediumCache<T>,
+    shipped: std::sync::Arc<T>,
+    (g, eta): (f32, f32),
+    key: impl Fn(&T) -> (f32, f32),
+    make: impl FnOnce() -> T,
+) -> std::sync::Arc<T> {
+    if key(&shipped) == (g, eta) {
+        return shipped;
+    }
+    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(t) = cache.iter().find(|t| key(t) == (g, eta)) {
+        return t.clone();
+    }
+    let t = std::sync::Arc::new(make());
+    cache.push(t.clone());
+    t
 }
 
 /// A table of rows over the albedo grid [`ONE_MINUS_ALBEDO`] (`rows[a·n..(a + 1)·n]` for grid

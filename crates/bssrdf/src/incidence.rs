@@ -55,7 +55,7 @@ use volpath::fresnel::fresnel_dielectric;
 use volpath::phase::HenyeyGreenstein;
 use volpath::rng::Sampler;
 
-use crate::exit::{MU_BINS, ONE_MINUS_ALBEDO, albedo_spline};
+use crate::exit::{MU_BINS, MediumCache, ONE_MINUS_ALBEDO, albedo_spline, for_medium, shipped};
 
 /// Distance bins (uniform in ln(1 + ρ/ρ₀), ρ in mean free paths; the last is open).
 pub const RHO_BINS: usize = 12;
@@ -79,18 +79,9 @@ pub const MIN_CELL: u64 = 200;
 /// Scattering events after which a walk counts as absorbed (as `learn::walk::MAX_BOUNCES`).
 const MAX_BOUNCES: u32 = 10_000;
 
-/// How an [`IncidenceTable`] is made.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct IncidenceSettings {
-    /// Henyey–Greenstein g of the medium.
-    pub g: f32,
-    /// Relative index of refraction n_inside/n_outside.
-    pub eta: f32,
-    /// Walks per (albedo, light-cosine bin).
-    pub walks: u32,
-    /// Seed of the walks.
-    pub seed: u64,
-}
+/// How an [`IncidenceTable`] is made: the settings of the exit law's walks (g, η, walks per
+/// albedo and cosine bin, seed).
+pub type IncidenceSettings = crate::exit::ExitTableSettings;
 
 /// A(α; μ_l, ρ, ψ) on the grid (module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -310,40 +301,27 @@ impl IncidenceTable {
     pub fn index_matched_isotropic() -> std::sync::Arc<IncidenceTable> {
         static TABLE: std::sync::OnceLock<std::sync::Arc<IncidenceTable>> =
             std::sync::OnceLock::new();
-        TABLE
-            .get_or_init(|| {
-                std::sync::Arc::new(
-                    serde_json::from_str(SHIPPED_JSON)
-                        .expect("the shipped incidence table parses (checked by a test)"),
-                )
-            })
-            .clone()
+        shipped(&TABLE, SHIPPED_JSON)
     }
 
     /// The table for a medium with phase g and index η: the shipped one for (0, 1), otherwise
     /// simulated once per process ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
     pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<IncidenceTable> {
-        use std::sync::{Arc, Mutex};
-        static CACHE: Mutex<Vec<Arc<IncidenceTable>>> = Mutex::new(Vec::new());
-        let shipped = Self::index_matched_isotropic();
-        if shipped.settings.g == g && shipped.settings.eta == eta {
-            return shipped;
-        }
-        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(t) = cache
-            .iter()
-            .find(|t| t.settings.g == g && t.settings.eta == eta)
-        {
-            return t.clone();
-        }
-        let t = Arc::new(Self::generate(IncidenceSettings {
-            g,
-            eta,
-            walks: DEFAULT_RUNTIME_WALKS,
-            seed: 0,
-        }));
-        cache.push(t.clone());
-        t
+        static CACHE: MediumCache<IncidenceTable> = std::sync::Mutex::new(Vec::new());
+        for_medium(
+            &CACHE,
+            Self::index_matched_isotropic(),
+            (g, eta),
+            |t| (t.settings.g, t.settings.eta),
+            || {
+                Self::generate(IncidenceSettings {
+                    g,
+                    eta,
+                    walks: DEFAULT_RUNTIME_WALKS,
+                    seed: 0,
+                })
+            },
+        )
     }
 
     /// The table at albedo `albedo` ([`crate::exit`]'s spline in ln(1 − α)); every slice keeps

@@ -69,6 +69,10 @@ pub struct LearnedBenchArgs {
     /// Reach of the `son24` projection in units of σ_n (SON24: 2).
     #[arg(long, default_value_t = 2.0, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
+    /// Light-side incidence of the learned renders: `directional` (default) or `isotropic`
+    /// (VKJ19/SON24).
+    #[arg(long, default_value = "directional", value_parser = ["directional", "isotropic"])]
+    pub incidence: String,
 }
 
 /// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
@@ -175,6 +179,11 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                                 bssrdf::exit::ExitLaw::Cosine
                             } else {
                                 bssrdf::exit::ExitLaw::HalfSpace
+                            },
+                            incidence: if a.incidence == "isotropic" {
+                                bssrdf::render::Incidence::Isotropic
+                            } else {
+                                bssrdf::render::Incidence::Directional
                             },
                             ..Default::default()
                         };

@@ -44,49 +44,35 @@ pub enum ModelCommand {
     /// walks (bssrdf::exit) and write it as JSON. The defaults reproduce the table built into
     /// the binary for g = 0, η = 1 (crates/bssrdf/data/exit-g0-eta1.json).
     #[command(name = "exit-table")]
-    ExitTable {
-        /// Output file (.json).
-        out: PathBuf,
-        /// Henyey–Greenstein g.
-        #[arg(long, default_value_t = 0.0)]
-        g: f32,
-        /// Relative index of refraction n_inside/n_outside (≥ 1).
-        #[arg(long, default_value_t = 1.0)]
-        eta: f32,
-        /// Walks per albedo and entry-cosine bin.
-        #[arg(long, default_value_t = 1_000_000)]
-        walks: u32,
-        /// Seed of the walks.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Replace OUT if it exists.
-        #[arg(long)]
-        overwrite: bool,
-    },
+    ExitTable(WalkTableArgs),
     /// Simulate the light-side incidence factor A(α; μ_l, ρ, ψ) of a medium (where light that
     /// entered obliquely leaves, relative to its direction; bssrdf::incidence) from half-space
     /// random walks and write it as JSON. The defaults reproduce the table built into the binary
     /// for g = 0, η = 1 (crates/bssrdf/data/incidence-g0-eta1.json).
     #[command(name = "incidence-table")]
-    IncidenceTable {
-        /// Output file (.json).
-        out: PathBuf,
-        /// Henyey–Greenstein g.
-        #[arg(long, default_value_t = 0.0)]
-        g: f32,
-        /// Relative index of refraction n_inside/n_outside (≥ 1).
-        #[arg(long, default_value_t = 1.0)]
-        eta: f32,
-        /// Walks per albedo and light-cosine bin.
-        #[arg(long, default_value_t = 1_000_000)]
-        walks: u32,
-        /// Seed of the walks.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Replace OUT if it exists.
-        #[arg(long)]
-        overwrite: bool,
-    },
+    IncidenceTable(WalkTableArgs),
+}
+
+/// Options of `model exit-table` and `model incidence-table`.
+#[derive(clap::Args)]
+pub struct WalkTableArgs {
+    /// Output file (.json).
+    out: PathBuf,
+    /// Henyey–Greenstein g.
+    #[arg(long, default_value_t = 0.0)]
+    g: f32,
+    /// Relative index of refraction n_inside/n_outside (≥ 1).
+    #[arg(long, default_value_t = 1.0)]
+    eta: f32,
+    /// Walks per albedo and cosine bin.
+    #[arg(long, default_value_t = 1_000_000)]
+    walks: u32,
+    /// Seed of the walks.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Replace OUT if it exists.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 /// Which half-space table `model exit-table` / `model incidence-table` writes.
@@ -104,36 +90,20 @@ pub fn run(cmd: &ModelCommand) -> Result<()> {
             overwrite,
         } => import_son24(dir, out, *overwrite),
         ModelCommand::Info { file } => info(file),
-        ModelCommand::ExitTable {
-            out,
-            g,
-            eta,
-            walks,
-            seed,
-            overwrite,
-        } => walk_table(WalkTable::Exit, out, (*g, *eta, *walks, *seed), *overwrite),
-        ModelCommand::IncidenceTable {
-            out,
-            g,
-            eta,
-            walks,
-            seed,
-            overwrite,
-        } => walk_table(
-            WalkTable::Incidence,
-            out,
-            (*g, *eta, *walks, *seed),
-            *overwrite,
-        ),
+        ModelCommand::ExitTable(args) => walk_table(WalkTable::Exit, args),
+        ModelCommand::IncidenceTable(args) => walk_table(WalkTable::Incidence, args),
     }
 }
 
-fn walk_table(
-    kind: WalkTable,
-    out: &Path,
-    (g, eta, walks, seed): (f32, f32, u32, u64),
-    overwrite: bool,
-) -> Result<()> {
+fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
+    let &WalkTableArgs {
+        ref out,
+        g,
+        eta,
+        walks,
+        seed,
+        overwrite,
+    } = args;
     if !(g > -1.0 && g < 1.0) {
         bail!("--g {g}: the Henyey–Greenstein g must lie in (−1, 1)");
     }
