@@ -36,9 +36,11 @@
 //!   ∂Absorb/∂α = ∂Absorb/∂input₂₀ · d input₂₀/dα' · dα'/dα (forward-mode tangent through the
 //!   feature and absorption MLPs, [`ShapeAdaptiveModel::absorb_input_derivative_with`];
 //!   `Normalisation::d_albedo_input_d_albedo_red`; `ReducedMedium::d_albedo_red_d_albedo`).
-//! * [`DiffMethod::OursAlphaOffsets`] (model-spec A6, option): as `Ours`, plus the α-dependence
-//!   of σ_n (model-spec §2) by offset samples x_i^± = Π(x_o + σ_n(α ± Δα)·R·y^±), z reused
-//!   (y^±, S_abs^± as for σ_t): ∂C/∂α += (1 − F)·(S_abs⁺·L(x_i⁺) − S_abs⁻·L(x_i⁻))/(2Δα).
+//! * [`DiffMethod::OursAlphaOffsets`] (model-spec A6, option): σ_t as `Ours`; α entirely by
+//!   offset samples, as σ_t: the networks run again with the albedo input and the descriptor at
+//!   α ± Δα (y^±, S_abs^±, z reused), x_i^± = Π(x_o + σ_n(α ± Δα)·R·y^±), and the light side
+//!   (exit law, incidence factor) at α ± Δα: ∂C/∂α = (1 − F)·(S_abs⁺·L⁺(x_i⁺) − S_abs⁻·L⁻(x_i⁻))/(2Δα).
+//!   Unlike `Ours` it keeps the dependence of the sample positions on α.
 //! * [`DiffMethod::Naive`] (paper §4.1, the "naive" baseline; architecture.md §4): σ_t by the
 //!   derivative of the sample position with visibility held fixed (interior term only):
 //!   dx̃/dσ_t = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t), moved along the surface at x_i with the detached
@@ -308,9 +310,10 @@ fn diff_row(
     }
     // Offset samples whose descriptor moves with σ_n: the networks again, same z.
     let sets = match ds.method {
+        // The α offsets change the network inputs (albedo) even with a fixed descriptor.
+        DiffMethod::OursAlphaOffsets => 4,
         _ if !k.moving => 0,
         DiffMethod::Ours | DiffMethod::Naive => 2,
-        DiffMethod::OursAlphaOffsets => 4,
         DiffMethod::Fd => unreachable!(),
     };
     // The value from the σ_t offset pair: no unperturbed sample to place (module docs).
@@ -326,8 +329,13 @@ fn diff_row(
         off.inputs
             .extend(row.pending.iter().zip(&row.coeffs).map(|(p, coeffs)| {
                 let c = p.channel as usize;
-                let scale = if j < 2 { k.k_t[c][j] } else { k.k_a[c][j - 2] };
-                scene.inputs_at(coeffs, c, scale)
+                if j < 2 {
+                    scene.inputs_at(coeffs, c, k.k_t[c][j])
+                } else {
+                    // The scene at α_c ± Δα: its albedo input and descriptor scale.
+                    let a = &k.alpha[c][j - 2];
+                    a.inputs_at(coeffs, c, a.descriptor_scale[c])
+                }
             }));
         evaluate_networks(
             scene.model,
@@ -426,20 +434,24 @@ fn diff_row(
             },
             DiffMethod::Fd => unreachable!(),
         };
-        // ∂C/∂α without the channel weight: −∂Absorb/∂α · (1 − F) · L(x_i), after the loop.
-        if v > 0.0 {
-            buf.lit.push((s as u32, p.t_cam * v));
-            buf.lit_inputs.push(row.inputs[s]);
-        }
-        let mut d_a = p.t_cam * dv_law;
-        if ds.method == DiffMethod::OursAlphaOffsets {
+        let d_a = if ds.method == DiffMethod::OursAlphaOffsets {
+            // Every α-dependence by the offset pair at α ± Δα (same z): networks, σ_n and the
+            // light-side tables of the offset scenes.
             let [hi, lo] = k.sn_a[c];
             let ((yp, sp), (ym, sm)) = (at(2), at(3));
             let st = scene.medium.sigma_t[c];
-            let (vp, _) = offset_light(scene, view, p, yp, (hi, st));
-            let (vm, _) = offset_light(scene, view, p, ym, (lo, st));
-            d_a += p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c];
-        }
+            let (vp, _) = offset_light(&k.alpha[c][0], view, p, yp, (hi, st));
+            let (vm, _) = offset_light(&k.alpha[c][1], view, p, ym, (lo, st));
+            p.t_cam * (sp * vp - sm * vm) * k.inv_2da[c]
+        } else {
+            // ∂C/∂α without the channel weight: −∂Absorb/∂α · (1 − F) · L(x_i) after the loop,
+            // and the light side's ∂L/∂α here.
+            if v > 0.0 {
+                buf.lit.push((s as u32, p.t_cam * v));
+                buf.lit_inputs.push(row.inputs[s]);
+            }
+            p.t_cam * dv_law
+        };
         let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
         let (acc_t, acc_a) = (
             &mut buf.dsum_t[p.pixel as usize],

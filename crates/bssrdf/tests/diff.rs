@@ -400,6 +400,18 @@ fn alpha_derivatives() {
         );
         assert!(zc < 4.0, "channel {c}: z = {zc:.2}");
     }
+    // (c) OursAlphaOffsets is the full FD sample for sample: with the same random numbers and
+    // the same Δα, both difference the same samples (networks, positions and light side at
+    // α ± Δα), so they differ by f32 rounding of the per-sample differences only (about 1e-5 of
+    // Σ|D|; tolerance 1e-3).
+    let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
+    for c in 0..3 {
+        let rel = (offs.mean[D_A][c] - fd_same.mean[D_A][c]).abs() / offs.mean[ABS_D_A][c];
+        eprintln!(
+            "channel {c}: ours-alpha-offsets vs FD (same seeds), difference / Σ|D| = {rel:.2e}"
+        );
+        assert!(rel < 1e-3, "channel {c}: relative difference {rel:.2e}");
+    }
 }
 
 /// `ours`, `naive` and `fd` on independent random numbers, with their z scores against `fd` per

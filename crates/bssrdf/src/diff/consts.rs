@@ -29,6 +29,9 @@ pub(super) struct Consts<'a> {
     pub(super) din_da: [f32; 3],
     /// Fd: (scene at θ + Δ, scene at θ − Δ, 1/(2Δ)) for σ_t,R..B then α_R..B.
     pub(super) fd: Vec<(LearnedScene<'a>, LearnedScene<'a>, f64)>,
+    /// OursAlphaOffsets: per channel c, the scenes at α_c + Δα and α_c − Δα (network inputs,
+    /// σ_n, descriptor scale and light-side tables of channel c at the offset albedo).
+    pub(super) alpha: Vec<[LearnedScene<'a>; 2]>,
 }
 
 impl<'a> Consts<'a> {
@@ -48,6 +51,7 @@ impl<'a> Consts<'a> {
             dsn_dt: [0.0; 3],
             din_da: [0.0; 3],
             fd: Vec::new(),
+            alpha: Vec::new(),
         };
         let mut steps_t = [0.0f64; 3];
         let mut steps_a = [0.0f64; 3];
@@ -92,6 +96,31 @@ impl<'a> Consts<'a> {
                 c.k_a[ch][j] = ka[ch];
             }
         }
+        let perturbed = |med: scene::Medium| {
+            LearnedScene::new(
+                scene.accel,
+                scene.model,
+                scene.features,
+                med,
+                scene.settings,
+            )
+        };
+        if ds.method == DiffMethod::OursAlphaOffsets {
+            for ch in 0..3 {
+                let make = |sign: f64| {
+                    let mut med = scene.medium;
+                    med.albedo[ch] = (m.albedo[ch] as f64 + sign * steps_a[ch]) as f32;
+                    perturbed(med)
+                };
+                let pair = [make(1.0)?, make(-1.0)?];
+                // The actual f32 albedo difference.
+                let diff = pair[0].medium.albedo[ch] as f64 - pair[1].medium.albedo[ch] as f64;
+                c.inv_2da[ch] = (1.0 / diff) as f32;
+                c.sn_a[ch] = [pair[0].sigma_n[ch], pair[1].sigma_n[ch]];
+                c.k_a[ch] = [pair[0].descriptor_scale[ch], pair[1].descriptor_scale[ch]];
+                c.alpha.push(pair);
+            }
+        }
         if ds.method == DiffMethod::Fd {
             for param in 0..6 {
                 let ch = param % 3;
@@ -103,13 +132,7 @@ impl<'a> Consts<'a> {
                     } else {
                         med.albedo[ch] = (m.albedo[ch] as f64 + sign * step) as f32;
                     }
-                    let mut s = LearnedScene::new(
-                        scene.accel,
-                        scene.model,
-                        scene.features,
-                        med,
-                        scene.settings,
-                    )?;
+                    let mut s = perturbed(med)?;
                     if ds.fd_fixed_sigma_n {
                         s.sigma_n = scene.sigma_n;
                         s.descriptor_scale = scene.descriptor_scale;

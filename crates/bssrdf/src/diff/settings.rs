@@ -15,7 +15,8 @@ pub enum DiffMethod {
     /// Correlated offset samples for σ_t, S_abs derivative for α (the paper's method).
     #[default]
     Ours,
-    /// `Ours` plus offset samples for the α-dependence of σ_n.
+    /// σ_t as `Ours`; α by offset samples at α ± Δα (networks, σ_n and light side), keeping the
+    /// α-dependence of the sample positions that `Ours` detaches.
     OursAlphaOffsets,
     /// Sample-position derivative with visibility held fixed (interior term only).
     Naive,
