@@ -153,3 +153,24 @@ pub(crate) fn light_contribution(
     let g = cos_l / r2;
     ((d * a) * g, (dd * a + d * da) * g)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::LearnedSettings;
+    use super::Incidence;
+
+    /// New settings use the directional factor; settings files written before it existed (no
+    /// `incidence` field: checkpoints, result files, the experiment's run records) read as
+    /// isotropic, which is how they were rendered.
+    #[test]
+    fn settings_without_the_field_are_isotropic() {
+        assert_eq!(LearnedSettings::default().incidence, Incidence::Directional);
+        let old: LearnedSettings =
+            serde_json::from_str(r#"{"exit": "half-space", "planar_features": false}"#).unwrap();
+        assert_eq!(old.incidence, Incidence::Isotropic);
+        let new: LearnedSettings =
+            serde_json::from_str(&serde_json::to_string(&LearnedSettings::default()).unwrap())
+                .unwrap();
+        assert_eq!(new.incidence, Incidence::Directional);
+    }
+}
