@@ -18,9 +18,16 @@ fn lambert_mass(j: usize) -> f64 {
     hi * hi - lo * lo
 }
 
-/// Exit-cosine histogram and escaped count of `walks` library walks entering with outside
-/// cosine uniform in bin `i` (refracted into the medium).
-fn library_row(albedo: f64, g: f64, eta: f64, i: usize, walks: u64) -> ([f64; MU_BINS], f64) {
+/// Histogram over `bins` bins (`bin_of` of each exit) of `walks` library walks on the plane
+/// (σ_t = 1), entering with outside cosine uniform in bin `i` of [`MU_BINS`] (refracted into the
+/// medium), from the random streams of `seed`.
+fn library_histogram(
+    (albedo, g, eta): (f64, f64, f64),
+    i: usize,
+    (walks, seed): (u64, u64),
+    bins: usize,
+    bin_of: impl Fn(&learn::walk::Exit) -> usize + Sync,
+) -> Vec<f64> {
     let sn = sigma_n(1.0, albedo, g);
     let surface = WalkSurface::new(&Poly3::plane(Vec3::Z), sn);
     let medium = WalkMedium {
@@ -29,40 +36,56 @@ fn library_row(albedo: f64, g: f64, eta: f64, i: usize, walks: u64) -> ([f64; MU
         g,
         eta,
     };
-    let h = (0..walks)
+    (0..walks)
         .into_par_iter()
         .map(|k| {
-            let mut rng = Sampler::new(5, i as u64, k, 0);
+            let mut rng = Sampler::new(seed, i as u64, k, 0);
             let mu_c = (i as f64 + rng.next_f32() as f64) / MU_BINS as f64;
             let mu_in = (1.0 - (1.0 - mu_c * mu_c) / (eta * eta)).max(1e-6).sqrt();
             let d_in = Vec3::new((1.0 - mu_in * mu_in).sqrt() as f32, 0.0, -mu_in as f32);
-            let mut h = [0.0; MU_BINS];
+            let mut h = vec![0.0; bins];
             if let WalkOutcome::Exited(e) = random_walk(&surface, &medium, d_in, &mut rng) {
-                let j = ((e.direction.z.max(0.0) * MU_BINS as f32) as usize).min(MU_BINS - 1);
-                h[j] = 1.0;
+                h[bin_of(&e)] = 1.0;
             }
             h
         })
         .reduce(
-            || [0.0; MU_BINS],
+            || vec![0.0; bins],
             |mut a, b| {
                 a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
                 a
             },
-        );
-    (h, h.iter().sum())
+        )
+}
+
+/// Exit-cosine histogram and escaped count of `walks` library walks entering with outside
+/// cosine uniform in bin `i` (refracted into the medium).
+fn library_row(albedo: f64, g: f64, eta: f64, i: usize, walks: u64) -> (Vec<f64>, f64) {
+    let h = library_histogram((albedo, g, eta), i, (walks, 5), MU_BINS, |e| {
+        ((e.direction.z.max(0.0) * MU_BINS as f32) as usize).min(MU_BINS - 1)
+    });
+    let n = h.iter().sum();
+    (h, n)
+}
+
+/// The media of both comparisons, (g, η, albedo index into ONE_MINUS_ALBEDO): the paper's and
+/// an anisotropic one behind a dielectric boundary.
+const MEDIA: [(f32, f32, usize); 2] = [(0.0, 1.0, 6), (0.5, 1.3, 4)];
+
+/// Settings of the tables simulated for the comparisons.
+fn table_settings(g: f32, eta: f32) -> ExitTableSettings {
+    ExitTableSettings {
+        g,
+        eta,
+        walks: 40_000,
+        seed: 1,
+    }
 }
 
 #[test]
 fn the_fast_walker_matches_the_training_walk() {
-    // (g, η, albedo index into ONE_MINUS_ALBEDO, entry bins)
-    for (g, eta, a) in [(0.0f32, 1.0f32, 6usize), (0.5, 1.3, 4)] {
-        let table = ExitTable::generate(ExitTableSettings {
-            g,
-            eta,
-            walks: 40_000,
-            seed: 1,
-        });
+    for (g, eta, a) in MEDIA {
+        let table = ExitTable::generate(table_settings(g, eta));
         let albedo = 1.0 - bssrdf::exit::ONE_MINUS_ALBEDO[a] as f64;
         for i in [1usize, 8, 15] {
             let r = a * MU_BINS + i;
@@ -104,56 +127,22 @@ fn chi2_999(k: f64) -> f64 {
 /// direction), by a two-sample χ² over the cells the table resolves, including g = 0.5, η = 1.3.
 #[test]
 fn the_incidence_walker_matches_the_training_walk() {
-    use bssrdf::incidence::{
-        IncidenceSettings, IncidenceTable, MIN_CELL, PSI_BINS, RHO_0, RHO_BINS, RHO_MAX,
-    };
-    for (g, eta, a) in [(0.0f32, 1.0f32, 6usize), (0.5, 1.3, 4)] {
-        let table = IncidenceTable::generate(IncidenceSettings {
-            g,
-            eta,
-            walks: 40_000,
-            seed: 1,
-        });
+    use bssrdf::incidence::{IncidenceTable, MIN_CELL, PSI_BINS, RHO_0, RHO_BINS, RHO_MAX};
+    for (g, eta, a) in MEDIA {
+        let table = IncidenceTable::generate(table_settings(g, eta));
         let albedo = 1.0 - bssrdf::exit::ONE_MINUS_ALBEDO[a] as f64;
-        let sn = sigma_n(1.0, albedo, g as f64);
-        let surface = WalkSurface::new(&Poly3::plane(Vec3::Z), sn);
-        let medium = WalkMedium {
-            sigma_t: 1.0,
-            albedo,
-            g: g as f64,
-            eta: eta as f64,
-        };
         let top = (1.0 + RHO_MAX / RHO_0).ln();
         for i in [2usize, 9] {
-            let h: Vec<f64> = (0..20_000u64)
-                .into_par_iter()
-                .map(|k| {
-                    let mut rng = Sampler::new(6, i as u64, k, 0);
-                    let mu_c = (i as f64 + rng.next_f32() as f64) / MU_BINS as f64;
-                    let mu_in = (1.0 - (1.0 - mu_c * mu_c) / (eta as f64).powi(2))
-                        .max(1e-6)
-                        .sqrt();
-                    let d_in = Vec3::new((1.0 - mu_in * mu_in).sqrt() as f32, 0.0, -mu_in as f32);
-                    let mut h = vec![0.0; RHO_BINS * PSI_BINS];
-                    if let WalkOutcome::Exited(e) = random_walk(&surface, &medium, d_in, &mut rng) {
-                        let (x, y) = (e.position.x as f32, e.position.y as f32);
-                        let rho = x.hypot(y);
-                        let r = (((1.0 + rho / RHO_0).ln() / top * RHO_BINS as f32) as usize)
-                            .min(RHO_BINS - 1);
-                        let psi = y.abs().atan2(x);
-                        let q = ((psi / std::f32::consts::PI * PSI_BINS as f32) as usize)
-                            .min(PSI_BINS - 1);
-                        h[r * PSI_BINS + q] = 1.0;
-                    }
-                    h
-                })
-                .reduce(
-                    || vec![0.0; RHO_BINS * PSI_BINS],
-                    |mut a, b| {
-                        a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-                        a
-                    },
-                );
+            let walk = (albedo, g as f64, eta as f64);
+            let h = library_histogram(walk, i, (20_000, 6), RHO_BINS * PSI_BINS, |e| {
+                let (x, y) = (e.position.x as f32, e.position.y as f32);
+                let rho = x.hypot(y);
+                let r =
+                    (((1.0 + rho / RHO_0).ln() / top * RHO_BINS as f32) as usize).min(RHO_BINS - 1);
+                let psi = y.abs().atan2(x);
+                let q = ((psi / std::f32::consts::PI * PSI_BINS as f32) as usize).min(PSI_BINS - 1);
+                r * PSI_BINS + q
+            });
             // Cells the table resolves; its counts are A·n/PSI_BINS.
             let cell0 = (a * MU_BINS + i) * RHO_BINS;
             let mut c1 = Vec::new();
