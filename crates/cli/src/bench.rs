@@ -14,7 +14,10 @@ use geometry::Shape;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
 use scene::{Dataset, Medium, PointLight};
-use volpath::{ChannelSampling, RenderSettings, VolpathScene, VolpathSettings, render_image};
+use volpath::{
+    ChannelSampling, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings,
+    render_image,
+};
 
 use crate::common::build_accel;
 
@@ -121,14 +124,20 @@ fn volpath(a: &VolpathBenchArgs) -> Result<()> {
         a.repeat
     );
     println!(
-        "{:<8} {:<14} {:>12} {:>14} {:>16}",
-        "res", "sampling", "s/view", "Mpaths/s", "Mitsuba s/view"
+        "{:<8} {:<14} {:<8} {:>12} {:>14} {:>16}",
+        "res", "sampling", "shadow", "s/view", "Mpaths/s", "Mitsuba s/view"
     );
     for &res in &a.res {
         anyhow::ensure!(res > 0, "--res values must be positive");
-        for sampling in [ChannelSampling::SpectralMis, ChannelSampling::SingleChannel] {
+        let variants = [ShadowTransmittance::Tracked, ShadowTransmittance::Exact]
+            .into_iter()
+            .flat_map(|sh| {
+                [ChannelSampling::SpectralMis, ChannelSampling::SingleChannel].map(|c| (c, sh))
+            });
+        for (sampling, shadow) in variants {
             let settings = VolpathSettings {
                 channel_sampling: sampling,
+                shadow,
                 ..Default::default()
             };
             let mut best = f64::INFINITY;
@@ -163,10 +172,15 @@ fn volpath(a: &VolpathBenchArgs) -> Result<()> {
                 ChannelSampling::SpectralMis => "spectral MIS",
                 ChannelSampling::SingleChannel => "single channel",
             };
+            let shadow = match shadow {
+                ShadowTransmittance::Tracked => "tracked",
+                ShadowTransmittance::Exact => "exact",
+            };
             println!(
-                "{:<8} {:<14} {:>12.4} {:>14.3} {:>16}",
+                "{:<8} {:<14} {:<8} {:>12.4} {:>14.3} {:>16}",
                 format!("{res}²"),
                 name,
+                shadow,
                 best,
                 paths,
                 mitsuba

@@ -152,6 +152,27 @@ pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], wha
     accel
 }
 
+/// Estimator of the volumetric tracer's shadow-ray transmittance (`--shadow`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum ShadowArg {
+    /// exp(−σ_t ℓ) from the exact inside length of the shadow segment (one all-hits query per
+    /// scattering vertex): the least noise per second.
+    #[default]
+    Exact,
+    /// Delta tracking with the smallest σ_t as sampling rate, as Mitsuba 3 does: a deep vertex
+    /// costs one short query (about 1.25× the paths per second, 1.4× the variance per path).
+    Tracked,
+}
+
+impl From<ShadowArg> for volpath::ShadowTransmittance {
+    fn from(a: ShadowArg) -> Self {
+        match a {
+            ShadowArg::Tracked => volpath::ShadowTransmittance::Tracked,
+            ShadowArg::Exact => volpath::ShadowTransmittance::Exact,
+        }
+    }
+}
+
 /// Which forward model renders.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {

@@ -9,8 +9,8 @@ use scene::{Dataset, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
-    LearnedArgs, Method, build_accel, check_output_free, render_views, render_views_learned,
-    write_outputs,
+    LearnedArgs, Method, ShadowArg, build_accel, check_output_free, render_views,
+    render_views_learned, write_outputs,
 };
 
 #[derive(Args)]
@@ -43,6 +43,9 @@ pub struct RenderArgs {
     /// spectral MIS. For comparisons only: noisier.
     #[arg(long)]
     pub single_channel: bool,
+    /// Shadow-ray transmittance estimator of the volumetric tracer.
+    #[arg(long, value_enum, default_value_t)]
+    pub shadow: ShadowArg,
     /// Replace existing images in the output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -72,6 +75,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         } else {
             ChannelSampling::SpectralMis
         },
+        shadow: a.shadow.into(),
     };
     let rep = match a.method {
         Method::Volpath => render_views(&accel, &desc.medium, views, spp, seed, &settings),

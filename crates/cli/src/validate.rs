@@ -17,8 +17,8 @@ use scene::{Dataset, Image};
 use volpath::VolpathSettings;
 
 use crate::common::{
-    LearnedArgs, Method, build_accel, check_output_free, render_views, render_views_learned,
-    write_outputs,
+    LearnedArgs, Method, ShadowArg, build_accel, check_output_free, render_views,
+    render_views_learned, write_outputs,
 };
 use crate::compare::pair_stats;
 
@@ -42,6 +42,9 @@ pub struct ValidateArgs {
     pub method: Method,
     #[command(flatten)]
     pub learned: LearnedArgs,
+    /// Shadow-ray transmittance estimator of the volumetric tracer.
+    #[arg(long, value_enum, default_value_t)]
+    pub shadow: ShadowArg,
     /// Tolerance on |mean ratio − 1| for lit views.
     #[arg(long, default_value_t = 0.01)]
     pub lit_tolerance: f64,
@@ -105,6 +108,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let accel = build_accel(mesh, &warnings, &ds.mesh.describe());
     let settings = VolpathSettings {
         max_depth: ds.render.max_depth.unwrap_or(32),
+        shadow: a.shadow.into(),
         ..Default::default()
     };
     let views: Vec<ViewDesc> = ds.views.iter().map(|v| v.desc()).collect();

@@ -11,8 +11,9 @@
 //!
 //! Radiance along a camera ray is estimated by free-flight sampling (hero channel with spectral
 //! MIS, [`crate::spectral`]), phase-function sampling, and NEE at every scattering vertex with
-//! the transmittance exp(−σ_t · ℓ) of the total length ℓ of the shadow segment inside the mesh
-//! (re-entries included). Boundary crossings do not count as depth.
+//! an unbiased estimate of the transmittance exp(−σ_t · ℓ) of the total length ℓ of the shadow
+//! segment inside the mesh (re-entries included; [`crate::shadow`]). Boundary crossings do not
+//! count as depth.
 //!
 //! With η > 1 the camera side is exact (Fresnel reflection/refraction chosen with probability F,
 //! total internal reflection, radiance scaled by 1/η_rel² across the interface). A point light
@@ -30,6 +31,7 @@ use crate::fresnel::{fresnel_dielectric, reflect, refract};
 use crate::manifold;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
+use crate::shadow::ShadowTransmittance;
 use crate::spectral::SpectralWeight;
 
 /// How RGB extinction is sampled.
@@ -48,6 +50,8 @@ pub struct VolpathSettings {
     pub max_depth: u32,
     pub rr_depth: u32,
     pub channel_sampling: ChannelSampling,
+    /// Estimator of the shadow rays' transmittance ([`crate::shadow`]).
+    pub shadow: ShadowTransmittance,
 }
 
 impl Default for VolpathSettings {
@@ -56,6 +60,7 @@ impl Default for VolpathSettings {
             max_depth: 32,
             rr_depth: 5,
             channel_sampling: ChannelSampling::SpectralMis,
+            shadow: ShadowTransmittance::default(),
         }
     }
 }
@@ -78,6 +83,20 @@ pub fn radiance(
     settings: &VolpathSettings,
     origin: Vec3,
     dir: Vec3,
+    s: &mut Sampler,
+) -> [f32; 3] {
+    radiance_primary(scene, settings, origin, dir, None, s)
+}
+
+/// [`radiance`] for a ray from outside the object whose first surface hit is already known:
+/// `first` is `Some(scene.accel.closest(origin, dir, 0, ∞))` (e.g. from the camera's
+/// [`geometry::PixelBins`], which answer it bit for bit), `None` to query it here.
+pub fn radiance_primary(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    origin: Vec3,
+    dir: Vec3,
+    mut first: Option<Option<Hit>>,
     s: &mut Sampler,
 ) -> [f32; 3] {
     let m = &scene.medium;
@@ -116,7 +135,7 @@ pub fn radiance(
             }
             if let Some(light) = &scene.light {
                 if m.eta == 1.0 {
-                    next_event(scene, &phase, light, o, d, &w, &mut l);
+                    next_event(scene, settings.shadow, &phase, light, o, d, &w, &mut l, s);
                 } else {
                     next_event_refracted(scene, &phase, light, o, d, &w, &mut l);
                 }
@@ -136,7 +155,11 @@ pub fn radiance(
             let (u1, u2) = (s.next_f32(), s.next_f32());
             d = phase.sample(d, u1, u2);
         } else {
-            match scene.accel.closest(o, d, 0.0, f32::INFINITY) {
+            let hit = match first.take() {
+                Some(h) => h,
+                None => scene.accel.closest(o, d, 0.0, f32::INFINITY),
+            };
+            match hit {
                 None => {
                     if let Some(env) = &scene.environment {
                         for ((l, b), e) in l.iter_mut().zip(w.beta).zip(env.radiance) {
@@ -165,16 +188,19 @@ pub fn radiance(
 }
 
 /// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
-/// β · f_p(d, ω_l) · exp(−σ_t ℓ_inside) · I / r².
+/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]).
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn next_event(
     scene: &VolpathScene,
+    shadow: ShadowTransmittance,
     phase: &HenyeyGreenstein,
     light: &PointLight,
     p: Vec3,
     d: Vec3,
     w: &SpectralWeight,
     l: &mut [f32; 3],
+    s: &mut Sampler,
 ) {
     let to_l = light.position - p;
     let r2 = to_l.length_squared();
@@ -183,9 +209,9 @@ fn next_event(
     }
     let dir_l = to_l / r2.sqrt();
     let f = phase.eval(d, dir_l) / r2;
-    let len_in = scene.accel.inside_length(p, light.position);
+    let tr = shadow.estimate(scene.accel, &scene.medium.sigma_t, p, light.position, s);
     for (c, l) in l.iter_mut().enumerate() {
-        *l += w.beta[c] * f * (-scene.medium.sigma_t[c] * len_in).exp() * light.intensity[c];
+        *l += w.beta[c] * f * tr[c] * light.intensity[c];
     }
 }
 

@@ -10,6 +10,7 @@
 //! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
 //! * [`manifold`]: next-event estimation through one refraction (η > 1 with point lights).
 //! * [`render`]: parallel, reproducible image rendering.
+//! * [`shadow`]: transmittance of the shadow rays (exact or tracked).
 //! * [`rng`]: seeded per-pixel random streams.
 
 pub mod fresnel;
@@ -18,7 +19,9 @@ pub mod manifold;
 pub mod phase;
 pub mod render;
 pub mod rng;
+pub mod shadow;
 pub mod spectral;
 
-pub use integrator::{ChannelSampling, VolpathScene, VolpathSettings, radiance};
+pub use integrator::{ChannelSampling, VolpathScene, VolpathSettings, radiance, radiance_primary};
 pub use render::{RenderSettings, render_image};
+pub use shadow::ShadowTransmittance;

@@ -7,7 +7,7 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image};
 
-use crate::integrator::{VolpathScene, VolpathSettings, radiance};
+use crate::integrator::{VolpathScene, VolpathSettings, radiance_primary};
 use crate::rng::{Sampler, hash_key};
 
 /// Per-render settings.
@@ -42,6 +42,9 @@ pub fn render_image(
     progress: Option<&ProgressBar>,
 ) -> Image {
     let (w, h) = (camera.width, camera.height);
+    // Camera rays through per-pixel triangle lists (bit-identical to the BVH; when the view
+    // allows them).
+    let bins = camera.pixel_bins(scene.accel);
     let mut img = Image::new(w, h);
     img.data
         .par_chunks_mut(w as usize)
@@ -55,7 +58,10 @@ pub fn render_image(
                 for i in 0..rs.spp {
                     let (jx, jy) = pixel_jitter(i, key, &mut s);
                     let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
-                    let l = radiance(scene, settings, o, d, &mut s);
+                    let first = bins
+                        .as_ref()
+                        .map(|b| b.closest(scene.accel, x as u32, y as u32, d, 0.0, f32::INFINITY));
+                    let l = radiance_primary(scene, settings, o, d, first, &mut s);
                     for c in 0..3 {
                         acc[c] += l[c] as f64;
                     }

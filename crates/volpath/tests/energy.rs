@@ -9,7 +9,8 @@
 //!    E = I(1 − e^{−σ_t (R − r₀)})/D² (the unscattered light is a delta the pinhole never sees).
 //!    The camera measures E = ∫ L cos⁴θ dA over its film plane at unit distance, i.e. the mean
 //!    over film samples of L·cos⁴θ·A_film. Paths cross the cavity (re-entries) and shadow rays
-//!    leave the medium into it, so this also checks the inside-length transmittance.
+//!    leave the medium into it, so this also checks both shadow transmittance estimators
+//!    (closed form from the inside length, and tracked across the cavity).
 //! 3. Dielectric: an opaque absorber (α = 0, huge σ_t) with η = 1.5 under a white environment
 //!    shows exactly the Fresnel reflectance F(cos θ) of the shading normal it hits; a clear
 //!    glass ball (σ_t → 0) shows 1 (refraction, TIR and the 1/η² radiance factors cancel).
@@ -24,7 +25,7 @@ use testkit::MeanEstimate;
 use volpath::fresnel::fresnel_dielectric;
 use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
-use volpath::{VolpathScene, VolpathSettings, radiance};
+use volpath::{ShadowTransmittance, VolpathScene, VolpathSettings, radiance};
 
 fn sphere(radius: f32, subdivisions: u32) -> Accel {
     Accel::new(
@@ -166,9 +167,28 @@ fn point_light_in_sphere_conserves_energy() {
     let film_area = (2.0 * t) * (2.0 * t); // square film at unit distance
     // Unscattered path length from the light to the camera through the tessellated shell.
     let chord = accel.inside_length(Vec3::ZERO, cam_pos) as f64;
+    // Both shadow-ray transmittance estimators: shadow rays cross the cavity and re-enter.
+    for shadow in [ShadowTransmittance::Tracked, ShadowTransmittance::Exact] {
+        let settings = VolpathSettings {
+            shadow,
+            ..unlimited()
+        };
+        point_light_case(&scene, &settings, &cam, film_area, chord, dist);
+    }
+}
+
+fn point_light_case(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    cam: &Camera,
+    film_area: f64,
+    chord: f64,
+    dist: f32,
+) {
+    let (medium, intensity) = (scene.medium, scene.light.expect("light").intensity);
     let mut est = [MeanEstimate::default(); 3];
-    for_each_sample(&cam, 256, 7, |o, d, s| {
-        let l = radiance(&scene, &unlimited(), o, d, s);
+    for_each_sample(cam, 256, 7, |o, d, s| {
+        let l = radiance(scene, settings, o, d, s);
         let cos_t = d.dot(cam.rotation.z_axis) as f64;
         for c in 0..3 {
             est[c].push(l[c] as f64 * cos_t.powi(4) * film_area);
@@ -180,13 +200,15 @@ fn point_light_in_sphere_conserves_energy() {
         let z = est[c].z_score(expect);
         let rel = (est[c].mean() - expect).abs() / expect;
         eprintln!(
-            "point light channel {c}: E = {:.6} ± {:.6}, closed form {expect:.6}",
+            "point light ({:?}) channel {c}: E = {:.6} ± {:.6}, closed form {expect:.6}",
+            settings.shadow,
             est[c].mean(),
             est[c].std_error()
         );
         assert!(
             z < Z_MAX || rel < 1e-3,
-            "channel {c}: E = {} ± {} expected {expect} (z = {z:.2})",
+            "{:?} channel {c}: E = {} ± {} expected {expect} (z = {z:.2})",
+            settings.shadow,
             est[c].mean(),
             est[c].std_error()
         );
