@@ -56,6 +56,10 @@ pub struct DataArgs {
     /// Fit without VKJ19's c_19 = 0 quirk (model-spec §3.2; the renderer follows the model).
     #[arg(long)]
     pub no_c19_quirk: bool,
+    /// Uniform mesh scale after normalisation to extent 1 (model-spec §5: 20). Smaller values
+    /// give more strongly curved surfaces in units of the kernel σ_n.
+    #[arg(long, default_value_t = 20.0)]
+    pub mesh_scale: f32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -173,6 +177,10 @@ fn run_data(a: &DataArgs) -> Result<()> {
         quirk_c19: !a.no_c19_quirk,
         base_meshes,
         base_mesh_names,
+        ranges: learn::datagen::ParamRanges {
+            mesh_scale: a.mesh_scale,
+            ..Default::default()
+        },
         ..DataConfig::default()
     };
     let sets = [
