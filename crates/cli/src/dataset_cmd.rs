@@ -13,8 +13,8 @@ use glam::Vec3;
 use scene::rig::{Rig, RigLight};
 use scene::scene_file::RenderInfo;
 use scene::{Dataset, Medium, MeshSource, SceneDesc};
-use volpath::VolpathSettings;
 use volpath::rng::Sampler;
+use volpath::{ShadowTransmittance, VolpathSettings};
 
 use crate::common::{build_accel, parse_rgb, render_views};
 
@@ -207,6 +207,9 @@ pub struct DatasetArgs {
     /// Maximum depth (Mitsuba volpath semantics).
     #[arg(long, default_value_t = 32)]
     pub max_depth: u32,
+    /// Shadow-ray transmittance estimator of the volumetric tracer.
+    #[arg(long, value_enum, default_value_t)]
+    pub shadow: crate::common::ShadowArg,
     /// Output dataset folder.
     #[arg(long)]
     pub out: PathBuf,
@@ -221,6 +224,7 @@ pub struct RenderOpts {
     pub spp: u32,
     pub seed: u64,
     pub max_depth: u32,
+    pub shadow: ShadowTransmittance,
 }
 
 /// Render a dataset and save it; returns it (with images).
@@ -236,6 +240,7 @@ pub fn make_dataset(
         spp,
         seed,
         max_depth,
+        shadow,
     } = opts;
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
     anyhow::ensure!(max_depth > 0, "--max-depth must be at least 1");
@@ -254,8 +259,12 @@ pub fn make_dataset(
             max_depth: Some(max_depth),
             seed: Some(seed),
             renderer: Some(format!(
-                "translucent {} volpath (spectral MIS)",
-                env!("CARGO_PKG_VERSION")
+                "translucent {} volpath (spectral MIS, {} shadow transmittance)",
+                env!("CARGO_PKG_VERSION"),
+                match shadow {
+                    ShadowTransmittance::Exact => "exact",
+                    ShadowTransmittance::Tracked => "tracked",
+                }
             )),
         },
         path: out.join("dataset.json"),
@@ -265,6 +274,7 @@ pub fn make_dataset(
     let views = &desc.views;
     let settings = VolpathSettings {
         max_depth,
+        shadow,
         ..Default::default()
     };
     let t0 = Instant::now();
@@ -293,6 +303,7 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
             spp: a.spp,
             seed: a.seed,
             max_depth: a.max_depth,
+            shadow: a.shadow.into(),
         },
         &a.out,
         a.overwrite,

@@ -79,6 +79,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
             spp: a.spp,
             seed: a.seed,
             max_depth: 32,
+            shadow: Default::default(),
         },
         &a.out,
         true,

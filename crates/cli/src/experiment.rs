@@ -235,6 +235,7 @@ fn ensure_dataset(
             spp: a.target_spp,
             seed: a.seed,
             max_depth: 32,
+            shadow: Default::default(),
         },
         dir,
         false,
