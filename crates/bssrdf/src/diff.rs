@@ -327,16 +327,23 @@ fn diff_row(
     for (j, off) in buf.off.iter_mut().enumerate().take(sets) {
         off.inputs.clear();
         off.inputs
-            .extend(row.pending.iter().zip(&row.coeffs).map(|(p, coeffs)| {
-                let c = p.channel as usize;
-                if j < 2 {
-                    scene.inputs_at(coeffs, c, k.k_t[c][j])
-                } else {
-                    // The scene at α_c ± Δα: its albedo input and descriptor scale.
-                    let a = &k.alpha[c][j - 2];
-                    a.inputs_at(coeffs, c, a.descriptor_scale[c])
-                }
-            }));
+            .extend(
+                row.pending
+                    .iter()
+                    .zip(&row.coeffs)
+                    .enumerate()
+                    .map(|(i, (p, coeffs))| {
+                        let c = p.channel as usize;
+                        let dc = row.dcoeffs.get(i);
+                        if j < 2 {
+                            scene.inputs_at(coeffs, dc, c, k.k_t[c][j])
+                        } else {
+                            // The scene at α_c ± Δα: its albedo input and descriptor scale.
+                            let a = &k.alpha[c][j - 2];
+                            a.inputs_at(coeffs, dc, c, a.descriptor_scale[c])
+                        }
+                    }),
+            );
         evaluate_networks(
             scene.model,
             &off.inputs,

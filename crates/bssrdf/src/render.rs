@@ -46,7 +46,7 @@ use volpath::rng::{Sampler, hash_key};
 
 use crate::boundary::transmittance;
 use crate::exit::{ExitLaw, ExitSlice, ExitTable};
-use crate::fit::{ConstraintCloud, FitError, interpolate};
+use crate::fit::{FitError, interpolate};
 use crate::gaussian::probit;
 use crate::incidence::{IncidenceSlice, IncidenceTable};
 use crate::medium::{ReducedMedium, effective_albedo};
@@ -56,10 +56,12 @@ use crate::polynomial::{Poly3, align_direction, light_space_frame};
 use crate::projection::ProjectionRule;
 
 mod entry;
+mod features;
 pub use entry::Incidence;
 pub(crate) use entry::{
     light_contribution, place_and_project, projection_gradient, proposed_point,
 };
+pub use features::{DFIT_STEP, VertexFeatures};
 
 /// Errors of the learned renderer.
 #[derive(Debug, thiserror::Error)]
@@ -133,40 +135,6 @@ impl<'a> ViewRays<'a> {
             None => accel.closest(o, d, 0.0, f32::INFINITY),
         };
         (d, hit)
-    }
-}
-
-/// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
-/// (model-spec §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
-#[derive(Clone, Debug)]
-pub struct VertexFeatures {
-    /// `polys[c][v]`: channel c, vertex v.
-    pub polys: [Vec<Poly3>; 3],
-    /// The σ_n of each channel the fits were made with.
-    pub sigma_n: [f32; 3],
-}
-
-impl VertexFeatures {
-    /// Fit every vertex for each channel (channels with the same kernel share one fit).
-    pub fn fit(
-        accel: &Accel,
-        medium: &Medium,
-        quirk_c19: bool,
-        seed: u64,
-    ) -> Result<Self, RenderError> {
-        let sigma_n = channel_sigma_n(medium)?;
-        let mesh = accel.mesh();
-        let mut polys: [Vec<Poly3>; 3] = Default::default();
-        for c in 0..3 {
-            if let Some(prev) = (0..c).find(|&k| sigma_n[k] == sigma_n[c]) {
-                polys[c] = polys[prev].clone();
-                continue;
-            }
-            let eps = (sigma_n[c] as f64).powi(2);
-            let cloud = ConstraintCloud::from_mesh(mesh, eps, seed)?;
-            polys[c] = cloud.fit_vertices(mesh, eps, quirk_c19)?;
-        }
-        Ok(VertexFeatures { polys, sigma_n })
     }
 }
 
@@ -275,13 +243,26 @@ impl<'a> LearnedScene<'a> {
     /// The normalised network inputs of a light-space descriptor `coeffs` (at the fit scale)
     /// rescaled by `k`, for channel `c`.
     #[inline]
-    pub(crate) fn inputs_at(&self, coeffs: &Poly3, c: usize, k: f32) -> [f32; INPUT_DIM] {
+    pub(crate) fn inputs_at(
+        &self,
+        coeffs: &Poly3,
+        dcoeffs: Option<&Poly3>,
+        c: usize,
+        k: f32,
+    ) -> [f32; INPUT_DIM] {
         let m = &self.medium;
         let norm = self.model.normalisation();
         if k == 1.0 {
             norm.inputs(&coeffs.0, self.eff_albedo[c], m.g, m.eta)
         } else {
-            norm.inputs(&coeffs.rescaled(k).0, self.eff_albedo[c], m.g, m.eta)
+            let mut p = coeffs.rescaled(k);
+            if let Some(dc) = dcoeffs {
+                let l = k.ln();
+                for (v, d) in p.0.iter_mut().zip(&dc.0) {
+                    *v += l * d;
+                }
+            }
+            norm.inputs(&p.0, self.eff_albedo[c], m.g, m.eta)
         }
     }
 }
@@ -324,6 +305,8 @@ pub(crate) struct RowBuffers {
     pub(crate) inputs: Vec<[f32; INPUT_DIM]>,
     /// Light-space descriptor of each sample at the fit scale (before the rescaling by k).
     pub(crate) coeffs: Vec<Poly3>,
+    /// Its light-space `dfit` (empty when the features have none).
+    pub(crate) dcoeffs: Vec<Poly3>,
     pub(crate) z: Vec<[f32; LATENT_DIM]>,
     pub(crate) point: Vec<u32>,
     pub(crate) net: NetOutputs,
@@ -423,6 +406,7 @@ pub(crate) fn prepare_row(
     buf.pending.clear();
     buf.inputs.clear();
     buf.coeffs.clear();
+    buf.dcoeffs.clear();
     buf.z.clear();
     buf.sums.clear();
     buf.sums.resize(w as usize, [0.0; 3]);
@@ -460,7 +444,8 @@ pub(crate) fn prepare_row(
                 ],
                 b,
             );
-            let (ls_poly, out_frame) = match convention {
+            // Light-space axes (e1, e2, e3) of the descriptor and the outgoing frame.
+            let (axes, out_frame) = match convention {
                 FrameConvention::Vkj19 => {
                     let d_in = if m.eta == 1.0 {
                         d
@@ -472,22 +457,37 @@ pub(crate) fn prepare_row(
                         None => d_in,
                     };
                     let f = light_space_frame(d_in);
-                    (poly.rotate_fast(f.s, f.t, f.n), f)
+                    ([f.s, f.t, f.n], f)
                 }
                 FrameConvention::Son24Compat => {
-                    let wi = -d;
-                    let f = Frame::from_normal(wi);
-                    (poly.rotate_fast(-f.s, -f.t, f.n), Frame::from_normal(n_o))
+                    let f = Frame::from_normal(-d);
+                    ([-f.s, -f.t, f.n], Frame::from_normal(n_o))
                 }
             };
             let coeffs = if scene.settings.planar_features {
                 Poly3::plane(Vec3::Z)
             } else {
-                ls_poly
+                poly.rotate_fast(axes[0], axes[1], axes[2])
             };
-            buf.inputs
-                .push(scene.inputs_at(&coeffs, channel, scene.descriptor_scale[channel]));
+            // The fit's σ_n-derivative beyond the rescaling, in the same light space.
+            let dcoeffs = match &scene.features.dfit {
+                Some(dfit) if !scene.settings.planar_features => {
+                    let dv = &dfit[channel];
+                    let dp = interpolate([&dv[i0 as usize], &dv[i1 as usize], &dv[i2 as usize]], b);
+                    Some(dp.rotate_fast(axes[0], axes[1], axes[2]))
+                }
+                _ => None,
+            };
+            buf.inputs.push(scene.inputs_at(
+                &coeffs,
+                dcoeffs.as_ref(),
+                channel,
+                scene.descriptor_scale[channel],
+            ));
             buf.coeffs.push(coeffs);
+            if let Some(dc) = dcoeffs {
+                buf.dcoeffs.push(dc);
+            }
             buf.z.push(z);
             buf.pending.push(Pending {
                 pixel: x,

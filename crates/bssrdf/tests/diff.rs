@@ -297,23 +297,32 @@ fn ours_sigma_t_matches_finite_differences() {
     }
 }
 
+/// The sphere with a decoder that reads the shape features. The subject is the descriptor
+/// term: the light side is the cosine law, whose weights do not depend on the camera direction,
+/// so the comparison with the frozen descriptor is the one the test was designed on.
+fn moved_descriptor_setup() -> Setup {
+    let mut s = sphere_setup(rgb_medium());
+    s.model = model_with_decoder_features(true);
+    s.settings.exit = bssrdf::exit::ExitLaw::Cosine;
+    s
+}
+
+/// The medium the features are fitted at (k = σ_n/σ_n,fit ≠ 1 at [`rgb_medium`]).
+fn descriptor_fit_medium() -> Medium {
+    Medium {
+        sigma_t: [21.0, 28.0, 35.0],
+        ..rgb_medium()
+    }
+}
+
 /// The descriptor moves with σ_t (features fitted at another medium, k = σ_n/σ_n,fit ≠ 1, and a
 /// decoder that reads them): the offset samples re-run the networks at the offset descriptor and
 /// equal the FD renders sample for sample; with a frozen descriptor both drop that term, and the
 /// term is clearly non-zero.
 #[test]
 fn offset_samples_follow_the_descriptor() {
-    let mut s = sphere_setup(rgb_medium());
-    s.model = model_with_decoder_features(true);
-    // The subject is the descriptor term: keep the light side the cosine law, whose weights do
-    // not depend on the camera direction, so the comparison with the frozen descriptor is the
-    // one the test was designed on.
-    s.settings.exit = bssrdf::exit::ExitLaw::Cosine;
-    let fit_medium = Medium {
-        sigma_t: [21.0, 28.0, 35.0],
-        ..rgb_medium()
-    };
-    s.features = VertexFeatures::fit(&s.accel, &fit_medium, true, 0).unwrap();
+    let mut s = moved_descriptor_setup();
+    s.features = VertexFeatures::fit(&s.accel, &descriptor_fit_medium(), true, 0).unwrap();
     let (spp, r) = (32, 16);
     let mut results = Vec::new();
     for frozen in [false, true] {
@@ -341,6 +350,33 @@ fn offset_samples_follow_the_descriptor() {
             rel > 2e-2,
             "channel {c}: the descriptor term should matter ({rel:.2e})"
         );
+    }
+}
+
+/// With the fit's σ_n-derivative (`VertexFeatures::fit_with_derivative`, features fitted at
+/// another medium) the descriptor at σ_n is G.rescaled(k) + ln k · dfit, in the value and in the
+/// offset samples alike: `ours` still equals the same-seed FD renders sample for sample.
+#[test]
+fn offset_samples_follow_the_fit_derivative() {
+    let mut s = moved_descriptor_setup();
+    s.features =
+        VertexFeatures::fit_with_derivative(&s.accel, &descriptor_fit_medium(), true, 0).unwrap();
+    assert!(
+        s.features.dfit.as_ref().unwrap()[0]
+            .iter()
+            .all(|p| p.0.iter().all(|c| c.is_finite()))
+    );
+    let scene = s.scene();
+    let (spp, r) = (32, 8);
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
+    for c in 0..3 {
+        let rel = (ours.mean[D_T][c] - fd_same.mean[D_T][c]).abs() / ours.mean[D_T][c].abs();
+        eprintln!(
+            "dfit channel {c}: ours {:.5e}, same-seed fd {:.5e}, rel {rel:.2e}",
+            ours.mean[D_T][c], fd_same.mean[D_T][c]
+        );
+        assert!(rel < 1e-3, "channel {c}: {rel:.2e}");
     }
 }
 

@@ -78,6 +78,11 @@ pub struct OptimizeArgs {
     /// Refit the polynomial features every K iterations (0: once, at the initial parameters).
     #[arg(long, default_value_t = 0)]
     pub refit_every: u32,
+    /// Also fit the polynomial's σ_n-derivative at every fit, so that the descriptor at another
+    /// σ_n (in the value and in the σ_t offsets) follows a refit, not only the rescaling. Three
+    /// fits instead of one; use with --refit-every.
+    #[arg(long)]
+    pub fit_derivative: bool,
     /// Relative offset Δ/σ_t of the correlated offset samples.
     #[arg(long, default_value_t = 0.02)]
     pub delta_rel: f32,
@@ -151,6 +156,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.decay = a.decay;
     c.decay_every = a.decay_every;
     c.refit_every = a.refit_every;
+    c.fit_derivative = a.fit_derivative;
     c.delta_rel = a.delta_rel;
     c.primal = a.primal;
     c.learned = a.learned.settings();

@@ -87,6 +87,11 @@ pub struct OptimizeConfig {
     pub decay_every: u32,
     /// Refit the vertex polynomials every this many iterations (0: never).
     pub refit_every: u32,
+    /// Also fit dR/d ln σ_n at every fit ([`VertexFeatures::fit_with_derivative`]), so that the
+    /// descriptor at another σ_n, in the value and in the σ_t offsets, follows a refit to first
+    /// order and not only the rescaling.
+    #[serde(default)]
+    pub fit_derivative: bool,
     /// Relative σ_t offset Δ/σ_t of the offset samples and of `fd`.
     pub delta_rel: f32,
     /// Where the value image of `ours` comes from (the offset pair by default).
@@ -156,6 +161,7 @@ impl OptimizeConfig {
             decay: 0.85,
             decay_every: 50,
             refit_every: 0,
+            fit_derivative: false,
             delta_rel: 0.02,
             primal: Primal::default(),
             learned: LearnedSettings::default(),
@@ -236,8 +242,7 @@ impl<'a> Optimizer<'a> {
         init_medium
             .validate("initial parameters")
             .map_err(|e| InverseError::Invalid(e.to_string()))?;
-        let features =
-            VertexFeatures::fit(accel, &init_medium, model.info().c19_quirk, config.seed)?;
+        let features = fit_features(accel, &init_medium, model, &config)?;
         let u = config.params.encode(&config.init);
         let adam = Adam::new(u.len(), adam_config(&config));
         let parts = Parts {
@@ -303,12 +308,7 @@ impl<'a> Optimizer<'a> {
         let c = &self.config;
         let p = self.params();
         if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
-            self.features = VertexFeatures::fit(
-                self.accel,
-                &p.medium(&self.base),
-                self.model.info().c19_quirk,
-                c.seed,
-            )?;
+            self.features = fit_features(self.accel, &p.medium(&self.base), self.model, c)?;
         }
         let medium = p.medium(&self.base);
         let scene = LearnedScene::new(self.accel, self.model, &self.features, medium, c.learned)?;
@@ -477,4 +477,19 @@ fn adam_config(c: &OptimizeConfig) -> AdamConfig {
 /// Adam state accessors for the checkpoint module.
 fn adam_parts(o: &Optimizer) -> AdamState {
     o.adam.state()
+}
+
+/// The vertex features at `medium`, with the σ_n-derivative when the config asks for it.
+pub(crate) fn fit_features(
+    accel: &Accel,
+    medium: &Medium,
+    model: &ShapeAdaptiveModel,
+    config: &OptimizeConfig,
+) -> Result<VertexFeatures, InverseError> {
+    let quirk = model.info().c19_quirk;
+    Ok(if config.fit_derivative {
+        VertexFeatures::fit_with_derivative(accel, medium, quirk, config.seed)?
+    } else {
+        VertexFeatures::fit(accel, medium, quirk, config.seed)?
+    })
 }

@@ -4,7 +4,6 @@
 use std::path::Path;
 
 use bssrdf::nn::ShapeAdaptiveModel;
-use bssrdf::render::VertexFeatures;
 use geometry::Accel;
 use learn::optim::{Adam, AdamState};
 use scene::Medium;
@@ -110,12 +109,7 @@ impl<'a> Optimizer<'a> {
         } else {
             config.init
         };
-        let features = VertexFeatures::fit(
-            accel,
-            &fit_at.medium(&base),
-            model.info().c19_quirk,
-            config.seed,
-        )?;
+        let features = super::fit_features(accel, &fit_at.medium(&base), model, &config)?;
         let adam = Adam::from_state(
             adam_config(&config),
             AdamState {
