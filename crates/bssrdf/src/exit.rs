@@ -210,20 +210,8 @@ impl ExitTable {
     /// simulated once per process ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
     pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<ExitTable> {
         static CACHE: MediumCache<ExitTable> = std::sync::Mutex::new(Vec::new());
-        for_medium(
-            &CACHE,
-            Self::index_matched_isotropic(),
-            (g, eta),
-            |t| (t.settings.g, t.settings.eta),
-            || {
-                Self::generate(ExitTableSettings {
-                    g,
-                    eta,
-                    walks: DEFAULT_RUNTIME_WALKS,
-                    seed: 0,
-                })
-            },
-        )
+        let table = Self::index_matched_isotropic();
+        for_medium(&CACHE, table, (g, eta), DEFAULT_RUNTIME_WALKS)
     }
 
     /// The table at albedo `albedo`: a cubic Hermite spline in x = ln(1 − α) through the grid
@@ -251,15 +239,33 @@ pub(crate) fn shipped<T: serde::de::DeserializeOwned>(
     .clone()
 }
 
-/// The table of a medium `(g, η)`: `shipped` when its own (g, η) (read by `key`) match, else one
-/// simulated by `make` once per process and kept in `cache`.
-pub(crate) fn for_medium<T>(
+/// A table simulated by half-space walks with [`ExitTableSettings`] (the exit and incidence
+/// tables), so that [`for_medium`] can make and look up the table of any medium.
+pub(crate) trait WalkTable: Sized {
+    /// The settings the table was made with.
+    fn settings(&self) -> &ExitTableSettings;
+    /// Simulate the table.
+    fn simulate(settings: ExitTableSettings) -> Self;
+}
+
+impl WalkTable for ExitTable {
+    fn settings(&self) -> &ExitTableSettings {
+        &self.settings
+    }
+    fn simulate(settings: ExitTableSettings) -> Self {
+        Self::generate(settings)
+    }
+}
+
+/// The table of a medium `(g, η)`: `shipped` when its own (g, η) match, else one simulated with
+/// `walks` walks per row (seed 0) once per process and kept in `cache`.
+pub(crate) fn for_medium<T: WalkTable>(
     cache: &MediumCache<T>,
     shipped: std::sync::Arc<T>,
     (g, eta): (f32, f32),
-    key: impl Fn(&T) -> (f32, f32),
-    make: impl FnOnce() -> T,
+    walks: u32,
 ) -> std::sync::Arc<T> {
+    let key = |t: &T| (t.settings().g, t.settings().eta);
     if key(&shipped) == (g, eta) {
         return shipped;
     }
@@ -267,7 +273,12 @@ pub(crate) fn for_medium<T>(
     if let Some(t) = cache.iter().find(|t| key(t) == (g, eta)) {
         return t.clone();
     }
-    let t = std::sync::Arc::new(make());
+    let t = std::sync::Arc::new(T::simulate(ExitTableSettings {
+        g,
+        eta,
+        walks,
+        seed: 0,
+    }));
     cache.push(t.clone());
     t
 }

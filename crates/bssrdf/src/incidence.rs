@@ -55,7 +55,9 @@ use volpath::fresnel::fresnel_dielectric;
 use volpath::phase::HenyeyGreenstein;
 use volpath::rng::Sampler;
 
-use crate::exit::{MU_BINS, MediumCache, ONE_MINUS_ALBEDO, albedo_spline, for_medium, shipped};
+use crate::exit::{
+    MU_BINS, MediumCache, ONE_MINUS_ALBEDO, WalkTable, albedo_spline, for_medium, shipped,
+};
 
 /// Distance bins (uniform in ln(1 + ρ/ρ₀), ρ in mean free paths; the last is open).
 pub const RHO_BINS: usize = 12;
@@ -308,20 +310,8 @@ impl IncidenceTable {
     /// simulated once per process ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
     pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<IncidenceTable> {
         static CACHE: MediumCache<IncidenceTable> = std::sync::Mutex::new(Vec::new());
-        for_medium(
-            &CACHE,
-            Self::index_matched_isotropic(),
-            (g, eta),
-            |t| (t.settings.g, t.settings.eta),
-            || {
-                Self::generate(IncidenceSettings {
-                    g,
-                    eta,
-                    walks: DEFAULT_RUNTIME_WALKS,
-                    seed: 0,
-                })
-            },
-        )
+        let table = Self::index_matched_isotropic();
+        for_medium(&CACHE, table, (g, eta), DEFAULT_RUNTIME_WALKS)
     }
 
     /// The table at albedo `albedo` ([`crate::exit`]'s spline in ln(1 − α)); every slice keeps
@@ -330,6 +320,15 @@ impl IncidenceTable {
         let (a, da) = albedo_spline(&self.a, PER_ALBEDO, albedo);
         let (norm, dnorm) = albedo_spline(&self.norm, NORM_PER_ALBEDO, albedo);
         IncidenceSlice { a, da, norm, dnorm }
+    }
+}
+
+impl WalkTable for IncidenceTable {
+    fn settings(&self) -> &IncidenceSettings {
+        &self.settings
+    }
+    fn simulate(settings: IncidenceSettings) -> Self {
+        Self::generate(settings)
     }
 }
 
