@@ -66,8 +66,8 @@ pub struct LearnedBenchArgs {
     /// Projection rule of the learned renders: `son24` (default) or `vkj19`.
     #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
     pub projection: String,
-    /// Reach of the `son24` projection in units of σ_n (SON24: 2).
-    #[arg(long, default_value_t = 2.0, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
+    /// Reach of the `son24` projection in units of σ_n (SON24: 2; default 8).
+    #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
     /// Light-side incidence of the learned renders: `directional` (default) or `isotropic`
     /// (VKJ19/SON24).

@@ -1490,7 +1490,7 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
     // So are runs made with another projection reach; the header names the learned settings.
     assert_stdout_has(
         &first,
-        &["son24 projection (reach 2σ_n)", "half-space exit law"],
+        &["son24 projection (reach 8σ_n)", "half-space exit law"],
     );
     let mut other = args.to_vec();
     other.extend(["--max-dist-scale", "3"]);
