@@ -1424,6 +1424,79 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
 // experiment accuracy
 
 #[test]
+fn experiment_bias_correction_refits_at_the_estimate() {
+    let d = tmp();
+    let args = [
+        "experiment",
+        "accuracy",
+        "--out",
+        "exp",
+        "--shapes",
+        "sphere",
+        "--media",
+        "1",
+        "--views",
+        "2",
+        "--res",
+        "12",
+        "--target-spp",
+        "4",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--inits",
+        "0",
+        "--methods",
+        "ours",
+        "--bias-correction",
+        "-q",
+    ];
+    let run = ok(d.path(), &args);
+    assert_stdout_has(
+        &run,
+        &[
+            "| sphere-m0 | ours |",
+            "| sphere-m0 | ours+bc |",
+            "bias of ours on sphere-m0",
+        ],
+    );
+    let exp = d.path().join("exp");
+    let est = read_json(&exp.join("runs/sphere-m0-ours/result.json"))["estimate"].clone();
+    let refit = read_json(&exp.join("runs/sphere-m0-ours-boot/result.json"))["estimate"].clone();
+    // The bootstrap dataset was rendered at the first recovery's estimate.
+    let boot = read_json(&exp.join("data/sphere-m0-boot-ours/dataset.json"));
+    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
+    for c in 0..3 {
+        for k in ["sigma_t", "albedo"] {
+            let (a, b) = (num(&boot["truth"], k, c), num(&est, k, c));
+            assert!((a - b).abs() <= 1e-6 * b.abs(), "{k}[{c}]: {a} vs {b}");
+        }
+    }
+    // The corrected row is 2θ̂ − θ̂₂ in (ln σ_t, α).
+    let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
+    let bc: Vec<f64> = csv
+        .lines()
+        .find(|l| l.starts_with("sphere-m0,ours+bc,"))
+        .unwrap_or_else(|| panic!("{csv}"))
+        .split(',')
+        .skip(14)
+        .take(6)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for c in 0..3 {
+        let s = (2.0 * num(&est, "sigma_t", c).ln() - num(&refit, "sigma_t", c).ln()).exp();
+        let a = (2.0 * num(&est, "albedo", c) - num(&refit, "albedo", c)).clamp(1e-4, 0.99995);
+        assert!((bc[c] - s).abs() <= 1e-4 * s, "σ_t[{c}]: {} vs {s}", bc[c]);
+        assert!(
+            (bc[3 + c] - a).abs() <= 1e-5,
+            "α[{c}]: {} vs {a}",
+            bc[3 + c]
+        );
+    }
+}
+
+#[test]
 fn experiment_accuracy_writes_table_and_reuses_its_runs() {
     let d = tmp();
     let args = [

@@ -1,8 +1,10 @@
 //! Multi-view inverse rendering of homogeneous translucent media with the learned BSSRDF
 //! (Son et al. 2024 §5): parameters and their parameterisation ([`params`]), the Adam loop with
-//! checkpoints ([`optimize`]) and its reports ([`report`]). The gradient estimators themselves
+//! checkpoints ([`optimize`]), its reports ([`report`]) and the parametric-bootstrap bias correction
+//! of a recovered medium ([`bootstrap`]). The gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
+pub mod bootstrap;
 pub mod optimize;
 pub mod params;
 pub mod report;

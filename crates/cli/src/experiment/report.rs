@@ -13,6 +13,7 @@ use plot::{Figure, Panel, Series};
 use super::AccuracyArgs;
 
 /// One finished run.
+#[derive(Clone)]
 pub(super) struct Row {
     pub(super) case: String,
     pub(super) method: String,
@@ -109,8 +110,14 @@ pub(super) fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> Strin
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     let mut groups: Vec<(&str, Vec<&Row>)> = Vec::new();
-    for m in &a.methods {
-        groups.push((m.as_str(), rows.iter().filter(|r| &r.method == m).collect()));
+    // Methods in the order their rows appear (`ours`, then `ours+bc` when bias-corrected, …).
+    for r in rows {
+        if !groups.iter().any(|(m, _)| *m == r.method) {
+            groups.push((
+                r.method.as_str(),
+                rows.iter().filter(|x| x.method == r.method).collect(),
+            ));
+        }
     }
     if !init_rows.is_empty() {
         groups.push(("random inits", init_rows.iter().collect()));
