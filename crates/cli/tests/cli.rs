@@ -1423,10 +1423,10 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
 // ---------------------------------------------------------------------------------------------
 // experiment accuracy
 
-#[test]
-fn experiment_bias_correction_refits_at_the_estimate() {
-    let d = tmp();
-    let args = [
+/// `experiment accuracy` on a tiny sphere case (2 views of 12², 3 iterations), quiet, into
+/// `exp`, with `extra` arguments.
+fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
         "experiment",
         "accuracy",
         "--out",
@@ -1445,13 +1445,16 @@ fn experiment_bias_correction_refits_at_the_estimate() {
         "3",
         "--spp",
         "2",
-        "--inits",
-        "0",
-        "--methods",
-        "ours",
-        "--bias-correction",
         "-q",
     ];
+    args.extend_from_slice(extra);
+    args
+}
+
+#[test]
+fn experiment_bias_correction_refits_at_the_estimate() {
+    let d = tmp();
+    let args = tiny_accuracy_args(&["--inits", "0", "--methods", "ours", "--bias-correction"]);
     let run = ok(d.path(), &args);
     assert_stdout_has(
         &run,
@@ -1499,31 +1502,7 @@ fn experiment_bias_correction_refits_at_the_estimate() {
 #[test]
 fn experiment_accuracy_writes_table_and_reuses_its_runs() {
     let d = tmp();
-    let args = [
-        "experiment",
-        "accuracy",
-        "--out",
-        "exp",
-        "--shapes",
-        "sphere",
-        "--media",
-        "1",
-        "--views",
-        "2",
-        "--res",
-        "12",
-        "--target-spp",
-        "4",
-        "--iterations",
-        "3",
-        "--spp",
-        "2",
-        "--inits",
-        "2",
-        "--methods",
-        "ours,naive",
-        "-q",
-    ];
+    let args = tiny_accuracy_args(&["--inits", "2", "--methods", "ours,naive"]);
     let first = ok(d.path(), &args);
     assert_stdout_has(
         &first,
