@@ -6,11 +6,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use geometry::Accel;
+use geometry::{Accel, LightBins};
 use indicatif::{ProgressBar, ProgressStyle};
 use scene::scene_file::ViewDesc;
 use scene::{Image, Medium};
-use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image};
+use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists};
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -78,13 +78,20 @@ pub fn render_views(
     let pb = progress(rows, "volpath");
     let mut images = Vec::with_capacity(views.len());
     let mut secs = Vec::with_capacity(views.len());
+    // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
+    let mut lists: Option<LightBins> = None;
     for (i, v) in views.iter().enumerate() {
-        let scene = VolpathScene {
+        let mut scene = VolpathScene {
             accel,
             medium: *medium,
             light: Some(v.light),
             environment: None,
+            light_bins: None,
         };
+        if lists.as_ref().is_none_or(|b| b.light() != v.light.position) {
+            lists = shadow_lists(&scene, settings);
+        }
+        scene.light_bins = lists.as_ref();
         let rs = RenderSettings {
             spp,
             seed,

@@ -76,6 +76,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             ChannelSampling::SpectralMis
         },
         shadow: a.shadow.into(),
+        ..Default::default()
     };
     let rep = match a.method {
         Method::Volpath => render_views(&accel, &desc.medium, views, spp, seed, &settings),

@@ -11,7 +11,11 @@
 //! * `inside_length`: from a point inside to a point on the sphere of radius 3 (the NEE shadow
 //!   segment of the volumetric path tracer);
 //! * `closest_short`: origin inside, uniform direction, `tmax` exponential with mean 0.03 (the
-//!   free-flight boundary test of the volumetric path tracer).
+//!   free-flight boundary test of the volumetric path tracer);
+//! * `light_inside_length_bvh` / `light_inside_length_lists`: from a point inside to ONE point
+//!   light at distance 3 (the shadow rays of one view), by the BVH and by the light's
+//!   per-direction triangle lists ([`geometry::LightBins`], built outside the timing;
+//!   `light_lists_build` times the build).
 //!
 //! Every ray benchmark traces the whole batch on an explicit rayon pool of 1 or 2 threads
 //! (`args`), and reports the throughput in rays/s (divan "item/s"); Mrays/s = item/s / 1e6.
@@ -19,7 +23,7 @@
 use std::sync::LazyLock;
 
 use divan::counter::ItemsCount;
-use geometry::{Accel, Mesh, Shape, Vec3};
+use geometry::{Accel, LightBins, Mesh, Shape, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
@@ -180,5 +184,39 @@ fn inside_length(bencher: divan::Bencher, threads: usize) {
 fn closest_short(bencher: divan::Bencher, threads: usize) {
     run(bencher, threads, &RAYS_SHORT, |&(o, d, tmax)| {
         ACCEL.closest(o, d, 0.0, tmax).map_or(0, |h| h.tri & 1)
+    });
+}
+
+/// The point light of the `light_*` benchmarks and the interior points of its shadow rays.
+const LIGHT: Vec3 = Vec3::new(1.2, 2.4, 1.2);
+
+static LIGHT_POINTS: LazyLock<Vec<Vec3>> = LazyLock::new(|| {
+    let mut rng = Pcg32::seed_from_u64(500);
+    (0..RAYS).map(|_| in_ball(&mut rng, 0.8)).collect()
+});
+
+static LIGHT_BINS: LazyLock<LightBins> =
+    LazyLock::new(|| LightBins::build(&ACCEL, LIGHT).expect("light outside the mesh's sphere"));
+
+#[divan::bench(sample_count = 5, sample_size = 1)]
+fn light_lists_build(bencher: divan::Bencher) {
+    LazyLock::force(&ACCEL);
+    bencher
+        .counter(ItemsCount::new(MESH.triangle_count()))
+        .bench(|| LightBins::build(&ACCEL, LIGHT));
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn light_inside_length_bvh(bencher: divan::Bencher, threads: usize) {
+    run(bencher, threads, &LIGHT_POINTS, |&a| {
+        (ACCEL.inside_length(a, LIGHT) > 0.5) as u32
+    });
+}
+
+#[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
+fn light_inside_length_lists(bencher: divan::Bencher, threads: usize) {
+    LazyLock::force(&LIGHT_BINS);
+    run(bencher, threads, &LIGHT_POINTS, |&a| {
+        (LIGHT_BINS.inside_length(&ACCEL, a) > 0.5) as u32
     });
 }

@@ -47,9 +47,9 @@ pub const MAX_ENTRIES_PER_PIXEL: u64 = 256;
 /// docs): `entries[offsets[p]..offsets[p + 1]]` are pixel `p`'s (lb, triangle in BVH order),
 /// sorted by (lb, triangle).
 #[derive(Clone, Debug)]
-struct Lists {
-    width: u32,
-    height: u32,
+pub(crate) struct Lists {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     offsets: Vec<u32>,
     entries: Vec<(f32, u32)>,
 }
@@ -57,10 +57,13 @@ struct Lists {
 impl Lists {
     /// `project(p) = (px, py, z)`: film position in pixels and depth along the unit optical axis
     /// (module docs); `None` or a non-finite or non-positive depth for any corner: no lists.
-    fn build(
+    /// `sorted`: each list in the order of (lb, triangle) (for closest-hit queries that stop
+    /// early); otherwise in the order of the triangles.
+    pub(crate) fn build(
         accel: &Accel,
         width: u32,
         height: u32,
+        sorted: bool,
         project: impl Fn(Vec3) -> Option<(f32, f32, f32)>,
     ) -> Option<Lists> {
         let tris = accel.bvh_triangles();
@@ -131,9 +134,11 @@ impl Lists {
                 });
             }
         }
-        for p in 0..pixels {
-            entries[offsets[p] as usize..offsets[p + 1] as usize]
-                .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if sorted {
+            for p in 0..pixels {
+                entries[offsets[p] as usize..offsets[p + 1] as usize]
+                    .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            }
         }
         Some(Lists {
             width,
@@ -145,12 +150,12 @@ impl Lists {
 
     /// The candidates of pixel (x, y), which must lie inside the film.
     #[inline]
-    fn at(&self, x: u32, y: u32) -> &[(f32, u32)] {
+    pub(crate) fn at(&self, x: u32, y: u32) -> &[(f32, u32)] {
         let p = y as usize * self.width as usize + x as usize;
         &self.entries[self.offsets[p] as usize..self.offsets[p + 1] as usize]
     }
 
-    fn mean_candidates(&self) -> f64 {
+    pub(crate) fn mean_candidates(&self) -> f64 {
         self.entries.len() as f64 / (self.width as f64 * self.height as f64)
     }
 }
@@ -178,7 +183,7 @@ impl PixelBins {
         project: impl Fn(Vec3) -> Option<(f32, f32, f32)>,
     ) -> Option<PixelBins> {
         Some(PixelBins {
-            lists: Lists::build(accel, width, height, project)?,
+            lists: Lists::build(accel, width, height, true, project)?,
             origin,
         })
     }

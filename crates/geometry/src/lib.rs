@@ -13,6 +13,9 @@
 //!   occlusion, all hits along a segment and the length of a segment inside the closed mesh.
 //! * [`bins`]: [`PixelBins`], per-pixel triangle lists that answer a pinhole camera's primary
 //!   rays exactly as [`Accel::closest`] does, with a few triangle tests instead of a BVH descent.
+//! * [`light_bins`]: [`LightBins`], per-direction triangle lists around a point light that answer
+//!   shadow rays ([`Accel::inside_length`], [`Accel::occluded`] toward the light) exactly, with a
+//!   few triangle tests instead of an all-hits BVH traversal.
 //! * [`sampling`]: area-uniform surface point sampling.
 //! * [`frame`]: orthonormal frames (Duff et al. 2017).
 //!
@@ -24,6 +27,7 @@ pub mod bvh;
 pub mod error;
 pub mod frame;
 pub mod io;
+pub mod light_bins;
 pub mod mesh;
 pub mod sampling;
 pub mod shapes;
@@ -34,6 +38,7 @@ pub use bvh::{Accel, Hit};
 pub use error::GeometryError;
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
+pub use light_bins::LightBins;
 pub use mesh::{Mesh, MeshWarning};
 pub use sampling::{AreaSampler, SurfaceSample};
 pub use shapes::{Shape, sharp_box};

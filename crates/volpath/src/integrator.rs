@@ -23,7 +23,7 @@
 //!
 //! Limitations: the camera must be outside the object; the mesh must be closed.
 
-use geometry::{Accel, Hit, bvh::offset_origin};
+use geometry::{Accel, Hit, LightBins, bvh::offset_origin};
 use glam::Vec3;
 use scene::{Environment, Medium, PointLight};
 
@@ -52,6 +52,10 @@ pub struct VolpathSettings {
     pub channel_sampling: ChannelSampling,
     /// Estimator of the shadow rays' transmittance ([`crate::shadow`]).
     pub shadow: ShadowTransmittance,
+    /// Let [`crate::render_image`] answer the exact shadow rays from per-direction triangle
+    /// lists around the light ([`LightBins`]; the same values as the BVH, faster). Off: the BVH
+    /// answers every shadow ray (the reference, for tests and benchmarks).
+    pub light_lists: bool,
 }
 
 impl Default for VolpathSettings {
@@ -61,6 +65,7 @@ impl Default for VolpathSettings {
             rr_depth: 5,
             channel_sampling: ChannelSampling::SpectralMis,
             shadow: ShadowTransmittance::default(),
+            light_lists: true,
         }
     }
 }
@@ -72,6 +77,11 @@ pub struct VolpathScene<'a> {
     pub medium: Medium,
     pub light: Option<PointLight>,
     pub environment: Option<Environment>,
+    /// Shadow-ray lists around `light` ([`LightBins`], built for `light.position` over `accel`):
+    /// the exact shadow transmittance reads its inside lengths from them (identical values, a
+    /// few triangle tests instead of an all-hits traversal). [`crate::render_image`] builds them
+    /// when this is `None` and [`VolpathSettings::light_lists`] is on.
+    pub light_bins: Option<&'a LightBins>,
 }
 
 /// Upper bound on interface events per path (guards against numerical ping-pong).
@@ -209,7 +219,14 @@ fn next_event(
     }
     let dir_l = to_l / r2.sqrt();
     let f = phase.eval(d, dir_l) / r2;
-    let tr = shadow.estimate(scene.accel, &scene.medium.sigma_t, p, light.position, s);
+    let tr = shadow.estimate(
+        scene.accel,
+        scene.light_bins,
+        &scene.medium.sigma_t,
+        p,
+        light.position,
+        s,
+    );
     for (c, l) in l.iter_mut().enumerate() {
         *l += w.beta[c] * f * tr[c] * light.intensity[c];
     }

@@ -23,5 +23,5 @@ pub mod shadow;
 pub mod spectral;
 
 pub use integrator::{ChannelSampling, VolpathScene, VolpathSettings, radiance, radiance_primary};
-pub use render::{RenderSettings, render_image};
+pub use render::{RenderSettings, render_image, shadow_lists};
 pub use shadow::ShadowTransmittance;

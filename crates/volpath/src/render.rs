@@ -3,12 +3,14 @@
 //! Pixel positions use Owen-scrambled Sobol points (Burley 2020) per pixel for the first 2¹⁶
 //! samples; all other dimensions come from the pixel's PCG32 stream.
 
+use geometry::LightBins;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image};
 
 use crate::integrator::{VolpathScene, VolpathSettings, radiance_primary};
 use crate::rng::{Sampler, hash_key};
+use crate::shadow::ShadowTransmittance;
 
 /// Per-render settings.
 #[derive(Clone, Copy, Debug)]
@@ -33,6 +35,20 @@ pub fn pixel_jitter(i: u32, key: u64, s: &mut Sampler) -> (f32, f32) {
     }
 }
 
+/// The shadow rays' triangle lists ([`LightBins`]) that [`render_image`] uses for `scene`, built
+/// here so that views sharing a light can share them (pass them in
+/// [`VolpathScene::light_bins`]). `None` when the settings do not use them (tracked shadows,
+/// [`VolpathSettings::light_lists`] off), the boundary refracts (η ≠ 1: no straight shadow
+/// rays), there is no point light, or the light is too close to the object.
+pub fn shadow_lists(scene: &VolpathScene, settings: &VolpathSettings) -> Option<LightBins> {
+    let light = scene.light.as_ref()?;
+    let used = settings.light_lists
+        && scene.medium.eta == 1.0
+        && settings.shadow == ShadowTransmittance::Exact;
+    used.then(|| LightBins::build(scene.accel, light.position))
+        .flatten()
+}
+
 /// Render one view. `progress` is advanced by one per finished row.
 pub fn render_image(
     scene: &VolpathScene,
@@ -45,6 +61,14 @@ pub fn render_image(
     // Camera rays through per-pixel triangle lists (bit-identical to the BVH; when the view
     // allows them).
     let bins = camera.pixel_bins(scene.accel);
+    let light_bins = match scene.light_bins {
+        None => shadow_lists(scene, settings),
+        Some(_) => None,
+    };
+    let scene = &VolpathScene {
+        light_bins: scene.light_bins.or(light_bins.as_ref()),
+        ..*scene
+    };
     let mut img = Image::new(w, h);
     img.data
         .par_chunks_mut(w as usize)

@@ -23,12 +23,15 @@
 //! With σ̄ the smallest extinction every channel's weight is ≤ 1 and the survival probability is
 //! the largest any exponential budget with rate ≥ min σ_t can give, so no channel gets fireflies.
 //!
-//! Measured on the Mitsuba reference sphere (BENCHMARKS.md): `Tracked` renders 1.25–1.3× more
-//! paths per second, but its variance per path is 1.4–1.5× that of `Exact`, so `Exact` gives
-//! about 12 % less noise per second and is the default; `Tracked` is what Mitsuba 3 runs, for
-//! like-for-like speed comparisons.
+//! `Exact` reads ℓ from the light's per-direction triangle lists when the renderer built them
+//! ([`geometry::LightBins`]: the same value as the BVH's, bit for bit, from a few triangle tests).
+//!
+//! Measured on the Mitsuba reference sphere (BENCHMARKS.md): with the lists `Exact` renders as
+//! many paths per second as `Tracked` (before them `Tracked` rendered 1.25–1.3× more), and its
+//! variance per path is 1.4–1.5× lower, so `Exact` is the default; `Tracked` is what Mitsuba 3
+//! runs, for like-for-like comparisons.
 
-use geometry::{Accel, bvh::offset_origin};
+use geometry::{Accel, LightBins, bvh::offset_origin};
 use glam::Vec3;
 
 use crate::rng::Sampler;
@@ -47,11 +50,14 @@ pub enum ShadowTransmittance {
 
 impl ShadowTransmittance {
     /// Transmittance estimate per channel of the segment `p → light` for a vertex `p` inside the
-    /// medium of extinction `sigma_t`. `Tracked` draws one uniform number from `s`.
+    /// medium of extinction `sigma_t`. `Tracked` draws one uniform number from `s`. `bins`, when
+    /// given, must be built for `light` over `accel`: `Exact` then reads the inside length from
+    /// them (the same value as the BVH's, with a few triangle tests).
     #[inline]
     pub fn estimate(
         self,
         accel: &Accel,
+        bins: Option<&LightBins>,
         sigma_t: &[f32; 3],
         p: Vec3,
         light: Vec3,
@@ -59,7 +65,13 @@ impl ShadowTransmittance {
     ) -> [f32; 3] {
         match self {
             ShadowTransmittance::Exact => {
-                let len = accel.inside_length(p, light);
+                let len = match bins {
+                    Some(b) => {
+                        debug_assert_eq!(b.light(), light);
+                        b.inside_length(accel, p)
+                    }
+                    None => accel.inside_length(p, light),
+                };
                 sigma_t.map(|st| (-st * len).exp())
             }
             ShadowTransmittance::Tracked => {

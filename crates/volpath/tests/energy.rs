@@ -117,6 +117,7 @@ fn white_furnace_environment_any_eta() {
             medium,
             light: None,
             environment: Some(Environment { radiance: [1.0; 3] }),
+            light_bins: None,
         };
         let mut est = [MeanEstimate::default(); 3];
         for_each_sample(&cam, 256, 100 + case as u64, |o, d, s| {
@@ -159,6 +160,7 @@ fn point_light_in_sphere_conserves_energy() {
             intensity,
         }),
         environment: None,
+        light_bins: None,
     };
     let dist = 3.0f32;
     let cam_pos = Vec3::new(0.0, 0.0, dist);
@@ -229,6 +231,7 @@ fn dielectric_absorber_shows_fresnel_reflectance() {
         medium,
         light: None,
         environment: Some(Environment { radiance: [1.0; 3] }),
+        light_bins: None,
     };
     let cam = Camera::look_at(Vec3::new(0.0, 0.0, 2.5), Vec3::ZERO, Vec3::Y, 30.0, 24, 24);
     // Per sample: value − F(cos θ) at the shading normal hit (0 for missed rays, value 1).
@@ -268,6 +271,7 @@ fn clear_glass_ball_transmits_everything() {
         medium,
         light: None,
         environment: Some(Environment { radiance: [1.0; 3] }),
+        light_bins: None,
     };
     let cam = Camera::look_at(Vec3::new(0.0, 0.0, 2.5), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
     let mut est = MeanEstimate::default();
@@ -307,6 +311,7 @@ fn refracted_nee_reduces_to_shadow_rays_as_eta_tends_to_one() {
             medium,
             light: Some(light),
             environment: None,
+            light_bins: None,
         };
         let mut est = [MeanEstimate::default(); 3];
         for_each_sample(&cam, 64, seed, |o, d, s| {

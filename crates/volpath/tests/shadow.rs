@@ -7,8 +7,9 @@
 //!    mean of T̂_c over many draws matches exp(−σ_t,c ℓ) within 4.5 standard errors computed
 //!    from the draws; its survival rate matches exp(−min σ_t · ℓ) by a binomial z-test.
 //! 3. The exact estimator is the closed form.
-//! 4. `render_image` (camera rays through the per-pixel triangle lists) equals the plain BVH
-//!    loop over [`volpath::radiance`] bit for bit, with either estimator.
+//! 4. `render_image` (camera rays through the per-pixel triangle lists, exact shadow rays
+//!    through the light's per-direction lists) equals the plain BVH loop over
+//!    [`volpath::radiance`] bit for bit, with either estimator.
 
 use geometry::{Accel, Shape};
 use glam::Vec3;
@@ -112,7 +113,8 @@ fn tracked_transmittance_is_unbiased() {
         let mut survived = 0u64;
         for i in 0..n {
             let mut s = Sampler::new(9, 0, i, 0);
-            let tr = ShadowTransmittance::Tracked.estimate(&accel, &sigma_t, p, light, &mut s);
+            let tr =
+                ShadowTransmittance::Tracked.estimate(&accel, None, &sigma_t, p, light, &mut s);
             survived += (tr[0] > 0.0) as u64;
             for c in 0..3 {
                 est[c].push(tr[c] as f64);
@@ -140,23 +142,31 @@ fn tracked_transmittance_is_unbiased() {
             );
         }
         let mut s = Sampler::new(9, 0, 0, 0);
-        let exact = ShadowTransmittance::Exact.estimate(&accel, &sigma_t, p, light, &mut s);
+        let exact = ShadowTransmittance::Exact.estimate(&accel, None, &sigma_t, p, light, &mut s);
         for c in 0..3 {
             let expect = (-(sigma_t[c] as f64) * len).exp();
             assert!((exact[c] as f64 - expect).abs() <= 1e-6 * expect.max(1e-3));
         }
+        // The same value through the light's triangle lists.
+        let bins = geometry::LightBins::build(&accel, light).expect("light outside the torus");
+        let listed =
+            ShadowTransmittance::Exact.estimate(&accel, Some(&bins), &sigma_t, p, light, &mut s);
+        assert_eq!(listed.map(f32::to_bits), exact.map(f32::to_bits));
     }
 }
 
-/// `render_image` answers camera rays from the camera's per-pixel triangle lists; the reference
-/// is the plain BVH path ([`volpath::radiance`]) with the same streams: identical images, bit for
+/// `render_image` answers camera rays from the camera's per-pixel triangle lists and exact shadow
+/// rays from the light's per-direction lists ([`geometry::LightBins`]); the reference is the plain
+/// BVH path ([`volpath::radiance`] with no lists) with the same streams: identical images, bit for
 /// bit, with both shadow estimators.
 #[test]
 fn render_image_matches_the_bvh_reference_loop() {
     use scene::{Camera, Medium, PointLight};
     use volpath::render::pixel_jitter;
     use volpath::rng::hash_key;
-    use volpath::{RenderSettings, VolpathScene, VolpathSettings, radiance, render_image};
+    use volpath::{
+        RenderSettings, VolpathScene, VolpathSettings, radiance, render_image, shadow_lists,
+    };
 
     let accel = torus();
     let cam = Camera::look_at(Vec3::new(0.3, 0.9, 1.4), Vec3::ZERO, Vec3::Y, 40.0, 24, 20);
@@ -177,6 +187,7 @@ fn render_image_matches_the_bvh_reference_loop() {
             intensity: [2.0; 3],
         }),
         environment: None,
+        light_bins: None,
     };
     let rs = RenderSettings {
         spp: 3,
@@ -188,6 +199,11 @@ fn render_image_matches_the_bvh_reference_loop() {
             shadow,
             ..Default::default()
         };
+        assert_eq!(
+            shadow_lists(&scene, &settings).is_some(),
+            shadow == ShadowTransmittance::Exact,
+            "the light's lists must be exercised by the exact estimator"
+        );
         let img = render_image(&scene, &settings, &cam, &rs, None);
         let mut nonzero = 0;
         for y in 0..cam.height {

@@ -244,6 +244,23 @@ impl Accel {
     /// whose order is decided by rounding (a ray grazing a vertex) cost at most their distance.
     /// Allocation-free up to 16 crossings.
     pub fn inside_length(&self, a: Vec3, b: Vec3) -> f32 {
+        self.inside_length_by(a, b, |dir, push| {
+            self.for_each_hit(a, dir, 0.0, f32::INFINITY, |_, th| push(th));
+        })
+    }
+
+    /// [`inside_length`](Self::inside_length) with the crossings along the ray from `a` in the
+    /// direction `dir` of `b − a` (every hit with `0 < t < ∞`) reported by `hits(dir, push)`, which
+    /// must call `push` once per hit of the watertight test (in any order). The result depends on
+    /// the set of hits only, so any exact source of candidates (the BVH, per-direction triangle
+    /// lists, all triangles) gives the same answer.
+    #[inline]
+    pub(crate) fn inside_length_by(
+        &self,
+        a: Vec3,
+        b: Vec3,
+        hits: impl FnOnce(Vec3, &mut dyn FnMut(TriHit)),
+    ) -> f32 {
         let seg = b - a;
         let len = seg.length();
         if !(len > 0.0 && len.is_finite()) {
@@ -251,9 +268,7 @@ impl Accel {
         }
         let dir = seg / len;
         let mut xs = StackVec::<(f32, bool), 16>::new();
-        self.for_each_hit(a, dir, 0.0, f32::INFINITY, |_, th| {
-            xs.push((th.t, th.front));
-        });
+        hits(dir, &mut |th: TriHit| xs.push((th.t, th.front)));
         let xs = xs.as_mut_slice();
         // Insertion sort by (t, front): a handful of crossings.
         for i in 1..xs.len() {
