@@ -87,6 +87,12 @@ pub struct AccuracyArgs {
     /// 2θ̂ − θ̂₂ in (ln σ_t, α) as method `<method>+bc`. Doubles the cost of every case.
     #[arg(long)]
     pub bias_correction: bool,
+    /// Steps of the iterated correction (with `--bias-correction`): step k renders at the
+    /// previous corrected medium θ_{k−1}, recovers θ̂_k from it, and reports θ_k = θ_{k−1} + θ̂ − θ̂_k
+    /// as `<method>+bc` (k = 1) or `<method>+bc<k>`; a bias of constant slope s shrinks by −s per
+    /// step. Each step costs one volpath render and one recovery.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub bias_correction_steps: u32,
     #[command(flatten)]
     pub learned: crate::common::LearnedArgs,
 }
@@ -151,11 +157,15 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
         for method in &a.methods {
             let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
             let row = optimize(a, dir, &run_dir, method, default_init, medium, name)?;
-            let corrected = if a.bias_correction {
-                Some(bias_corrected_row(a, &rig, shape, name, medium, &row)?)
-            } else {
-                None
-            };
+            let mut corrected = Vec::new();
+            if a.bias_correction {
+                for step in 1..=a.bias_correction_steps {
+                    let current = corrected.last().unwrap_or(&row);
+                    let next =
+                        bias_corrected_row(a, &rig, shape, name, medium, &row, current, step)?;
+                    corrected.push(next);
+                }
+            }
             rows.push(row);
             rows.extend(corrected);
         }
@@ -203,10 +213,13 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
     Ok(())
 }
 
-/// The parametric-bootstrap correction of `row` (`inverse::bootstrap`): the case's dataset is
-/// rendered again at the recovered medium (`OUT/data/<case>-boot-<method>`), recovered with the
-/// same settings from the same initial values (`OUT/runs/<case>-<method>-boot`), and the row of
-/// method `<method>+bc` holds 2θ̂ − θ̂₂ (its s/it covers both recoveries).
+/// Step `step` of the parametric-bootstrap correction of `row` (`inverse::bootstrap`): the
+/// case's dataset is rendered again at the medium of `current` (the estimate for step 1, the
+/// previous step's correction after that) into `OUT/data/<case>-boot[<step>]-<method>`, recovered
+/// with the same settings from the same initial values (`OUT/runs/<case>-<method>-boot[<step>]`;
+/// no suffix for step 1), and the row of method `<method>+bc[<step>]` holds
+/// θ_step = θ_current + θ̂ − θ̂_step (step 1: 2θ̂ − θ̂₂). Its s/it covers all recoveries so far.
+#[allow(clippy::too_many_arguments)]
 fn bias_corrected_row(
     a: &AccuracyArgs,
     rig: &Rig,
@@ -214,43 +227,51 @@ fn bias_corrected_row(
     name: &str,
     truth: &Medium,
     row: &Row,
+    current: &Row,
+    step: u32,
 ) -> Result<Row> {
-    let estimate = row.estimate.medium(truth);
-    let boot = format!("{name}-boot-{}", row.method);
+    let at = current.estimate.medium(truth);
+    let suffix = if step == 1 {
+        String::new()
+    } else {
+        step.to_string()
+    };
+    let boot = format!("{name}-boot{suffix}-{}", row.method);
     let data = a.out.join("data").join(&boot);
-    ensure_dataset(a, rig, shape.clone(), estimate, &data, &boot)?;
+    ensure_dataset(a, rig, shape.clone(), at, &data, &boot)?;
     let run_dir = a
         .out
         .join("runs")
-        .join(format!("{name}-{}-boot", row.method));
+        .join(format!("{name}-{}-boot{suffix}", row.method));
     let refit = optimize(
         a,
         &data,
         &run_dir,
         &row.method,
         row.init,
-        &estimate,
-        &format!("{name} bootstrap"),
+        &at,
+        &format!("{name} bootstrap {step}"),
     )?;
-    let corrected = inverse::bootstrap::bias_corrected(&row.estimate, &refit.estimate)
-        .with_context(|| {
-            format!(
-                "{}: the bootstrap recovery is not a valid medium ({:?})",
-                run_dir.display(),
-                refit.estimate
-            )
-        })?;
-    let (bs, ba) = inverse::bootstrap::estimated_bias(&row.estimate, &refit.estimate);
+    let corrected =
+        inverse::bootstrap::bootstrap_step(&current.estimate, &row.estimate, &refit.estimate)
+            .with_context(|| {
+                format!(
+                    "{}: the bootstrap recovery is not a valid medium ({:?})",
+                    run_dir.display(),
+                    refit.estimate
+                )
+            })?;
+    let (bs, ba) = inverse::bootstrap::estimated_bias(&current.estimate, &refit.estimate);
     println!(
-        "bias of {} on {name} at its estimate: σ_t {:+.1?} %, α {:+.4?}",
+        "bias of {} on {name} at step {step}'s medium: σ_t {:+.1?} %, α {:+.4?}",
         row.method,
         bs.map(|v| 100.0 * v),
         ba
     );
     Ok(Row {
-        method: format!("{}+bc", row.method),
+        method: format!("{}+bc{suffix}", row.method),
         estimate: corrected,
-        seconds_per_iteration: row.seconds_per_iteration + refit.seconds_per_iteration,
+        seconds_per_iteration: current.seconds_per_iteration + refit.seconds_per_iteration,
         run_dir,
         ..row.clone()
     })

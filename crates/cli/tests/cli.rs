@@ -1451,51 +1451,84 @@ fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     args
 }
 
+/// `--bias-correction --bias-correction-steps 2`: step 1 renders at the estimate θ̂ and reports
+/// 2θ̂ − θ̂₂ (`ours+bc`); step 2 renders at that correction θ₁ and reports θ₁ + θ̂ − θ̂₂'
+/// (`ours+bc2`), all in (ln σ_t, α).
 #[test]
 fn experiment_bias_correction_refits_at_the_estimate() {
     let d = tmp();
-    let args = tiny_accuracy_args(&["--inits", "0", "--methods", "ours", "--bias-correction"]);
+    let args = tiny_accuracy_args(&[
+        "--inits",
+        "0",
+        "--methods",
+        "ours",
+        "--bias-correction",
+        "--bias-correction-steps",
+        "2",
+    ]);
     let run = ok(d.path(), &args);
     assert_stdout_has(
         &run,
         &[
             "| sphere-m0 | ours |",
             "| sphere-m0 | ours+bc |",
+            "| sphere-m0 | ours+bc2 |",
             "bias of ours on sphere-m0",
         ],
     );
     let exp = d.path().join("exp");
-    let est = read_json(&exp.join("runs/sphere-m0-ours/result.json"))["estimate"].clone();
-    let refit = read_json(&exp.join("runs/sphere-m0-ours-boot/result.json"))["estimate"].clone();
-    // The bootstrap dataset was rendered at the first recovery's estimate.
-    let boot = read_json(&exp.join("data/sphere-m0-boot-ours/dataset.json"));
+    let estimate =
+        |run: &str| read_json(&exp.join("runs").join(run).join("result.json"))["estimate"].clone();
     let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
-    for c in 0..3 {
-        for k in ["sigma_t", "albedo"] {
-            let (a, b) = (num(&boot["truth"], k, c), num(&est, k, c));
-            assert!((a - b).abs() <= 1e-6 * b.abs(), "{k}[{c}]: {a} vs {b}");
-        }
-    }
-    // The corrected row is 2θ̂ − θ̂₂ in (ln σ_t, α).
     let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
-    let bc: Vec<f64> = csv
-        .lines()
-        .find(|l| l.starts_with("sphere-m0,ours+bc,"))
-        .unwrap_or_else(|| panic!("{csv}"))
-        .split(',')
-        .skip(14)
-        .take(6)
-        .map(|v| v.parse().unwrap())
-        .collect();
-    for c in 0..3 {
-        let s = (2.0 * num(&est, "sigma_t", c).ln() - num(&refit, "sigma_t", c).ln()).exp();
-        let a = (2.0 * num(&est, "albedo", c) - num(&refit, "albedo", c)).clamp(1e-4, 0.99995);
-        assert!((bc[c] - s).abs() <= 1e-4 * s, "σ_t[{c}]: {} vs {s}", bc[c]);
-        assert!(
-            (bc[3 + c] - a).abs() <= 1e-5,
-            "α[{c}]: {} vs {a}",
-            bc[3 + c]
-        );
+    // σ_t[3], α[3] of a method's row in results.csv.
+    let row = |method: &str| -> Value {
+        let v: Vec<f64> = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("sphere-m0,{method},")))
+            .unwrap_or_else(|| panic!("{csv}"))
+            .split(',')
+            .skip(14)
+            .take(6)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        serde_json::json!({ "sigma_t": v[..3], "albedo": v[3..] })
+    };
+    let est = estimate("sphere-m0-ours");
+    let mut current = est.clone();
+    for (step, (data, run, method)) in [
+        ("sphere-m0-boot-ours", "sphere-m0-ours-boot", "ours+bc"),
+        ("sphere-m0-boot2-ours", "sphere-m0-ours-boot2", "ours+bc2"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        // The bootstrap dataset of this step was rendered at the previous step's medium.
+        let boot = read_json(&exp.join("data").join(data).join("dataset.json"));
+        for c in 0..3 {
+            for k in ["sigma_t", "albedo"] {
+                let (a, b) = (num(&boot["truth"], k, c), num(&current, k, c));
+                assert!(
+                    (a - b).abs() <= 1e-5 * b.abs(),
+                    "step {step} {k}[{c}]: {a} vs {b}"
+                );
+            }
+        }
+        // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
+        let refit = estimate(run);
+        let got = row(method);
+        for c in 0..3 {
+            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
+                - num(&refit, "sigma_t", c).ln())
+            .exp();
+            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
+                - num(&refit, "albedo", c))
+            .clamp(1e-4, 0.99995);
+            let (gs, ga) = (num(&got, "sigma_t", c), num(&got, "albedo", c));
+            assert!((gs - s).abs() <= 1e-4 * s, "{method} σ_t[{c}]: {gs} vs {s}");
+            assert!((ga - a).abs() <= 1e-5, "{method} α[{c}]: {ga} vs {a}");
+        }
+        current = got;
     }
 }
 

@@ -24,6 +24,17 @@
 //! alike) and α itself (errors of ±0.01–0.02 anywhere in the range), i.e.
 //! σ_t,c = σ̂_t² / σ̂_t,₂ and α_c = 2α̂ − α̂₂, clamped to the parameters' valid ranges.
 //!
+//! **Iterated correction.** When the slope b' is not small, the step is repeated (the iterated
+//! bootstrap; in indirect inference the fixed point θ* with F(V(θ*)) = θ̂):
+//!
+//! ```text
+//! θ₀ = θ̂,   θ_{k+1} = θ_k + θ̂ − F(V(θ_k))
+//! ```
+//!
+//! θ₁ is the correction above. For a bias with constant slope the error is multiplied by −b' at
+//! every step (e_{k+1} = e_k − (1 + b')·e_k), so K steps leave (−b')^K of the original bias;
+//! each step costs one simulation and one recovery.
+//!
 //! V must be a simulator of the observed images — in this project the volumetric path tracer,
 //! which is the ground truth of every dataset it made. For a real capture the correction is only
 //! as good as that simulator's agreement with the camera.
@@ -40,19 +51,28 @@ pub const ALBEDO_RANGE: (f64, f64) = (1e-4, 0.99995);
 /// and the recovery `refit` (θ̂₂) from images simulated at θ̂ (see the module documentation).
 /// Returns `None` when either input is not a valid medium (σ_t ≤ 0 or not finite, α not finite).
 pub fn bias_corrected(estimate: &Params, refit: &Params) -> Option<Params> {
+    bootstrap_step(estimate, estimate, refit)
+}
+
+/// One step of the iterated correction (module documentation): θ_{k+1} = θ_k + θ̂ − θ̂_k in
+/// (ln σ_t, α), with `current` = θ_k, `estimate` = θ̂ and `refit` = θ̂_k = F(V(θ_k)), the recovery
+/// from images simulated at θ_k. `bootstrap_step(θ̂, θ̂, θ̂₂)` is [`bias_corrected`]. Returns
+/// `None` when an input is not a valid medium.
+pub fn bootstrap_step(current: &Params, estimate: &Params, refit: &Params) -> Option<Params> {
     let valid = |p: &Params| {
         p.sigma_t.iter().all(|s| s.is_finite() && *s > 0.0)
             && p.albedo.iter().all(|a| a.is_finite())
     };
-    if !valid(estimate) || !valid(refit) {
+    if !valid(current) || !valid(estimate) || !valid(refit) {
         return None;
     }
     let sigma_t = std::array::from_fn(|c| {
-        let ln = 2.0 * estimate.sigma_t[c].ln() - refit.sigma_t[c].ln();
+        let ln = current.sigma_t[c].ln() + estimate.sigma_t[c].ln() - refit.sigma_t[c].ln();
         ln.exp().max(MIN_SIGMA_T)
     });
     let albedo = std::array::from_fn(|c| {
-        (2.0 * estimate.albedo[c] - refit.albedo[c]).clamp(ALBEDO_RANGE.0, ALBEDO_RANGE.1)
+        (current.albedo[c] + estimate.albedo[c] - refit.albedo[c])
+            .clamp(ALBEDO_RANGE.0, ALBEDO_RANGE.1)
     });
     Some(Params { sigma_t, albedo })
 }
@@ -119,6 +139,44 @@ mod tests {
             "{err_before} {err_after}"
         );
         assert!(err_after.abs() < err_before.abs());
+    }
+
+    /// The iterated correction with a sloped bias in both coordinates: K steps leave (−s)^K of
+    /// the original error, i.e. the iteration converges to the truth for |s| < 1.
+    #[test]
+    fn iterated_steps_shrink_the_error_by_the_slope() {
+        let (s, c0, sa, ca) = (0.3f64, -0.3f64, -0.4f64, 0.02f64);
+        let truth = p([42.0, 60.0, 96.9], [0.86, 0.9, 0.8]);
+        let recover = |t: &Params| Params {
+            sigma_t: t
+                .sigma_t
+                .map(|x| ((1.0 + s) * x.ln() + c0 - s * 60f64.ln()).exp()),
+            albedo: t.albedo.map(|a| a + ca + sa * (a - 0.85)),
+        };
+        let est = recover(&truth);
+        let mut cur = est;
+        let e0 = (
+            est.sigma_t[2].ln() - truth.sigma_t[2].ln(),
+            est.albedo[0] - truth.albedo[0],
+        );
+        for k in 1..=4 {
+            cur = bootstrap_step(&cur, &est, &recover(&cur)).unwrap();
+            if k == 1 {
+                assert_eq!(cur, bias_corrected(&est, &recover(&est)).unwrap());
+            }
+            let e = (
+                cur.sigma_t[2].ln() - truth.sigma_t[2].ln(),
+                cur.albedo[0] - truth.albedo[0],
+            );
+            assert!(
+                (e.0 - (-s).powi(k) * e0.0).abs() < 1e-9,
+                "step {k}: {e:?} {e0:?}"
+            );
+            assert!(
+                (e.1 - (-sa).powi(k) * e0.1).abs() < 1e-9,
+                "step {k}: {e:?} {e0:?}"
+            );
+        }
     }
 
     #[test]
