@@ -5,6 +5,7 @@
 //! the true normal there. A brute-force reference (dense rows, spec weights) checks the assembly.
 
 use std::time::Instant;
+use testkit::random_unit_vector;
 
 use bssrdf::fit::{ConstraintCloud, fit_mesh_vertices, interpolate};
 use bssrdf::medium;
@@ -16,25 +17,11 @@ use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
-fn random_unit(rng: &mut Pcg64) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-        );
-        let l = v.length();
-        if l > 0.1 && l <= 1.0 {
-            return v / l;
-        }
-    }
-}
-
 /// `n` points uniform on the sphere (centre `c`, radius `r`) with outward normals.
 fn sphere_cloud(rng: &mut Pcg64, n: usize, c: Vec3, r: f32) -> (Vec<Vec3>, Vec<Vec3>) {
     (0..n)
         .map(|_| {
-            let d = random_unit(rng);
+            let d = random_unit_vector(rng);
             (c + r * d, d)
         })
         .unzip()
@@ -251,7 +238,7 @@ fn cylinder_is_recovered() {
         let a = axis.as_dvec3();
         let mut worst_val = 0.0f64;
         for _ in 0..20 {
-            let u = random_unit(&mut rng).as_dvec3() * 1.5;
+            let u = random_unit_vector(&mut rng).as_dvec3() * 1.5;
             let u_perp = u - a * u.dot(a);
             let exact = n.dot(u) + u_perp.length_squared() / (2.0 * rho);
             worst_val = worst_val.max((poly.eval_f64(u.to_array()) - exact).abs());

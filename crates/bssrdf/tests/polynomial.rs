@@ -8,27 +8,14 @@ use bssrdf::polynomial::{
 use glam::{DMat3, DVec3, Mat3, Quat, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
+use testkit::random_unit_vector;
 
 fn random_poly(rng: &mut Pcg64) -> Poly3 {
     Poly3(std::array::from_fn(|_| 2.0 * rng.random::<f32>() - 1.0))
 }
 
-fn random_unit(rng: &mut Pcg64) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-        );
-        let l = v.length();
-        if l > 0.1 && l <= 1.0 {
-            return v / l;
-        }
-    }
-}
-
 fn random_rotation(rng: &mut Pcg64) -> Mat3 {
-    let axis = random_unit(rng);
+    let axis = random_unit_vector(rng);
     let angle = std::f32::consts::TAU * rng.random::<f32>();
     Mat3::from_quat(Quat::from_axis_angle(axis, angle))
 }
@@ -240,7 +227,7 @@ fn rotation_composes() {
 fn light_space_frame_and_plane() {
     let mut rng = Pcg64::seed_from_u64(6);
     for _ in 0..100 {
-        let d_in = random_unit(&mut rng);
+        let d_in = random_unit_vector(&mut rng);
         let f = light_space_frame(d_in);
         assert!((f.n + d_in).length() < 1e-6, "e3 = −d_in");
         assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
@@ -284,17 +271,17 @@ fn poly_normal() {
 fn align_direction_rotates_mesh_normal_onto_poly_normal() {
     let mut rng = Pcg64::seed_from_u64(7);
     for _ in 0..200 {
-        let n = random_unit(&mut rng);
+        let n = random_unit_vector(&mut rng);
         // a nearby polynomial normal (as in practice) or an arbitrary one
         let np = if rng.random::<f32>() < 0.5 {
-            (n + 0.3 * random_unit(&mut rng)).normalize()
+            (n + 0.3 * random_unit_vector(&mut rng)).normalize()
         } else {
-            random_unit(&mut rng)
+            random_unit_vector(&mut rng)
         };
         if n.dot(np) < -0.999 {
             continue;
         }
-        let d = random_unit(&mut rng);
+        let d = random_unit_vector(&mut rng);
         let d2 = align_direction(d, n, np * 3.7); // unnormalised n_poly is fine
         assert!((d2.length() - 1.0).abs() < 1e-5);
         assert!(

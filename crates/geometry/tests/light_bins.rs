@@ -9,6 +9,7 @@ use geometry::light_bins::MIN_LIGHT_DISTANCE;
 use geometry::{Accel, LightBins, Shape, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
+use testkit::random_unit_vector;
 
 fn shape(name: &str) -> Accel {
     Accel::new(
@@ -17,20 +18,6 @@ fn shape(name: &str) -> Accel {
             .build()
             .expect("valid mesh"),
     )
-}
-
-fn unit_vector(rng: &mut Pcg32) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-            2.0 * rng.random::<f32>() - 1.0,
-        );
-        let l = v.length();
-        if l > 0.1 && l <= 1.0 {
-            return v / l;
-        }
-    }
 }
 
 /// Bounding-sphere centre and radius of the accel's mesh (vertices).
@@ -74,8 +61,21 @@ fn lights(accel: &Accel, rng: &mut Pcg32, dists: &[f32]) -> Vec<Vec3> {
     let (c, r) = bounding_sphere(accel);
     dists
         .iter()
-        .map(|&k| c + k * r * unit_vector(rng))
+        .map(|&k| c + k * r * random_unit_vector(rng))
         .collect()
+}
+
+/// The lists' inside length from `p` to the light equals the BVH's bit for bit; returns it.
+fn assert_same_inside_length(accel: &Accel, bins: &LightBins, p: Vec3, what: &str) -> f32 {
+    let light = bins.light();
+    let want = accel.inside_length(p, light);
+    let got = bins.inside_length(accel, p);
+    assert_eq!(
+        got.to_bits(),
+        want.to_bits(),
+        "{what}: light {light}, p {p}: lists {got} vs BVH {want}"
+    );
+    want
 }
 
 #[test]
@@ -92,13 +92,7 @@ fn inside_length_equals_the_bvh_bit_for_bit() {
                 .expect("light outside the sphere");
             assert!(bins.mean_candidates() > 0.0);
             for &p in &pts {
-                let want = accel.inside_length(p, light);
-                let got = bins.inside_length(&accel, p);
-                assert_eq!(
-                    got.to_bits(),
-                    want.to_bits(),
-                    "{name}: light {light}, p {p}: lists {got} vs BVH {want}"
-                );
+                let want = assert_same_inside_length(&accel, &bins, p, name);
                 queries += 1;
                 crossing += (want > 0.0) as usize;
             }
@@ -136,13 +130,7 @@ fn inside_length_through_vertices_and_edges_of_a_sharp_box() {
             }
         }
         for p in pts {
-            let want = accel.inside_length(p, light);
-            let got = bins.inside_length(&accel, p);
-            assert_eq!(
-                got.to_bits(),
-                want.to_bits(),
-                "light {light}, p {p}: {got} vs {want}"
-            );
+            assert_same_inside_length(&accel, &bins, p, "sharp box");
         }
     }
 }
@@ -178,7 +166,7 @@ fn occluded_equals_the_bvh_for_rays_toward_the_light() {
                     let want = accel.occluded(o, d, tmin, tmax);
                     assert_eq!(bins.occluded(&accel, o, d, tmin, tmax), want, "{name} {o}");
                     // A ray that does not point at the light is answered by the BVH.
-                    let off = (d + 0.05 * unit_vector(&mut rng)).normalize();
+                    let off = (d + 0.05 * random_unit_vector(&mut rng)).normalize();
                     assert_eq!(
                         bins.occluded(&accel, o, off, tmin, tmax),
                         accel.occluded(o, off, tmin, tmax)

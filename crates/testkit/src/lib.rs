@@ -7,6 +7,7 @@
 //!   is Q(dof/2, χ²/2).
 //! * [`MeanEstimate`]: running mean and standard error, to compare an estimator against a known
 //!   value at a tolerance derived from its own variance.
+//! * [`random_unit_vector`]: uniform directions by rejection from the cube, for test fixtures.
 
 /// ln Γ(x) by the Lanczos approximation (g = 7, n = 9), |error| < 1e-13 for x > 0.
 pub fn ln_gamma(x: f64) -> f64 {
@@ -172,6 +173,25 @@ impl MeanEstimate {
             }
         } else {
             (self.mean - expected).abs() / se
+        }
+    }
+}
+
+/// A uniformly distributed unit vector: a point uniform in the cube [−1, 1]³, kept when its
+/// length lies in (0.1, 1] (inside the unit ball, away from the origin where normalising loses
+/// precision), normalised. Uniform on the sphere by the ball's rotational symmetry. Draws three
+/// `f32` per attempt, so a seeded generator gives the same sequence of directions on every run.
+pub fn random_unit_vector<R: rand::Rng + ?Sized>(rng: &mut R) -> glam::Vec3 {
+    use rand::RngExt;
+    loop {
+        let v = glam::Vec3::new(
+            2.0 * rng.random::<f32>() - 1.0,
+            2.0 * rng.random::<f32>() - 1.0,
+            2.0 * rng.random::<f32>() - 1.0,
+        );
+        let l = v.length();
+        if l > 0.1 && l <= 1.0 {
+            return v / l;
         }
     }
 }
