@@ -236,6 +236,25 @@ pub fn make_dataset(
     out: &std::path::Path,
     overwrite: bool,
 ) -> Result<Dataset> {
+    let desc = SceneDesc {
+        mesh,
+        medium,
+        views: rig.build(),
+        render: RenderInfo::default(),
+        path: out.join("dataset.json"),
+    };
+    render_dataset(desc, opts, out, overwrite)
+}
+
+/// Render the views of `desc` (mesh, medium, cameras and lights) with the volumetric path
+/// tracer and save them as a dataset in `out`; `desc.render` is replaced by `opts`. Returns the
+/// dataset (with images).
+pub fn render_dataset(
+    mut desc: SceneDesc,
+    opts: RenderOpts,
+    out: &std::path::Path,
+    overwrite: bool,
+) -> Result<Dataset> {
     let RenderOpts {
         spp,
         seed,
@@ -250,25 +269,20 @@ pub fn make_dataset(
             out.display()
         );
     }
-    let desc = SceneDesc {
-        mesh,
-        medium,
-        views: rig.build(),
-        render: RenderInfo {
-            spp: Some(spp),
-            max_depth: Some(max_depth),
-            seed: Some(seed),
-            renderer: Some(format!(
-                "translucent {} volpath (spectral MIS, {} shadow transmittance)",
-                env!("CARGO_PKG_VERSION"),
-                match shadow {
-                    ShadowTransmittance::Exact => "exact",
-                    ShadowTransmittance::Tracked => "tracked",
-                }
-            )),
-        },
-        path: out.join("dataset.json"),
+    desc.render = RenderInfo {
+        spp: Some(spp),
+        max_depth: Some(max_depth),
+        seed: Some(seed),
+        renderer: Some(format!(
+            "translucent {} volpath (spectral MIS, {} shadow transmittance)",
+            env!("CARGO_PKG_VERSION"),
+            match shadow {
+                ShadowTransmittance::Exact => "exact",
+                ShadowTransmittance::Tracked => "tracked",
+            }
+        )),
     };
+    desc.path = out.join("dataset.json");
     let (mesh, warnings) = desc.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
     let views = &desc.views;
@@ -278,7 +292,7 @@ pub fn make_dataset(
         ..Default::default()
     };
     let t0 = Instant::now();
-    let rep = render_views(&accel, &medium, views, spp, seed, &settings);
+    let rep = render_views(&accel, &desc.medium, views, spp, seed, &settings);
     let mut ds = Dataset::from_scene(&desc);
     for (v, img) in ds.views.iter_mut().zip(rep.images) {
         v.image = Some(img);

@@ -36,6 +36,11 @@ pub struct DemoArgs {
     /// Optimisation iterations (0: only render the dataset).
     #[arg(long, default_value_t = 100)]
     pub iterations: u32,
+    /// Also correct the estimate's bias by the parametric bootstrap (`optimize
+    /// --bias-correction`: one more volumetric render of the dataset at the estimate and one more
+    /// recovery, about twice the time).
+    #[arg(long)]
+    pub bias_correction: bool,
 }
 
 pub fn run(a: &DemoArgs) -> Result<()> {
@@ -130,5 +135,6 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     o.log_sigma_t = true;
     o.albedo_warmup = 30.min(a.iterations / 3);
     o.overwrite = true;
+    o.bc.bias_correction = a.bias_correction;
     crate::optimize_cmd::run(&o)
 }

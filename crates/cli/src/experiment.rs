@@ -31,7 +31,7 @@ mod report;
 use report::{Row, inits_plot, report, results_csv};
 
 use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
-use crate::optimize_cmd::{IterationArgs, OptimizeArgs};
+use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 
 #[derive(Subcommand)]
 pub enum ExperimentCommand {
@@ -81,18 +81,11 @@ pub struct AccuracyArgs {
     /// Seed of the media, the renders and the runs.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Parametric-bootstrap bias correction (`inverse::bootstrap`): after each run, render the
-    /// dataset again with the volumetric path tracer at the recovered medium (same views, light,
-    /// spp and seed), recover from those images with the same settings, and report
-    /// 2θ̂ − θ̂₂ in (ln σ_t, α) as method `<method>+bc`. Doubles the cost of every case.
-    #[arg(long)]
-    pub bias_correction: bool,
-    /// Steps of the iterated correction (with `--bias-correction`): step k renders at the
-    /// previous corrected medium θ_{k−1}, recovers θ̂_k from it, and reports θ_k = θ_{k−1} + θ̂ − θ̂_k
-    /// as `<method>+bc` (k = 1) or `<method>+bc<k>`; a bias of constant slope s shrinks by −s per
-    /// step. Each step costs one volpath render and one recovery.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
-    pub bias_correction_steps: u32,
+    /// Bias correction (as `optimize --bias-correction`): after each run the case's dataset is
+    /// rendered again at the recovered medium and recovered with the same settings; the rows
+    /// `<method>+bc` (step 1) and `<method>+bc<k>` report θ_k.
+    #[command(flatten)]
+    pub bc: BiasCorrectionArgs,
     #[command(flatten)]
     pub learned: crate::common::LearnedArgs,
 }
@@ -129,7 +122,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
             let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
             let name = format!("{shape}-m{k}");
             let dir = a.out.join("data").join(&name);
-            ensure_dataset(a, &rig, built.clone(), medium, &dir, &name)?;
+            ensure_dataset(a, &rig, built.clone(), medium, a.target_spp, &dir, &name)?;
             cases.push((name, dir, medium));
             case_shapes.push(built);
         }
@@ -158,8 +151,8 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
             let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
             let row = optimize(a, dir, &run_dir, method, default_init, medium, name)?;
             let mut corrected = Vec::new();
-            if a.bias_correction {
-                for step in 1..=a.bias_correction_steps {
+            if a.bc.bias_correction {
+                for step in 1..=a.bc.bias_correction_steps {
                     let current = corrected.last().unwrap_or(&row);
                     let next =
                         bias_corrected_row(a, &rig, shape, name, medium, &row, current, step)?;
@@ -238,7 +231,8 @@ fn bias_corrected_row(
     };
     let boot = format!("{name}-boot{suffix}-{}", row.method);
     let data = a.out.join("data").join(&boot);
-    ensure_dataset(a, rig, shape.clone(), at, &data, &boot)?;
+    let spp = a.bc.bias_correction_spp.unwrap_or(a.target_spp);
+    ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot)?;
     let run_dir = a
         .out
         .join("runs")
@@ -283,6 +277,7 @@ fn ensure_dataset(
     rig: &Rig,
     shape: Shape,
     medium: Medium,
+    spp: u32,
     dir: &Path,
     name: &str,
 ) -> Result<()> {
@@ -294,7 +289,7 @@ fn ensure_dataset(
                 .views
                 .first()
                 .is_some_and(|v| v.camera.width == a.res && v.camera.height == a.res)
-            && ds.render.spp == Some(a.target_spp);
+            && ds.render.spp == Some(spp);
         if same {
             println!("dataset {name}: reusing {}", dir.display());
             return Ok(());
@@ -306,14 +301,14 @@ fn ensure_dataset(
     }
     println!(
         "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",
-        a.views, a.res, a.res, a.target_spp, medium.sigma_t, medium.albedo
+        a.views, a.res, a.res, spp, medium.sigma_t, medium.albedo
     );
     make_dataset(
         rig,
         MeshSource::Shape(shape),
         medium,
         RenderOpts {
-            spp: a.target_spp,
+            spp,
             seed: a.seed,
             max_depth: 32,
             shadow: Default::default(),
@@ -334,7 +329,6 @@ fn optimize(
     truth: &Medium,
     label: &str,
 ) -> Result<Row> {
-    let result = run_dir.join("result.json");
     let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
     o.method = method.to_string();
     o.budget = a.budget;
@@ -346,111 +340,14 @@ fn optimize(
     o.seed = a.seed;
     o.final_spp = 16;
     o.learned = a.learned.clone();
-    // A finished or interrupted run is reused only if it was made with these settings (the
-    // iteration count aside; numbers compare at f32 precision, as the files write them either
-    // way).
-    let expected = serde_json::to_value(crate::optimize_cmd::config_of(&o)?)?;
-    let same = |c: &serde_json::Value| {
-        let n = |v: &serde_json::Value| v.as_object().map_or(0, |m| m.len());
-        n(c) == n(&expected)
-            && expected.as_object().is_some_and(|m| {
-                m.iter().all(|(k, e)| {
-                    k == "iterations" || c.get(k.as_str()).is_some_and(|v| json_close(v, e))
-                })
-            })
-    };
-    let checkpoint = run_dir.join("checkpoint.json");
-    for file in [&result, &checkpoint] {
-        if let Ok(v) = read_result(file)
-            && !same(&v["config"])
-        {
-            let differing: Vec<&String> = expected
-                .as_object()
-                .map(|m| {
-                    m.iter()
-                        .filter(|(k, e)| {
-                            *k != "iterations"
-                                && !v["config"]
-                                    .get(k.as_str())
-                                    .is_some_and(|c| json_close(c, e))
-                        })
-                        .map(|(k, _)| k)
-                        .collect()
-                })
-                .unwrap_or_default();
-            bail!(
-                "{} holds a run made with other settings than this command's (differing: {}); \
-                 use another --out or remove that folder",
-                run_dir.display(),
-                if differing.is_empty() {
-                    "the format".to_string()
-                } else {
-                    differing
-                        .iter()
-                        .map(|k| k.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                }
-            );
-        }
-    }
-    let done = read_result(&result)
-        .ok()
-        .is_some_and(|v| v["iterations"].as_u64() == Some(a.budget.iterations as u64));
-    if done {
-        println!("run {label} ({method}): reusing {}", run_dir.display());
-    } else {
-        println!("run {label} ({method}): {} iterations", a.budget.iterations);
-        o.resume = checkpoint.exists();
-        crate::optimize_cmd::run(&o)?;
-    }
-    let v = read_result(&result)?;
-    let p = |key: &str, field: &str| -> Result<[f64; 3]> {
-        let arr = v[key][field]
-            .as_array()
-            .filter(|a| a.len() == 3)
-            .with_context(|| format!("{}: no {key}.{field}", result.display()))?;
-        Ok(std::array::from_fn(|c| arr[c].as_f64().unwrap_or(f64::NAN)))
-    };
+    let done = run_or_reuse(&o, label)?;
     Ok(Row {
         case: label.to_string(),
         method: method.to_string(),
         init,
         truth: Params::of(truth),
-        estimate: Params {
-            sigma_t: p("estimate", "sigma_t")?,
-            albedo: p("estimate", "albedo")?,
-        },
-        seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+        estimate: done.estimate,
+        seconds_per_iteration: done.seconds_per_iteration,
         run_dir: run_dir.to_path_buf(),
     })
-}
-
-/// Equal JSON values, numbers equal to f32 precision (relative 1e-6).
-fn json_close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
-    use serde_json::Value;
-    match (a, b) {
-        (Value::Number(x), Value::Number(y)) => {
-            let (x, y) = (
-                x.as_f64().unwrap_or(f64::NAN),
-                y.as_f64().unwrap_or(f64::NAN),
-            );
-            x == y || (x - y).abs() <= 1e-6 * x.abs().max(y.abs())
-        }
-        (Value::Array(x), Value::Array(y)) => {
-            x.len() == y.len() && x.iter().zip(y).all(|(x, y)| json_close(x, y))
-        }
-        (Value::Object(x), Value::Object(y)) => {
-            x.len() == y.len()
-                && x.iter()
-                    .all(|(k, v)| y.get(k).is_some_and(|w| json_close(v, w)))
-        }
-        _ => a == b,
-    }
-}
-
-fn read_result(path: &Path) -> Result<serde_json::Value> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not valid JSON", path.display()))
 }

@@ -20,6 +20,12 @@ use scene::{Dataset, Image, Medium};
 
 use crate::common::{LearnedArgs, build_accel, parse_rgb, progress};
 
+mod bias_correction;
+mod reuse;
+
+pub use bias_correction::BiasCorrectionArgs;
+pub use reuse::run_or_reuse;
+
 #[derive(Args, Clone)]
 pub struct OptimizeArgs {
     /// Dataset folder: ours (dataset.json) or a Mitsuba reference folder (scene.json); its
@@ -105,6 +111,8 @@ pub struct OptimizeArgs {
     /// Replace an existing run in --out.
     #[arg(long)]
     pub overwrite: bool,
+    #[command(flatten)]
+    pub bc: BiasCorrectionArgs,
     #[command(flatten)]
     pub learned: LearnedArgs,
 }
@@ -224,6 +232,12 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
                 a.out.display()
             );
         }
+        // The bootstrap folders belong to the run being replaced.
+        let boot = a.out.join("bootstrap");
+        if a.overwrite && boot.is_dir() {
+            std::fs::remove_dir_all(&boot)
+                .with_context(|| format!("cannot remove {}", boot.display()))?;
+        }
         Optimizer::new(config_of(a)?, &accel, &model, base, targets)?
     };
     let t0 = Instant::now();
@@ -262,12 +276,37 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     rerender(a, &opt, &ds, &estimate, &base)?;
     let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
+    if a.bc.bias_correction {
+        // The model's own fit stays in convergence.png and final/; result.json reports the
+        // corrected medium.
+        let c = bias_correction::correct(a, &ds, &estimate, &base)?;
+        let result = bias_correction::corrected_result(result, &c, truth.as_ref());
+        scene::fsutil::atomic_write(
+            &a.out.join("result.json"),
+            serde_json::to_string_pretty(&result)?.as_bytes(),
+            true,
+        )?;
+        if let Some(last) = c.steps.last() {
+            println!(
+                "bias-corrected ({} step{}, simulations at {} spp):",
+                c.steps.len(),
+                if c.steps.len() == 1 { "" } else { "s" },
+                c.spp
+            );
+            print_estimate(&last.corrected, truth.as_ref());
+        }
+    }
     println!("wrote {}", a.out.display());
     Ok(())
 }
 
 fn print_summary(est: &Params, truth: Option<&Params>, iters: usize, spi: f64) {
     println!("after {iters} iterations ({spi:.2} s/iteration):");
+    print_estimate(est, truth);
+}
+
+/// The estimate, and the truth and the errors when known.
+fn print_estimate(est: &Params, truth: Option<&Params>) {
     let f3 = |v: [f64; 3], p: usize| format!("({:.p$}, {:.p$}, {:.p$})", v[0], v[1], v[2], p = p);
     println!(
         "  estimate  σ_t = {}  α = {}",

@@ -1423,6 +1423,101 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
 // ---------------------------------------------------------------------------------------------
 // experiment accuracy
 
+/// `optimize --bias-correction --bias-correction-steps 2`: each step simulates the dataset at
+/// the previous medium (θ̂, then θ₁) with the dataset's own spp, recovers from it with the same
+/// settings, and `result.json` reports θ₂ = θ₁ + θ̂ − θ̂₂' as `estimate` beside the optimiser's
+/// own; `--resume` reuses the steps, `--overwrite` drops them.
+#[test]
+fn optimize_bias_correction_reports_the_iterated_correction() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let mut args = vec![
+        "-q",
+        "optimize",
+        "--dataset",
+        "ds",
+        "--out",
+        "o",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--final-spp",
+        "2",
+        "--bias-correction",
+        "--bias-correction-steps",
+        "2",
+    ];
+    let run = ok(d, &args);
+    assert_stdout_has(
+        &run,
+        &[
+            "bootstrap step 2:",
+            "bias-corrected (2 steps, simulations at 4 spp)",
+        ],
+    );
+    let r = read_json(&d.join("o/result.json"));
+    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
+    let est = r["estimate_uncorrected"].clone();
+    let steps = r["bias_correction"]["steps"].as_array().unwrap().clone();
+    assert_eq!(steps.len(), 2);
+    assert_eq!(r["bias_correction"]["simulation_spp"], 4);
+    let mut current = est.clone();
+    for (k, step) in steps.iter().enumerate() {
+        let dir = d.join(format!("o/bootstrap/step-{}", k + 1));
+        let sim = read_json(&dir.join("data/dataset.json"));
+        let refit = read_json(&dir.join("run/result.json"))["estimate"].clone();
+        for c in 0..3 {
+            for key in ["sigma_t", "albedo"] {
+                // Simulated at the previous medium; the step records it and its recovery.
+                let (a, b) = (num(&sim["truth"], key, c), num(&current, key, c));
+                assert!(
+                    (a - b).abs() <= 1e-5 * b.abs(),
+                    "step {k} {key}[{c}]: {a} vs {b}"
+                );
+                assert_eq!(step["recovered"][key][c], refit[key][c]);
+            }
+            // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
+            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
+                - num(&refit, "sigma_t", c).ln())
+            .exp();
+            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
+                - num(&refit, "albedo", c))
+            .clamp(1e-4, 0.99995);
+            let got = &step["corrected"];
+            assert!((num(got, "sigma_t", c) - s).abs() <= 1e-9 * s, "σ_t[{c}]");
+            assert!((num(got, "albedo", c) - a).abs() <= 1e-9, "α[{c}]");
+        }
+        current = step["corrected"].clone();
+    }
+    assert_eq!(r["estimate"], current);
+    let rel = num(&r["errors"], "sigma_t_relative", 0);
+    assert!((rel - (num(&current, "sigma_t", 0) / 60.0 - 1.0)).abs() < 1e-12);
+    assert!(r["errors_uncorrected"]["sigma_t_relative"].is_array());
+
+    // --resume reuses both steps and reports the same correction.
+    args.push("--resume");
+    let again = ok(d, &args);
+    assert_stdout_has(
+        &again,
+        &[
+            "bootstrap step 1: reusing",
+            "run bootstrap step 2 (ours): reusing",
+        ],
+    );
+    assert_eq!(
+        read_json(&d.join("o/result.json"))["estimate"],
+        r["estimate"]
+    );
+    // --overwrite starts again: one step now, and the second step's folder is gone.
+    let one_step = [&args[..args.len() - 3], &["--overwrite"]].concat();
+    assert_eq!(one_step[one_step.len() - 2], "--bias-correction");
+    ok(d, &one_step);
+    assert!(d.join("o/bootstrap/step-1/run/result.json").exists());
+    assert!(!d.join("o/bootstrap/step-2").exists());
+}
+
 /// `experiment accuracy` on a tiny sphere case (2 views of 12², 3 iterations), quiet, into
 /// `exp`, with `extra` arguments.
 fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {

@@ -1,0 +1,122 @@
+//! Run, resume or reuse an optimisation run folder: the step of `experiment accuracy` and of
+//! `optimize --bias-correction` that makes an interrupted multi-run command continue where it
+//! stopped. A folder is reused only when its run was made with the same settings.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use inverse::params::Params;
+
+use super::{OptimizeArgs, config_of};
+
+/// What a finished run reports (from its `result.json`).
+#[derive(Clone, Copy, Debug)]
+pub struct RunResult {
+    pub estimate: Params,
+    pub seconds_per_iteration: f64,
+}
+
+/// Run the optimisation `o` into `o.out`, or resume it from its checkpoint, or reuse it when it
+/// has already finished `o.budget.iterations` iterations; then read its result. A folder whose
+/// run (finished or not) was made with other settings than `o` (the iteration count aside) is
+/// an error naming the differing settings.
+pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
+    let run_dir = &o.out;
+    let result = run_dir.join("result.json");
+    // Numbers compare at f32 precision, as the files write them either way.
+    let expected = serde_json::to_value(config_of(o)?)?;
+    let differing = |c: &serde_json::Value| -> Vec<String> {
+        let Some(m) = expected.as_object() else {
+            return vec!["the format".into()];
+        };
+        let mut keys: Vec<String> = m
+            .iter()
+            .filter(|(k, e)| {
+                *k != "iterations" && !c.get(k.as_str()).is_some_and(|v| json_close(v, e))
+            })
+            .map(|(k, _)| k.clone())
+            .collect();
+        if keys.is_empty() && c.as_object().map_or(0, |c| c.len()) != m.len() {
+            keys.push("the format".into());
+        }
+        keys
+    };
+    let checkpoint = run_dir.join("checkpoint.json");
+    for file in [&result, &checkpoint] {
+        if let Ok(v) = read_json(file) {
+            let keys = differing(&v["config"]);
+            if !keys.is_empty() {
+                bail!(
+                    "{} holds a run made with other settings than this command's (differing: \
+                     {}); use another --out or remove that folder",
+                    run_dir.display(),
+                    keys.join(", ")
+                );
+            }
+        }
+    }
+    let done = read_json(&result)
+        .ok()
+        .is_some_and(|v| v["iterations"].as_u64() == Some(o.budget.iterations as u64));
+    if done {
+        println!("run {label} ({}): reusing {}", o.method, run_dir.display());
+    } else {
+        println!(
+            "run {label} ({}): {} iterations",
+            o.method, o.budget.iterations
+        );
+        let mut o = o.clone();
+        o.resume = checkpoint.exists();
+        o.overwrite = false;
+        super::run(&o)?;
+    }
+    let v = read_json(&result)?;
+    Ok(RunResult {
+        estimate: params_of(&v["estimate"])
+            .with_context(|| format!("{}: no estimate.sigma_t/albedo", result.display()))?,
+        seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+    })
+}
+
+/// `{"sigma_t": [3], "albedo": [3]}` as parameters.
+pub fn params_of(v: &serde_json::Value) -> Option<Params> {
+    let rgb = |field: &str| -> Option<[f64; 3]> {
+        let a = v[field].as_array().filter(|a| a.len() == 3)?;
+        let out: [Option<f64>; 3] = std::array::from_fn(|c| a[c].as_f64());
+        Some([out[0]?, out[1]?, out[2]?])
+    };
+    Some(Params {
+        sigma_t: rgb("sigma_t")?,
+        albedo: rgb("albedo")?,
+    })
+}
+
+/// Equal JSON values, numbers equal to f32 precision (relative 1e-6).
+fn json_close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (
+                x.as_f64().unwrap_or(f64::NAN),
+                y.as_f64().unwrap_or(f64::NAN),
+            );
+            x == y || (x - y).abs() <= 1e-6 * x.abs().max(y.abs())
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(x, y)| json_close(x, y))
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len()
+                && x.iter()
+                    .all(|(k, v)| y.get(k).is_some_and(|w| json_close(v, w)))
+        }
+        _ => a == b,
+    }
+}
+
+/// A JSON file, with its path in the errors.
+pub fn read_json(path: &Path) -> Result<serde_json::Value> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not valid JSON", path.display()))
+}
