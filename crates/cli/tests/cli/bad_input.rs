@@ -1,0 +1,320 @@
+//! Bad input: one test per case, each an error naming the file and field, never a panic.
+
+use serde_json::json;
+
+use super::helpers::*;
+
+// ---------------------------------------------------------------------------------------------
+// 4. bad input: one test per case
+
+/// Write `scene.toml` with `text` into a new temporary folder, render it, require failure with
+/// no output written; returns the run.
+fn render_bad_scene(text: &str) -> Run {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), text);
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert!(
+        !t.path().join("out/view_000.exr").exists(),
+        "an image was written for a bad scene"
+    );
+    assert_stderr_has(&r, &["scene.toml"]);
+    r
+}
+
+#[test]
+fn bad_missing_scene_file() {
+    let t = tmp();
+    let r = fails(
+        t.path(),
+        &["-q", "render", "no_such_scene.toml", "--out", "out"],
+    );
+    assert_stderr_has(&r, &["no_such_scene.toml"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_negative_sigma_t() {
+    let r = render_bad_scene(&scene_toml(
+        SPHERE,
+        "[60.0, -3.0, 50.0]",
+        "0.9",
+        "1.0",
+        8,
+        "",
+    ));
+    assert_stderr_has(&r, &["medium.sigma_t[1]", "-3", "fix:"]);
+}
+
+#[test]
+fn bad_albedo_above_one() {
+    let r = render_bad_scene(&scene_toml(SPHERE, "60.0", "1.5", "1.0", 8, ""));
+    assert_stderr_has(&r, &["albedo", "1.5", "fix:"]);
+}
+
+#[test]
+fn bad_eta_below_one() {
+    let r = render_bad_scene(&scene_toml(SPHERE, "60.0", "0.9", "0.5", 8, ""));
+    assert_stderr_has(&r, &["medium.eta", "0.5", "fix:"]);
+}
+
+#[test]
+fn bad_zero_width() {
+    let r = render_bad_scene(&scene_toml(SPHERE, "60.0", "0.9", "1.0", 0, ""));
+    assert_stderr_has(&r, &["views[0].camera.width", "fix:"]);
+}
+
+#[test]
+fn bad_unknown_field() {
+    let r = render_bad_scene(&scene_toml(SPHERE, "60.0", "0.9", "1.0", 8, "colour = 3"));
+    assert_stderr_has(&r, &["colour", "unknown field", "line 2"]);
+}
+
+#[test]
+fn bad_both_mesh_and_shape() {
+    let t = tmp();
+    write(&t.path().join("cube.ply"), cube_ply());
+    write(
+        &t.path().join("scene.toml"),
+        scene_toml(SPHERE, "60.0", "0.9", "1.0", 8, "mesh = \"cube.ply\""),
+    );
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert_stderr_has(&r, &["scene.toml", "mesh", "shape", "fix:"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_mesh_file_missing() {
+    let r = render_bad_scene(&mesh_scene("no_such_mesh.ply"));
+    assert_stderr_has(&r, &["no_such_mesh.ply", "not found", "fix:"]);
+}
+
+#[test]
+fn bad_truncated_binary_ply() {
+    let t = tmp();
+    let whole = tetra_binary_ply();
+    write(&t.path().join("whole.ply"), &whole);
+    write(&t.path().join("trunc.ply"), &whole[..whole.len() - 30]);
+    // The whole file renders, so the failure below is the truncation.
+    write(&t.path().join("good.toml"), mesh_scene("whole.ply"));
+    ok(
+        t.path(),
+        &["-q", "render", "good.toml", "--out", "good", "--spp", "1"],
+    );
+    write(&t.path().join("scene.toml"), mesh_scene("trunc.ply"));
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert_stderr_has(&r, &["trunc.ply", "PLY"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_ply_face_index_out_of_range() {
+    let t = tmp();
+    let ply = cube_ply().replace("3 1 6 5\n", "3 1 6 8\n");
+    assert_ne!(ply, cube_ply());
+    write(&t.path().join("oob.ply"), ply);
+    write(&t.path().join("scene.toml"), mesh_scene("oob.ply"));
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert_stderr_has(&r, &["oob.ply", "face 11", "8", "out of range"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_obj_with_nan_vertex() {
+    let t = tmp();
+    // Faces list the vertices in file order, so vertex numbering is unambiguous.
+    write(
+        &t.path().join("nan.obj"),
+        "v 0 0 0\nv 0.5 0 0\nv 0 nan 0\nv 0 0 0.5\nf 1 2 3\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    );
+    write(&t.path().join("scene.toml"), mesh_scene("nan.obj"));
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert_stderr_has(&r, &["nan.obj", "NaN", "vertex"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_dataset_image_of_wrong_size() {
+    let t = tmp();
+    let d = make_dataset(t.path(), "ds", "2", "8", &[]);
+    let big = make_dataset(t.path(), "big", "1", "16", &[]);
+    std::fs::copy(big.join("view_000.exr"), d.join("view_001.exr")).unwrap();
+    let r = fails(t.path(), &["-q", "render", "ds", "--out", "out"]);
+    assert_stderr_has(
+        &r,
+        &[
+            "dataset.json",
+            "views[1].image",
+            "view_001.exr",
+            "16×16",
+            "8×8",
+            "fix:",
+        ],
+    );
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_dataset_image_with_nan_pixel() {
+    let t = tmp();
+    let d = make_dataset(t.path(), "ds", "2", "8", &[]);
+    let p = d.join("view_001.exr");
+    let mut img = scene::Image::read_exr(&p).unwrap();
+    img.set(3, 5, [0.1, f32::NAN, 0.1]);
+    img.write_exr(&p, true).unwrap();
+    let r = fails(t.path(), &["-q", "render", "ds", "--out", "out"]);
+    assert_stderr_has(&r, &["view_001.exr", "x=3", "y=5", "NaN"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_dataset_json_field() {
+    let t = tmp();
+    let d = make_dataset(t.path(), "ds", "2", "8", &[]);
+    let mut j = read_json(&d.join("dataset.json"));
+    j["truth"]["sigma_t"] = json!([60.0, -45.0, 35.0]);
+    write(
+        &d.join("dataset.json"),
+        serde_json::to_string_pretty(&j).unwrap(),
+    );
+    let r = fails(t.path(), &["-q", "render", "ds", "--out", "out"]);
+    assert_stderr_has(&r, &["dataset.json", "truth.sigma_t[1]", "fix:"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_dataset_camera_size_edited() {
+    let t = tmp();
+    let d = make_dataset(t.path(), "ds", "2", "8", &[]);
+    let mut j = read_json(&d.join("dataset.json"));
+    j["views"][0]["camera"]["width"] = json!(9);
+    write(
+        &d.join("dataset.json"),
+        serde_json::to_string_pretty(&j).unwrap(),
+    );
+    let r = fails(t.path(), &["-q", "render", "ds", "--out", "out"]);
+    assert_stderr_has(&r, &["views[0].image", "8×8", "9×8"]);
+}
+
+#[test]
+fn bad_spp_zero() {
+    let t = tmp();
+    let r = fails(
+        t.path(),
+        &[
+            "-q", "dataset", "--shape", "sphere", "--views", "1", "--res", "8", "--spp", "0",
+            "--out", "ds",
+        ],
+    );
+    assert_stderr_has(&r, &["--spp"]);
+    assert!(!t.path().join("ds").exists());
+    write(&t.path().join("scene.toml"), good_scene());
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "0"],
+    );
+    assert_stderr_has(&r, &["--spp"]);
+    assert!(!t.path().join("out").exists());
+}
+
+#[test]
+fn bad_projection_reach() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    for reach in ["0", "-1", "nan", "inf", "two"] {
+        let r = fails(
+            t.path(),
+            &[
+                "-q",
+                "render",
+                "scene.toml",
+                "--method",
+                "learned",
+                "--out",
+                "out",
+                "--max-dist-scale",
+                reach,
+            ],
+        );
+        assert_stderr_has(&r, &["--max-dist-scale", "σ_n"]);
+        assert!(!t.path().join("out").exists());
+    }
+}
+
+#[test]
+fn bad_threads_zero() {
+    let t = tmp();
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "--threads",
+            "0",
+            "dataset",
+            "--shape",
+            "sphere",
+            "--views",
+            "1",
+            "--res",
+            "8",
+            "--spp",
+            "1",
+            "--out",
+            "ds",
+        ],
+    );
+    assert_stderr_has(&r, &["--threads"]);
+    assert!(!t.path().join("ds").exists());
+}
+
+#[test]
+fn bad_unknown_shape_name() {
+    let t = tmp();
+    let r = fails(
+        t.path(),
+        &[
+            "-q", "dataset", "--shape", "spheer", "--views", "1", "--res", "8", "--spp", "1",
+            "--out", "ds",
+        ],
+    );
+    assert_stderr_has(
+        &r,
+        &["spheer", "sphere", "cone", "torus", "rounded-box", "blob"],
+    );
+    assert!(!t.path().join("ds").exists());
+    // The same in a scene file, which also names the field.
+    let r = render_bad_scene(&scene_toml(
+        r#"shape = { name = "spheer" }"#,
+        "60.0",
+        "0.9",
+        "1.0",
+        8,
+        "",
+    ));
+    assert_stderr_has(
+        &r,
+        &[
+            "shape.name",
+            "spheer",
+            "sphere",
+            "cone",
+            "torus",
+            "rounded-box",
+            "blob",
+        ],
+    );
+}

@@ -1,0 +1,243 @@
+//! `demo` and `validate-mitsuba`.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use super::helpers::*;
+
+// ---------------------------------------------------------------------------------------------
+// 5. demo
+
+/// A tiny demo into `out`: 2 views of 16², 2 spp, 3 iterations.
+fn demo_args(out: &str) -> [&str; 12] {
+    [
+        "-q",
+        "demo",
+        "--out",
+        out,
+        "--res",
+        "16",
+        "--views",
+        "2",
+        "--spp",
+        "2",
+        "--iterations",
+        "3",
+    ]
+}
+
+#[test]
+fn demo_writes_dataset_reruns_and_protects_other_datasets() {
+    let t = tmp();
+    let args = demo_args("demo");
+    ok(t.path(), &args);
+    let d = t.path().join("demo");
+    let j = read_json(&d.join("dataset.json"));
+    assert_eq!(j["format"], "translucent-dataset");
+    assert_eq!(j["views"].as_array().unwrap().len(), 2);
+    assert_eq!(j["views"][0]["camera"]["width"], 16);
+    assert!(j["truth"]["sigma_t"].is_array());
+    for f in [
+        "view_000.exr",
+        "view_000.png",
+        "view_001.exr",
+        "view_001.png",
+    ] {
+        assert!(d.join(f).is_file(), "{f} missing");
+    }
+    let first = read(&d.join("view_000.exr"));
+    // The demo may overwrite its own folder; same arguments, same images.
+    ok(t.path(), &args);
+    assert_eq!(read(&d.join("view_000.exr")), first);
+    // The demo's folder is a valid dataset: `render` reproduces it.
+    ok(t.path(), &["-q", "render", "demo", "--out", "r"]);
+    assert_eq!(read(&t.path().join("r/view_000.exr")), first);
+
+    // A folder holding a dataset not written by the demo is left alone.
+    let other = make_dataset(t.path(), "other", "1", "8", &[]);
+    let json_before = read(&other.join("dataset.json"));
+    let exr_before = read(&other.join("view_000.exr"));
+    let r = fails(t.path(), &demo_args("other"));
+    assert_stderr_has(&r, &["other", "demo"]);
+    assert_eq!(read(&other.join("dataset.json")), json_before);
+    assert_eq!(read(&other.join("view_000.exr")), exr_before);
+    assert!(!other.join("view_001.exr").exists());
+}
+
+/// `demo --help` says "other folders are never overwritten", but a folder of `render` outputs
+/// (view_XXX.exr, no dataset.json) is overwritten: demo.rs only protects folders holding a
+/// dataset.json, then calls make_dataset(…, overwrite = true).
+#[test]
+fn demo_does_not_overwrite_render_outputs() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    ok(
+        t.path(),
+        &["-q", "render", "scene.toml", "--out", "r", "--spp", "2"],
+    );
+    let before = read(&t.path().join("r/view_000.exr"));
+    let r = translucent(t.path(), &demo_args("r"));
+    assert_ne!(r.code, Some(0), "{}", r.describe());
+    assert_eq!(read(&t.path().join("r/view_000.exr")), before);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 6. validate-mitsuba
+
+/// A Mitsuba reference folder (DATASET.md, "Mitsuba reference-render folders") made from a
+/// dataset of the cube mesh rendered by `translucent dataset` with --spp 8 --seed 3: scene.json,
+/// the mesh and the dataset's EXRs. `intensity_factor` scales the light intensity recorded in
+/// scene.json (1 = the intensity the images were rendered with).
+fn mitsuba_reference(dir: &Path, name: &str, intensity_factor: f64) -> PathBuf {
+    write(&dir.join("cube.ply"), cube_ply());
+    let ds = dir.join(format!("{name}_dataset"));
+    if !ds.join("dataset.json").exists() {
+        ok(
+            dir,
+            &[
+                "-q",
+                "dataset",
+                "--mesh",
+                "cube.ply",
+                "--views",
+                "2",
+                "--res",
+                "8",
+                "--spp",
+                "8",
+                "--seed",
+                "3",
+                "--out",
+                &format!("{name}_dataset"),
+            ],
+        );
+    }
+    let j = read_json(&ds.join("dataset.json"));
+    let mesh = j["mesh"]
+        .as_str()
+        .expect("a mesh dataset records its mesh file");
+    assert!(
+        ds.join(mesh).is_file(),
+        "the dataset folder should hold its mesh ({mesh})"
+    );
+    assert_eq!(j["truth"]["eta"], 1.0);
+
+    let r = dir.join(name);
+    std::fs::create_dir_all(&r).unwrap();
+    std::fs::copy(ds.join(mesh), r.join("mesh.ply")).unwrap();
+    let views = j["views"].as_array().unwrap();
+    let intensity: Vec<f64> = views[0]["light"]["intensity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap() * intensity_factor)
+        .collect();
+    let mut ref_views = Vec::new();
+    for (i, v) in views.iter().enumerate() {
+        let exr = format!("view_{i:03}.exr");
+        std::fs::copy(ds.join(v["image"].as_str().unwrap()), r.join(&exr)).unwrap();
+        assert_eq!(v["light"]["intensity"], views[0]["light"]["intensity"]);
+        ref_views.push(json!({
+            "to_world": v["camera"]["to_world"],
+            "light_position": v["light"]["position"],
+            "file_exr": exr,
+        }));
+    }
+    let cam = &views[0]["camera"];
+    let scene = json!({
+        "generator": "tests/cli (synthetic reference)",
+        "shape": { "type": "ply", "mesh_file": "mesh.ply" },
+        "medium": {
+            "type": "homogeneous",
+            "sigma_t": j["truth"]["sigma_t"],
+            "albedo": j["truth"]["albedo"],
+            "phase": { "type": "isotropic" }
+        },
+        "boundary": { "bsdf": "null" },
+        "light": { "type": "point", "intensity_rgb": intensity },
+        "camera": { "fov_deg": cam["fov_x_deg"], "fov_axis": "x", "width": cam["width"], "height": cam["height"] },
+        "integrator": { "type": "volpath", "max_depth": 32 },
+        "render": { "spp": 8, "seed": 3 },
+        "views": ref_views,
+    });
+    write(
+        &r.join("scene.json"),
+        serde_json::to_string_pretty(&scene).unwrap(),
+    );
+    r
+}
+
+#[test]
+fn validate_mitsuba_passes_on_matching_reference() {
+    let t = tmp();
+    mitsuba_reference(t.path(), "ref", 1.0);
+    let r = ok(
+        t.path(),
+        &[
+            "-q",
+            "validate-mitsuba",
+            "ref",
+            "--spp",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "ours",
+        ],
+    );
+    assert_stdout_has(&r, &["all 2 views within tolerance"]);
+    assert!(!r.stdout.contains("FAIL"), "{}", r.describe());
+    for n in exr_names(2) {
+        assert!(t.path().join("ours").join(&n).is_file(), "{n} missing");
+    }
+    // Running again needs --overwrite for the output folder.
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "validate-mitsuba",
+            "ref",
+            "--spp",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "ours",
+        ],
+    );
+    assert_stderr_has(&r, &["--overwrite"]);
+    // The reference folder is also a dataset for `render`: its truth renders to the same images.
+    ok(t.path(), &["-q", "render", "ref", "--out", "rr"]);
+    for n in exr_names(2) {
+        assert_eq!(
+            read(&t.path().join("rr").join(&n)),
+            read(&t.path().join("ref").join(&n)),
+            "{n}"
+        );
+    }
+}
+
+#[test]
+fn validate_mitsuba_fails_when_reference_is_twice_as_bright() {
+    let t = tmp();
+    mitsuba_reference(t.path(), "ref", 0.5);
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "validate-mitsuba",
+            "ref",
+            "--spp",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "ours",
+        ],
+    );
+    assert_stderr_has(&r, &["outside tolerance"]);
+    assert_stdout_has(&r, &["FAIL"]);
+    // Our render at half the light is half the reference: mean ratio 0.5.
+    assert_stdout_has(&r, &["0.5000"]);
+}

@@ -1,0 +1,385 @@
+//! Inverse rendering (issue #5): optimize (with the bias correction), resume, gradcheck,
+//! experiment accuracy.
+
+use serde_json::Value;
+
+use super::helpers::*;
+
+// ---------------------------------------------------------------------------------------------
+// Inverse rendering (issue #5): optimize, resume, gradcheck.
+
+#[test]
+fn optimize_writes_results_resumes_and_gradcheck_runs() {
+    let t = tmp();
+    let d = t.path();
+    ok(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--views",
+            "2",
+            "--res",
+            "12",
+            "--spp",
+            "4",
+            "--sigma-t",
+            "60",
+            "--albedo",
+            "0.9",
+            "--out",
+            "ds",
+        ],
+    );
+    let opt = [
+        "optimize",
+        "--dataset",
+        "ds",
+        "--out",
+        "o",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--final-spp",
+        "2",
+        "--checkpoint-every",
+        "2",
+    ];
+    let r = ok(d, &opt);
+    assert_stdout_has(&r, &["truth"]);
+    let res = read_json(&d.join("o/result.json"));
+    for k in [
+        "estimate",
+        "truth",
+        "iterations",
+        "spp",
+        "seconds_per_iteration",
+        "seconds_total",
+        "method",
+        "seed",
+    ] {
+        assert!(res.get(k).is_some(), "result.json lacks {k}: {res}");
+    }
+    assert_eq!(res["iterations"], 3);
+    assert_eq!(res["method"], "ours");
+    assert_eq!(res["estimate"]["sigma_t"].as_array().unwrap().len(), 3);
+    for f in [
+        "iterations.csv",
+        "convergence.png",
+        "checkpoint.json",
+        "final/view_000.png",
+        "final/view_000_diff.png",
+    ] {
+        assert!(d.join("o").join(f).exists(), "missing {f}");
+    }
+    let again = fails(d, &opt);
+    assert_stderr_has(&again, &["--resume", "--overwrite"]);
+    let mut resume: Vec<&str> = opt.to_vec();
+    resume[6] = "5"; // --iterations 5
+    resume.push("--resume");
+    ok(d, &resume);
+    assert_eq!(read_json(&d.join("o/result.json"))["iterations"], 5);
+    let bad = fails(
+        d,
+        &[
+            "optimize",
+            "--dataset",
+            "ds",
+            "--out",
+            "o2",
+            "--method",
+            "magic",
+        ],
+    );
+    assert_stderr_has(&bad, &["magic", "ours"]);
+
+    let r = ok(
+        d,
+        &["gradcheck", "--dataset", "ds", "--spp", "2", "--out", "g"],
+    );
+    assert_stdout_has(&r, &["naive", "fd"]);
+    for f in [
+        "gradcheck.csv",
+        "ours_d_sigma_t.png",
+        "fd_d_albedo.png",
+        "naive_d_sigma_t.exr",
+    ] {
+        assert!(d.join("g").join(f).exists(), "missing {f}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// experiment accuracy
+
+/// `optimize --bias-correction --bias-correction-steps 2`: each step simulates the dataset at
+/// the previous medium (θ̂, then θ₁) with the dataset's own spp, recovers from it with the same
+/// settings, and `result.json` reports θ₂ = θ₁ + θ̂ − θ̂₂' as `estimate` beside the optimiser's
+/// own; `--resume` reuses the steps, `--overwrite` drops them.
+#[test]
+fn optimize_bias_correction_reports_the_iterated_correction() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let mut args = vec![
+        "-q",
+        "optimize",
+        "--dataset",
+        "ds",
+        "--out",
+        "o",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "--final-spp",
+        "2",
+        "--bias-correction",
+        "--bias-correction-steps",
+        "2",
+    ];
+    let run = ok(d, &args);
+    assert_stdout_has(
+        &run,
+        &[
+            "bootstrap step 2:",
+            "bias-corrected (2 steps, simulations at 4 spp)",
+        ],
+    );
+    let r = read_json(&d.join("o/result.json"));
+    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
+    let est = r["estimate_uncorrected"].clone();
+    let steps = r["bias_correction"]["steps"].as_array().unwrap().clone();
+    assert_eq!(steps.len(), 2);
+    assert_eq!(r["bias_correction"]["simulation_spp"], 4);
+    let mut current = est.clone();
+    for (k, step) in steps.iter().enumerate() {
+        let dir = d.join(format!("o/bootstrap/step-{}", k + 1));
+        let sim = read_json(&dir.join("data/dataset.json"));
+        let refit = read_json(&dir.join("run/result.json"))["estimate"].clone();
+        for c in 0..3 {
+            for key in ["sigma_t", "albedo"] {
+                // Simulated at the previous medium; the step records it and its recovery.
+                let (a, b) = (num(&sim["truth"], key, c), num(&current, key, c));
+                assert!(
+                    (a - b).abs() <= 1e-5 * b.abs(),
+                    "step {k} {key}[{c}]: {a} vs {b}"
+                );
+                assert_eq!(step["recovered"][key][c], refit[key][c]);
+            }
+            // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
+            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
+                - num(&refit, "sigma_t", c).ln())
+            .exp();
+            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
+                - num(&refit, "albedo", c))
+            .clamp(1e-4, 0.99995);
+            let got = &step["corrected"];
+            assert!((num(got, "sigma_t", c) - s).abs() <= 1e-9 * s, "σ_t[{c}]");
+            assert!((num(got, "albedo", c) - a).abs() <= 1e-9, "α[{c}]");
+        }
+        current = step["corrected"].clone();
+    }
+    assert_eq!(r["estimate"], current);
+    let rel = num(&r["errors"], "sigma_t_relative", 0);
+    assert!((rel - (num(&current, "sigma_t", 0) / 60.0 - 1.0)).abs() < 1e-12);
+    assert!(r["errors_uncorrected"]["sigma_t_relative"].is_array());
+
+    // --resume reuses both steps and reports the same correction.
+    args.push("--resume");
+    let again = ok(d, &args);
+    assert_stdout_has(
+        &again,
+        &[
+            "bootstrap step 1: reusing",
+            "run bootstrap step 2 (ours): reusing",
+        ],
+    );
+    assert_eq!(
+        read_json(&d.join("o/result.json"))["estimate"],
+        r["estimate"]
+    );
+    // --overwrite starts again: one step now, and the second step's folder is gone.
+    let one_step = [&args[..args.len() - 3], &["--overwrite"]].concat();
+    assert_eq!(one_step[one_step.len() - 2], "--bias-correction");
+    ok(d, &one_step);
+    assert!(d.join("o/bootstrap/step-1/run/result.json").exists());
+    assert!(!d.join("o/bootstrap/step-2").exists());
+}
+
+/// `experiment accuracy` on a tiny sphere case (2 views of 12², 3 iterations), quiet, into
+/// `exp`, with `extra` arguments.
+fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "experiment",
+        "accuracy",
+        "--out",
+        "exp",
+        "--shapes",
+        "sphere",
+        "--media",
+        "1",
+        "--views",
+        "2",
+        "--res",
+        "12",
+        "--target-spp",
+        "4",
+        "--iterations",
+        "3",
+        "--spp",
+        "2",
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// `--bias-correction --bias-correction-steps 2`: step 1 renders at the estimate θ̂ and reports
+/// 2θ̂ − θ̂₂ (`ours+bc`); step 2 renders at that correction θ₁ and reports θ₁ + θ̂ − θ̂₂'
+/// (`ours+bc2`), all in (ln σ_t, α).
+#[test]
+fn experiment_bias_correction_refits_at_the_estimate() {
+    let d = tmp();
+    let args = tiny_accuracy_args(&[
+        "--inits",
+        "0",
+        "--methods",
+        "ours",
+        "--bias-correction",
+        "--bias-correction-steps",
+        "2",
+    ]);
+    let run = ok(d.path(), &args);
+    assert_stdout_has(
+        &run,
+        &[
+            "| sphere-m0 | ours |",
+            "| sphere-m0 | ours+bc |",
+            "| sphere-m0 | ours+bc2 |",
+            "bias of ours on sphere-m0",
+        ],
+    );
+    let exp = d.path().join("exp");
+    let estimate =
+        |run: &str| read_json(&exp.join("runs").join(run).join("result.json"))["estimate"].clone();
+    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
+    let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
+    // σ_t[3], α[3] of a method's row in results.csv.
+    let row = |method: &str| -> Value {
+        let v: Vec<f64> = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("sphere-m0,{method},")))
+            .unwrap_or_else(|| panic!("{csv}"))
+            .split(',')
+            .skip(14)
+            .take(6)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        serde_json::json!({ "sigma_t": v[..3], "albedo": v[3..] })
+    };
+    let est = estimate("sphere-m0-ours");
+    let mut current = est.clone();
+    for (step, (data, run, method)) in [
+        ("sphere-m0-boot-ours", "sphere-m0-ours-boot", "ours+bc"),
+        ("sphere-m0-boot2-ours", "sphere-m0-ours-boot2", "ours+bc2"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        // The bootstrap dataset of this step was rendered at the previous step's medium.
+        let boot = read_json(&exp.join("data").join(data).join("dataset.json"));
+        for c in 0..3 {
+            for k in ["sigma_t", "albedo"] {
+                let (a, b) = (num(&boot["truth"], k, c), num(&current, k, c));
+                assert!(
+                    (a - b).abs() <= 1e-5 * b.abs(),
+                    "step {step} {k}[{c}]: {a} vs {b}"
+                );
+            }
+        }
+        // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
+        let refit = estimate(run);
+        let got = row(method);
+        for c in 0..3 {
+            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
+                - num(&refit, "sigma_t", c).ln())
+            .exp();
+            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
+                - num(&refit, "albedo", c))
+            .clamp(1e-4, 0.99995);
+            let (gs, ga) = (num(&got, "sigma_t", c), num(&got, "albedo", c));
+            assert!((gs - s).abs() <= 1e-4 * s, "{method} σ_t[{c}]: {gs} vs {s}");
+            assert!((ga - a).abs() <= 1e-5, "{method} α[{c}]: {ga} vs {a}");
+        }
+        current = got;
+    }
+}
+
+#[test]
+fn experiment_accuracy_writes_table_and_reuses_its_runs() {
+    let d = tmp();
+    let args = tiny_accuracy_args(&["--inits", "2", "--methods", "ours,naive"]);
+    let first = ok(d.path(), &args);
+    assert_stdout_has(
+        &first,
+        &[
+            "| sphere-m0 | ours |",
+            "| sphere-m0 | naive |",
+            "| random inits | 2 |",
+        ],
+    );
+    let csv = String::from_utf8(read(&d.path().join("exp/results.csv"))).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 + 2, "{csv}");
+    assert!(d.path().join("exp/inits.png").exists());
+    for run in [
+        "sphere-m0-ours",
+        "sphere-m0-naive",
+        "sphere-m0-init0",
+        "sphere-m0-init1",
+    ] {
+        let r = read_json(&d.path().join("exp/runs").join(run).join("result.json"));
+        assert_eq!(r["iterations"], 3, "{run}");
+    }
+    // A second run reuses the datasets and the finished runs and prints the same table.
+    let second = ok(d.path(), &args);
+    assert_stdout_has(&second, &["dataset sphere-m0: reusing", "reusing"]);
+    let table = |s: &str| {
+        s.lines()
+            .filter(|l| l.starts_with('|'))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(table(&first.stdout), table(&second.stdout));
+    // Runs made with another schedule are not reused (nor continued): a clear error instead.
+    let mut other = args.to_vec();
+    other.extend(["--albedo-warmup", "1"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["other settings", "sphere-m0-ours"]);
+    // So are runs made with another projection reach; the header names the learned settings.
+    assert_stdout_has(
+        &first,
+        &["son24 projection (reach 8σ_n)", "half-space exit law"],
+    );
+    let mut other = args.to_vec();
+    other.extend(["--max-dist-scale", "3"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["other settings", "learned"]);
+    // The random initialisations go to the case named by --inits-case, which must exist.
+    let mut other = args.to_vec();
+    other.extend(["--inits-case", "sphere-m7"]);
+    let bad = fails(d.path(), &other);
+    assert_stderr_has(&bad, &["--inits-case", "sphere-m7", "sphere-m0"]);
+    // Unknown shapes and methods are refused before any work.
+    let bad = fails(
+        d.path(),
+        &["experiment", "accuracy", "--out", "x", "--shapes", "teapot"],
+    );
+    assert_stderr_has(&bad, &["teapot"]);
+    let bad = fails(
+        d.path(),
+        &["experiment", "accuracy", "--out", "x", "--methods", "magic"],
+    );
+    assert_stderr_has(&bad, &["magic"]);
+}
