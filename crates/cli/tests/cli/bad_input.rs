@@ -12,15 +12,23 @@ use super::helpers::*;
 fn render_bad_scene(text: &str) -> Run {
     let t = tmp();
     write(&t.path().join("scene.toml"), text);
-    let r = fails(
-        t.path(),
-        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
-    );
+    let r = render_fails(t.path(), &["scene.toml"]);
     assert!(
         !t.path().join("out/view_000.exr").exists(),
         "an image was written for a bad scene"
     );
-    assert_stderr_has(&r, &["scene.toml"]);
+    r
+}
+
+/// `render scene.toml --out out` in `dir` fails, its message has `needles`, and `out` is not
+/// created.
+fn render_fails(dir: &std::path::Path, needles: &[&str]) -> Run {
+    let r = fails(
+        dir,
+        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
+    );
+    assert_stderr_has(&r, needles);
+    assert!(!dir.join("out").exists(), "{}", r.describe());
     r
 }
 
@@ -80,12 +88,7 @@ fn bad_both_mesh_and_shape() {
         &t.path().join("scene.toml"),
         scene_toml(SPHERE, "60.0", "0.9", "1.0", 8, "mesh = \"cube.ply\""),
     );
-    let r = fails(
-        t.path(),
-        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
-    );
-    assert_stderr_has(&r, &["scene.toml", "mesh", "shape", "fix:"]);
-    assert!(!t.path().join("out").exists());
+    render_fails(t.path(), &["scene.toml", "mesh", "shape", "fix:"]);
 }
 
 #[test]
@@ -107,12 +110,7 @@ fn bad_truncated_binary_ply() {
         &["-q", "render", "good.toml", "--out", "good", "--spp", "1"],
     );
     write(&t.path().join("scene.toml"), mesh_scene("trunc.ply"));
-    let r = fails(
-        t.path(),
-        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
-    );
-    assert_stderr_has(&r, &["trunc.ply", "PLY"]);
-    assert!(!t.path().join("out").exists());
+    render_fails(t.path(), &["trunc.ply", "PLY"]);
 }
 
 #[test]
@@ -122,12 +120,7 @@ fn bad_ply_face_index_out_of_range() {
     assert_ne!(ply, cube_ply());
     write(&t.path().join("oob.ply"), ply);
     write(&t.path().join("scene.toml"), mesh_scene("oob.ply"));
-    let r = fails(
-        t.path(),
-        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
-    );
-    assert_stderr_has(&r, &["oob.ply", "face 11", "8", "out of range"]);
-    assert!(!t.path().join("out").exists());
+    render_fails(t.path(), &["oob.ply", "face 11", "8", "out of range"]);
 }
 
 #[test]
@@ -139,12 +132,7 @@ fn bad_obj_with_nan_vertex() {
         "v 0 0 0\nv 0.5 0 0\nv 0 nan 0\nv 0 0 0.5\nf 1 2 3\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
     );
     write(&t.path().join("scene.toml"), mesh_scene("nan.obj"));
-    let r = fails(
-        t.path(),
-        &["-q", "render", "scene.toml", "--out", "out", "--spp", "2"],
-    );
-    assert_stderr_has(&r, &["nan.obj", "NaN", "vertex"]);
-    assert!(!t.path().join("out").exists());
+    render_fails(t.path(), &["nan.obj", "NaN", "vertex"]);
 }
 
 #[test]

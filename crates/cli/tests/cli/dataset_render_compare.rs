@@ -96,18 +96,11 @@ fn dataset_random_medium_is_deterministic() {
     assert_eq!(ja["truth"], jb["truth"]);
     assert_eq!(ja["views"], jb["views"]);
     // Drawn from the paper's ranges, not the default medium, and depending on the seed.
-    let sigma: Vec<f64> = ja["truth"]["sigma_t"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let albedo: Vec<f64> = ja["truth"]["albedo"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let truth = |key: &str| -> Vec<f64> {
+        let values = ja["truth"][key].as_array().unwrap();
+        values.iter().map(|v| v.as_f64().unwrap()).collect()
+    };
+    let (sigma, albedo) = (truth("sigma_t"), truth("albedo"));
     assert!(
         sigma.iter().all(|s| (30.0..=100.0).contains(s)),
         "sigma_t {sigma:?}"
@@ -121,12 +114,8 @@ fn dataset_random_medium_is_deterministic() {
         ja["truth"], jc["truth"],
         "another seed must give another medium"
     );
+    assert_same_images(&a, &b, 2, "differs between two identical runs");
     for n in exr_names(2) {
-        assert_eq!(
-            read(&a.join(&n)),
-            read(&b.join(&n)),
-            "{n} differs between two identical runs"
-        );
         assert_ne!(
             read(&a.join(&n)),
             read(&c.join(&n)),
@@ -140,13 +129,7 @@ fn dataset_images_do_not_depend_on_thread_count() {
     let t = tmp();
     let one = make_dataset(t.path(), "t1", "2", "12", &["--threads", "1"]);
     let two = make_dataset(t.path(), "t2", "2", "12", &["--threads", "2"]);
-    for n in exr_names(2) {
-        assert_eq!(
-            read(&one.join(&n)),
-            read(&two.join(&n)),
-            "{n}: --threads 1 and --threads 2 differ"
-        );
-    }
+    assert_same_images(&one, &two, 2, "--threads 1 and --threads 2 differ");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -184,44 +167,27 @@ fn render_scene_file_toml_and_json_agree() {
         t.path(),
         &["-q", "render", "sphere.json", "--out", "rj", "--spp", "4"],
     );
-    for n in exr_names(2) {
-        assert_eq!(
-            read(&t.path().join("rt").join(&n)),
-            read(&t.path().join("rj").join(&n)),
-            "{n}: TOML and JSON scenes differ"
-        );
-    }
+    assert_same_images(
+        &t.path().join("rt"),
+        &t.path().join("rj"),
+        2,
+        "TOML and JSON scenes differ",
+    );
     // Existing outputs are not replaced without --overwrite.
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--out",
-            "rt",
-            "--spp",
-            "4",
-            "--seed",
-            "3",
-        ],
-    );
+    let seed3 = [
+        "-q",
+        "render",
+        "scene.toml",
+        "--out",
+        "rt",
+        "--spp",
+        "4",
+        "--seed",
+        "3",
+    ];
+    let r = fails(t.path(), &seed3);
     assert_stderr_has(&r, &["--overwrite", "view_000"]);
-    ok(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--out",
-            "rt",
-            "--spp",
-            "4",
-            "--seed",
-            "3",
-            "--overwrite",
-        ],
-    );
+    ok(t.path(), &[&seed3[..], &["--overwrite"]].concat());
     assert_ne!(
         read(&t.path().join("rt/view_000.exr")),
         read(&t.path().join("rj/view_000.exr")),
@@ -251,13 +217,12 @@ fn render_dataset_folder_reproduces_its_images() {
     // Default spp/seed/max_depth come from the dataset's render info: the same images result.
     let r = ok(t.path(), &["-q", "render", "ds", "--out", "r"]);
     assert_stdout_has(&r, &["rendered 2 view(s) at 4 spp"]);
-    for n in exr_names(2) {
-        assert_eq!(
-            read(&d.join(&n)),
-            read(&t.path().join("r").join(&n)),
-            "{n}: re-render of the dataset differs"
-        );
-    }
+    assert_same_images(
+        &d,
+        &t.path().join("r"),
+        2,
+        "re-render of the dataset differs",
+    );
     // dataset.json itself is accepted too, and another seed changes the images.
     ok(
         t.path(),
@@ -284,34 +249,20 @@ fn render_dataset_folder_reproduces_its_images() {
 fn compare_prints_table_and_writes_diff() {
     let t = tmp();
     write(&t.path().join("scene.toml"), good_scene());
-    ok(
-        t.path(),
-        &[
+    for (out, seed) in [("a", "1"), ("b", "2")] {
+        let args = [
             "-q",
             "render",
             "scene.toml",
             "--out",
-            "a",
+            out,
             "--spp",
             "4",
             "--seed",
-            "1",
-        ],
-    );
-    ok(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--out",
-            "b",
-            "--spp",
-            "4",
-            "--seed",
-            "2",
-        ],
-    );
+            seed,
+        ];
+        ok(t.path(), &args);
+    }
 
     // Folders, matched by name.
     let r = ok(t.path(), &["-q", "compare", "a", "b"]);

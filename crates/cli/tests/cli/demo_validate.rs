@@ -168,74 +168,47 @@ fn mitsuba_reference(dir: &Path, name: &str, intensity_factor: f64) -> PathBuf {
     r
 }
 
+/// `validate-mitsuba` of the folder `ref` made by [`mitsuba_reference`] into `ours`.
+const VALIDATE_REF: [&str; 9] = [
+    "-q",
+    "validate-mitsuba",
+    "ref",
+    "--spp",
+    "8",
+    "--seed",
+    "3",
+    "--out",
+    "ours",
+];
+
 #[test]
 fn validate_mitsuba_passes_on_matching_reference() {
     let t = tmp();
     mitsuba_reference(t.path(), "ref", 1.0);
-    let r = ok(
-        t.path(),
-        &[
-            "-q",
-            "validate-mitsuba",
-            "ref",
-            "--spp",
-            "8",
-            "--seed",
-            "3",
-            "--out",
-            "ours",
-        ],
-    );
+    let r = ok(t.path(), &VALIDATE_REF);
     assert_stdout_has(&r, &["all 2 views within tolerance"]);
     assert!(!r.stdout.contains("FAIL"), "{}", r.describe());
     for n in exr_names(2) {
         assert!(t.path().join("ours").join(&n).is_file(), "{n} missing");
     }
     // Running again needs --overwrite for the output folder.
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "validate-mitsuba",
-            "ref",
-            "--spp",
-            "8",
-            "--seed",
-            "3",
-            "--out",
-            "ours",
-        ],
-    );
+    let r = fails(t.path(), &VALIDATE_REF);
     assert_stderr_has(&r, &["--overwrite"]);
     // The reference folder is also a dataset for `render`: its truth renders to the same images.
     ok(t.path(), &["-q", "render", "ref", "--out", "rr"]);
-    for n in exr_names(2) {
-        assert_eq!(
-            read(&t.path().join("rr").join(&n)),
-            read(&t.path().join("ref").join(&n)),
-            "{n}"
-        );
-    }
+    assert_same_images(
+        &t.path().join("rr"),
+        &t.path().join("ref"),
+        2,
+        "the reference's truth renders differently",
+    );
 }
 
 #[test]
 fn validate_mitsuba_fails_when_reference_is_twice_as_bright() {
     let t = tmp();
     mitsuba_reference(t.path(), "ref", 0.5);
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "validate-mitsuba",
-            "ref",
-            "--spp",
-            "8",
-            "--seed",
-            "3",
-            "--out",
-            "ours",
-        ],
-    );
+    let r = fails(t.path(), &VALIDATE_REF);
     assert_stderr_has(&r, &["outside tolerance"]);
     assert_stdout_has(&r, &["FAIL"]);
     // Our render at half the light is half the reference: mean ratio 0.5.

@@ -248,6 +248,13 @@ pub fn make_dataset(dir: &Path, name: &str, views: &str, res: &str, extra: &[&st
     dir.join(name)
 }
 
+/// `view_000.exr` … of two folders are byte-identical (`what` names the comparison).
+pub fn assert_same_images(a: &Path, b: &Path, views: usize, what: &str) {
+    for n in exr_names(views) {
+        assert_eq!(read(&a.join(&n)), read(&b.join(&n)), "{n}: {what}");
+    }
+}
+
 pub fn exr_names(n: usize) -> Vec<String> {
     (0..n).map(|i| format!("view_{i:03}.exr")).collect()
 }

@@ -5,6 +5,22 @@ use serde_json::Value;
 
 use super::helpers::*;
 
+/// `optimize` of the dataset `ds` (2 views of 12², [`make_dataset`]) into `o`: 3 iterations at
+/// 2 spp.
+const TINY_OPTIMIZE: [&str; 11] = [
+    "optimize",
+    "--dataset",
+    "ds",
+    "--out",
+    "o",
+    "--iterations",
+    "3",
+    "--spp",
+    "2",
+    "--final-spp",
+    "2",
+];
+
 // ---------------------------------------------------------------------------------------------
 // Inverse rendering (issue #5): optimize, resume, gradcheck.
 
@@ -12,41 +28,8 @@ use super::helpers::*;
 fn optimize_writes_results_resumes_and_gradcheck_runs() {
     let t = tmp();
     let d = t.path();
-    ok(
-        d,
-        &[
-            "dataset",
-            "--shape",
-            "sphere",
-            "--views",
-            "2",
-            "--res",
-            "12",
-            "--spp",
-            "4",
-            "--sigma-t",
-            "60",
-            "--albedo",
-            "0.9",
-            "--out",
-            "ds",
-        ],
-    );
-    let opt = [
-        "optimize",
-        "--dataset",
-        "ds",
-        "--out",
-        "o",
-        "--iterations",
-        "3",
-        "--spp",
-        "2",
-        "--final-spp",
-        "2",
-        "--checkpoint-every",
-        "2",
-    ];
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let opt = [&TINY_OPTIMIZE[..], &["--checkpoint-every", "2"]].concat();
     let r = ok(d, &opt);
     assert_stdout_has(&r, &["truth"]);
     let res = read_json(&d.join("o/result.json"));
@@ -113,6 +96,45 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
 // ---------------------------------------------------------------------------------------------
 // experiment accuracy
 
+/// Channel `c` of `v[key]` (a medium as JSON: `{"sigma_t": [3], "albedo": [3]}`).
+fn num(v: &Value, key: &str, c: usize) -> f64 {
+    v[key][c].as_f64().unwrap()
+}
+
+/// Bootstrap step `step` from its files: its dataset was simulated at `current` (θ_{k−1}, the
+/// dataset's `truth`: f32 precision), and `got` is θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α) with
+/// θ̂ = `est` and θ̂_k = `refit`, to the relative σ_t and absolute α tolerances `tol`.
+fn assert_bootstrap_step(
+    step: usize,
+    truth: &Value,
+    current: &Value,
+    est: &Value,
+    refit: &Value,
+    got: &Value,
+    tol: (f64, f64),
+) {
+    for c in 0..3 {
+        for key in ["sigma_t", "albedo"] {
+            let (a, b) = (num(truth, key, c), num(current, key, c));
+            assert!(
+                (a - b).abs() <= 1e-5 * b.abs(),
+                "step {step} {key}[{c}]: {a} vs {b}"
+            );
+        }
+        let s = (num(current, "sigma_t", c).ln() + num(est, "sigma_t", c).ln()
+            - num(refit, "sigma_t", c).ln())
+        .exp();
+        let a = (num(current, "albedo", c) + num(est, "albedo", c) - num(refit, "albedo", c))
+            .clamp(1e-4, 0.99995);
+        let (gs, ga) = (num(got, "sigma_t", c), num(got, "albedo", c));
+        assert!(
+            (gs - s).abs() <= tol.0 * s,
+            "step {step} σ_t[{c}]: {gs} vs {s}"
+        );
+        assert!((ga - a).abs() <= tol.1, "step {step} α[{c}]: {ga} vs {a}");
+    }
+}
+
 /// `optimize --bias-correction --bias-correction-steps 2`: each step simulates the dataset at
 /// the previous medium (θ̂, then θ₁) with the dataset's own spp, recovers from it with the same
 /// settings, and `result.json` reports θ₂ = θ₁ + θ̂ − θ̂₂' as `estimate` beside the optimiser's
@@ -122,23 +144,8 @@ fn optimize_bias_correction_reports_the_iterated_correction() {
     let t = tmp();
     let d = t.path();
     make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
-    let mut args = vec![
-        "-q",
-        "optimize",
-        "--dataset",
-        "ds",
-        "--out",
-        "o",
-        "--iterations",
-        "3",
-        "--spp",
-        "2",
-        "--final-spp",
-        "2",
-        "--bias-correction",
-        "--bias-correction-steps",
-        "2",
-    ];
+    let mut args = TINY_OPTIMIZE.to_vec();
+    args.extend(["--bias-correction", "--bias-correction-steps", "2"]);
     let run = ok(d, &args);
     assert_stdout_has(
         &run,
@@ -148,7 +155,6 @@ fn optimize_bias_correction_reports_the_iterated_correction() {
         ],
     );
     let r = read_json(&d.join("o/result.json"));
-    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
     let est = r["estimate_uncorrected"].clone();
     let steps = r["bias_correction"]["steps"].as_array().unwrap().clone();
     assert_eq!(steps.len(), 2);
@@ -160,25 +166,11 @@ fn optimize_bias_correction_reports_the_iterated_correction() {
         let refit = read_json(&dir.join("run/result.json"))["estimate"].clone();
         for c in 0..3 {
             for key in ["sigma_t", "albedo"] {
-                // Simulated at the previous medium; the step records it and its recovery.
-                let (a, b) = (num(&sim["truth"], key, c), num(&current, key, c));
-                assert!(
-                    (a - b).abs() <= 1e-5 * b.abs(),
-                    "step {k} {key}[{c}]: {a} vs {b}"
-                );
                 assert_eq!(step["recovered"][key][c], refit[key][c]);
             }
-            // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
-            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
-                - num(&refit, "sigma_t", c).ln())
-            .exp();
-            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
-                - num(&refit, "albedo", c))
-            .clamp(1e-4, 0.99995);
-            let got = &step["corrected"];
-            assert!((num(got, "sigma_t", c) - s).abs() <= 1e-9 * s, "σ_t[{c}]");
-            assert!((num(got, "albedo", c) - a).abs() <= 1e-9, "α[{c}]");
         }
+        let got = &step["corrected"];
+        assert_bootstrap_step(k, &sim["truth"], &current, &est, &refit, got, (1e-9, 1e-9));
         current = step["corrected"].clone();
     }
     assert_eq!(r["estimate"], current);
@@ -264,7 +256,6 @@ fn experiment_bias_correction_refits_at_the_estimate() {
     let exp = d.path().join("exp");
     let estimate =
         |run: &str| read_json(&exp.join("runs").join(run).join("result.json"))["estimate"].clone();
-    let num = |v: &Value, k: &str, c: usize| v[k][c].as_f64().unwrap();
     let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
     // σ_t[3], α[3] of a method's row in results.csv.
     let row = |method: &str| -> Value {
@@ -288,31 +279,18 @@ fn experiment_bias_correction_refits_at_the_estimate() {
     .into_iter()
     .enumerate()
     {
-        // The bootstrap dataset of this step was rendered at the previous step's medium.
         let boot = read_json(&exp.join("data").join(data).join("dataset.json"));
-        for c in 0..3 {
-            for k in ["sigma_t", "albedo"] {
-                let (a, b) = (num(&boot["truth"], k, c), num(&current, k, c));
-                assert!(
-                    (a - b).abs() <= 1e-5 * b.abs(),
-                    "step {step} {k}[{c}]: {a} vs {b}"
-                );
-            }
-        }
-        // θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α).
-        let refit = estimate(run);
         let got = row(method);
-        for c in 0..3 {
-            let s = (num(&current, "sigma_t", c).ln() + num(&est, "sigma_t", c).ln()
-                - num(&refit, "sigma_t", c).ln())
-            .exp();
-            let a = (num(&current, "albedo", c) + num(&est, "albedo", c)
-                - num(&refit, "albedo", c))
-            .clamp(1e-4, 0.99995);
-            let (gs, ga) = (num(&got, "sigma_t", c), num(&got, "albedo", c));
-            assert!((gs - s).abs() <= 1e-4 * s, "{method} σ_t[{c}]: {gs} vs {s}");
-            assert!((ga - a).abs() <= 1e-5, "{method} α[{c}]: {ga} vs {a}");
-        }
+        let refit = estimate(run);
+        assert_bootstrap_step(
+            step,
+            &boot["truth"],
+            &current,
+            &est,
+            &refit,
+            &got,
+            (1e-4, 1e-5),
+        );
         current = got;
     }
 }
