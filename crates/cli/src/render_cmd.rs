@@ -9,7 +9,7 @@ use scene::{Dataset, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
-    LearnedArgs, Method, ShadowArg, build_accel, check_output_free, render_views,
+    LearnedArgs, Method, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, render_views,
     render_views_learned, write_outputs,
 };
 
@@ -46,6 +46,10 @@ pub struct RenderArgs {
     /// Shadow-ray transmittance estimator of the volumetric tracer.
     #[arg(long, value_enum, default_value_t)]
     pub shadow: ShadowArg,
+    /// Ray origins after boundary crossings: `robust` (exact medium) or `mitsuba` (Mitsuba 3's
+    /// 10⁻⁴ spawn offset, for like-for-like comparisons with its renders).
+    #[arg(long, value_enum, default_value_t)]
+    pub spawn_offset: SpawnOffsetArg,
     /// Replace existing images in the output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -76,6 +80,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             ChannelSampling::SpectralMis
         },
         shadow: a.shadow.into(),
+        spawn_offset: a.spawn_offset.into(),
         ..Default::default()
     };
     let rep = match a.method {

@@ -22,6 +22,8 @@ pub mod rng;
 pub mod shadow;
 pub mod spectral;
 
-pub use integrator::{ChannelSampling, VolpathScene, VolpathSettings, radiance, radiance_primary};
+pub use integrator::{
+    ChannelSampling, SpawnOffset, VolpathScene, VolpathSettings, radiance, radiance_primary,
+};
 pub use render::{RenderSettings, render_image, shadow_lists};
 pub use shadow::ShadowTransmittance;
