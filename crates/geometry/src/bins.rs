@@ -160,10 +160,56 @@ impl Lists {
     }
 }
 
+/// The three edge lines of a triangle's projection onto a film (pixels or bins), `[a₀, b₀, c₀, a₁, …]` with
+/// `aᵢ·x + bᵢ·y + cᵢ ≥ 0` on the inner side of edge `i`, each moved outward by [`EDGE_MARGIN`]
+/// bins. A film point outside any of them cannot be the projection of a point of the triangle
+/// (module docs), so the exact test is skipped there. Projections too thin to orient get
+/// `(0, 0, 1)` edges (always pass).
+pub(crate) type Edges = [f32; 9];
+
+/// Outward shift of the edge lines, in bins: the query's projection error (≤ 0.0014 bin, module
+/// docs) plus the rounding of the edge coefficients (about 10⁻⁷·N bins), with a wide margin.
+pub const EDGE_MARGIN: f32 = 1.0 / 8.0;
+
+/// The edges ([`Edges`]) of the triangle whose corners project to `p` (film bins).
+pub(crate) fn edges(p: [(f32, f32); 3]) -> Edges {
+    const PASS: Edges = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+    let mut e = [0.0f32; 9];
+    for i in 0..3 {
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        let (xj, yj) = (p[j].0 as f64, p[j].1 as f64);
+        let (xk, yk) = (p[k].0 as f64, p[k].1 as f64);
+        let (a, b) = (yk - yj, xj - xk);
+        let c = -(a * xj + b * yj);
+        let len = a.hypot(b);
+        let side = a * p[i].0 as f64 + b * p[i].1 as f64 + c;
+        // Twice the projected area over the edge's length: the opposite corner's distance.
+        if !(len > 0.0 && side.abs() > 1e-3 * len && side.is_finite()) {
+            return PASS;
+        }
+        let sign = side.signum();
+        e[3 * i] = (sign * a) as f32;
+        e[3 * i + 1] = (sign * b) as f32;
+        e[3 * i + 2] = (sign * c + EDGE_MARGIN as f64 * len) as f32;
+    }
+    e
+}
+
+/// Whether the film point (x, y) lies inside all three (widened) edges.
+#[inline(always)]
+pub(crate) fn inside_edges(e: &Edges, x: f32, y: f32) -> bool {
+    (e[0] * x + e[1] * y + e[2] >= 0.0)
+        & (e[3] * x + e[4] * y + e[5] >= 0.0)
+        & (e[6] * x + e[7] * y + e[8] >= 0.0)
+}
+
 /// Per-pixel candidate lists of one pinhole camera view (module docs).
 #[derive(Clone, Debug)]
 pub struct PixelBins {
     lists: Lists,
+    /// Per triangle (BVH order): its projection's edge lines in pixels, widened by
+    /// [`EDGE_MARGIN`] pixels ([`Edges`]; [`closest_film`](Self::closest_film)).
+    edges: Vec<Edges>,
     /// Camera origin the bins were built for.
     origin: Vec3,
 }
@@ -182,8 +228,15 @@ impl PixelBins {
         origin: Vec3,
         project: impl Fn(Vec3) -> Option<(f32, f32, f32)>,
     ) -> Option<PixelBins> {
+        let lists = Lists::build(accel, width, height, true, &project)?;
+        let edges = accel
+            .bvh_triangles()
+            .iter()
+            .map(|c| edges(c.map(|v| project(v).map_or((0.0, 0.0), |(x, y, _)| (x, y)))))
+            .collect();
         Some(PixelBins {
-            lists: Lists::build(accel, width, height, true, project)?,
+            lists,
+            edges,
             origin,
         })
     }
@@ -212,11 +265,55 @@ impl PixelBins {
         tmax: f32,
     ) -> Option<Hit> {
         let (w, h) = self.size();
-        if x >= w || y >= h || !crate::bvh::valid_ray(dir, tmin, tmax) {
+        if x >= w || y >= h {
             return None;
         }
-        let list = self.lists.at(x, y);
-        if list.is_empty() {
+        self.closest_in(accel, self.lists.at(x, y), dir, tmin, tmax, |_| true)
+    }
+
+    /// [`closest`](Self::closest) for the ray from the camera origin through the film point
+    /// `(fx, fy)` (pixels; `dir` generated from it), bit for bit, skipping candidates whose
+    /// projection's edge lines ([`Edges`], widened by [`EDGE_MARGIN`] = 1/8 pixel) exclude the
+    /// film point before the triangle test. Every point of the generated ray projects within
+    /// about 10⁻⁴ pixel of `(fx, fy)` (the [`MARGIN`] argument), so a triangle the ray meets
+    /// contains a point within that distance of its projection and is never skipped.
+    #[inline]
+    pub fn closest_film(
+        &self,
+        accel: &Accel,
+        fx: f32,
+        fy: f32,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let (w, h) = self.size();
+        // x + jitter may round up to the pixel's right edge (= w for the last column): that film
+        // point still lies in the pixel's (closed) bin, so the bin index is clamped.
+        if !(fx >= 0.0 && fy >= 0.0 && fx <= w as f32 && fy <= h as f32) {
+            return None;
+        }
+        let list = self
+            .lists
+            .at((fx as u32).min(w - 1), (fy as u32).min(h - 1));
+        self.closest_in(accel, list, dir, tmin, tmax, |prim| {
+            inside_edges(&self.edges[prim as usize], fx, fy)
+        })
+    }
+
+    /// The closest hit among the candidates of `list` that pass `keep` (the loop of
+    /// [`Accel::closest`] over a list sorted by lower bound: stops at the first `lb > t_best`).
+    #[inline(always)]
+    fn closest_in(
+        &self,
+        accel: &Accel,
+        list: &[(f32, u32)],
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        keep: impl Fn(u32) -> bool,
+    ) -> Option<Hit> {
+        if list.is_empty() || !crate::bvh::valid_ray(dir, tmin, tmax) {
             return None;
         }
         let tris = accel.bvh_triangles();
@@ -226,6 +323,9 @@ impl PixelBins {
         for &(lb, prim) in list {
             if lb > best_t {
                 break;
+            }
+            if !keep(prim) {
+                continue;
             }
             let [v0, v1, v2] = tris[prim as usize].map(Vec3A::from);
             let lim = Accel::limit(&best, best_t, tmax);

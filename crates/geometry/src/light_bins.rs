@@ -34,8 +34,8 @@
 
 use glam::{Vec3, Vec3A};
 
-use crate::bins::Lists;
-pub use crate::bins::MARGIN;
+pub use crate::bins::{EDGE_MARGIN, MARGIN};
+use crate::bins::{Edges, Lists, edges, inside_edges};
 use crate::bvh::{Accel, valid_ray};
 use crate::triangle::WatertightRay;
 
@@ -76,49 +76,6 @@ struct Film {
     /// centre, the most anywhere) and the film's half size in bins.
     scale: f32,
     half: f32,
-}
-
-/// The three edge lines of a triangle's projection onto the film, `[a₀, b₀, c₀, a₁, …]` with
-/// `aᵢ·x + bᵢ·y + cᵢ ≥ 0` on the inner side of edge `i`, each moved outward by [`EDGE_MARGIN`]
-/// bins. A film point outside any of them cannot be the projection of a point of the triangle
-/// (module docs), so the exact test is skipped there. Projections too thin to orient get
-/// `(0, 0, 1)` edges (always pass).
-type Edges = [f32; 9];
-
-/// Outward shift of the edge lines, in bins: the query's projection error (≤ 0.0014 bin, module
-/// docs) plus the rounding of the edge coefficients (about 10⁻⁷·N bins), with a wide margin.
-pub const EDGE_MARGIN: f32 = 1.0 / 8.0;
-
-/// The edges ([`Edges`]) of the triangle whose corners project to `p` (film bins).
-fn edges(p: [(f32, f32); 3]) -> Edges {
-    const PASS: Edges = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
-    let mut e = [0.0f32; 9];
-    for i in 0..3 {
-        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-        let (xj, yj) = (p[j].0 as f64, p[j].1 as f64);
-        let (xk, yk) = (p[k].0 as f64, p[k].1 as f64);
-        let (a, b) = (yk - yj, xj - xk);
-        let c = -(a * xj + b * yj);
-        let len = a.hypot(b);
-        let side = a * p[i].0 as f64 + b * p[i].1 as f64 + c;
-        // Twice the projected area over the edge's length: the opposite corner's distance.
-        if !(len > 0.0 && side.abs() > 1e-3 * len && side.is_finite()) {
-            return PASS;
-        }
-        let sign = side.signum();
-        e[3 * i] = (sign * a) as f32;
-        e[3 * i + 1] = (sign * b) as f32;
-        e[3 * i + 2] = (sign * c + EDGE_MARGIN as f64 * len) as f32;
-    }
-    e
-}
-
-/// Whether the film point (x, y) lies inside all three (widened) edges.
-#[inline(always)]
-fn inside_edges(e: &Edges, x: f32, y: f32) -> bool {
-    (e[0] * x + e[1] * y + e[2] >= 0.0)
-        & (e[3] * x + e[4] * y + e[5] >= 0.0)
-        & (e[6] * x + e[7] * y + e[8] >= 0.0)
 }
 
 /// A film position (x, y) in bins and the (lb, triangle) list of its bin.

@@ -73,7 +73,8 @@ fn cameras(center: Vec3, radius: f32) -> Vec<Camera> {
     out
 }
 
-/// `bins.closest` and `accel.closest` for the ray through film point (x + jx, y + jy).
+/// `bins.closest`, `bins.closest_film` and `accel.closest` for the ray through film point
+/// (x + jx, y + jy).
 fn check(
     cam: &Camera,
     accel: &Accel,
@@ -86,6 +87,10 @@ fn check(
     let want = accel.closest(o, d, 0.0, f32::INFINITY);
     let got = bins.closest(accel, x, y, d, 0.0, f32::INFINITY);
     assert_eq!(got, want, "pixel ({x}, {y}) jitter {j:?}: ray {o} {d}");
+    // With the film-space edge pre-test (x + jx may round up to the pixel's right edge).
+    let (fx, fy) = (x as f32 + j.0, y as f32 + j.1);
+    let got = bins.closest_film(accel, fx, fy, d, 0.0, f32::INFINITY);
+    assert_eq!(got, want, "closest_film ({fx}, {fy}): ray {o} {d}");
     // The RayGen path the renderers use generates the same ray.
     assert_eq!(cam.ray_gen().ray(x as f32 + j.0, y as f32 + j.1), (o, d));
     want.is_some()

@@ -81,10 +81,11 @@ pub fn render_image(
                 let mut acc = [0.0f64; 3];
                 for i in 0..rs.spp {
                     let (jx, jy) = pixel_jitter(i, key, &mut s);
-                    let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy);
+                    let (fx, fy) = (x as f32 + jx, y as f32 + jy);
+                    let (o, d) = camera.ray(fx, fy);
                     let first = bins
                         .as_ref()
-                        .map(|b| b.closest(scene.accel, x as u32, y as u32, d, 0.0, f32::INFINITY));
+                        .map(|b| b.closest_film(scene.accel, fx, fy, d, 0.0, f32::INFINITY));
                     let l = radiance_primary(scene, settings, o, d, first, &mut s);
                     for c in 0..3 {
                         acc[c] += l[c] as f64;
