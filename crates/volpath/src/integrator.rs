@@ -163,87 +163,65 @@ pub fn radiance_primary(
     let mut interface_events = 0u32;
 
     loop {
-        if inside {
+        // The boundary the path meets next, or a scattering event / the end of the path.
+        let hit = if inside {
             let t = w.sample_distance(&m.sigma_t, s.next_f32());
             if let Some(hit) = scene.accel.closest(o, d, 0.0, t) {
                 w.pass(&m.sigma_t, hit.t);
-                interface_events += 1;
-                if interface_events > MAX_INTERFACE_EVENTS
-                    || !cross_interface(
-                        m.eta,
-                        settings.spawn_offset,
-                        &hit,
-                        &mut o,
-                        &mut d,
-                        &mut inside,
-                        &mut w,
-                        s,
-                    )
-                {
+                hit
+            } else {
+                // Real scattering event.
+                o += t * d;
+                w.scatter(&m.sigma_t, &m.albedo, t);
+                depth += 1;
+                if depth >= settings.max_depth {
                     break;
                 }
+                if let Some(light) = &scene.light {
+                    if m.eta == 1.0 {
+                        next_event(scene, settings.shadow, &phase, light, o, d, &w, &mut l, s);
+                    } else {
+                        next_event_refracted(scene, &phase, light, o, d, &w, &mut l);
+                    }
+                }
+                if depth > settings.rr_depth {
+                    // Roulette only paths whose weight fell below 1 (pbrt-v4): survival
+                    // q = max β. Unlike Mitsuba's q = min(max β, 0.95) this never inflates
+                    // weights above 1, which matters for long, weakly absorbing walks; the
+                    // expectation is the same.
+                    let q = w.max();
+                    if q < 1.0 {
+                        if q <= 0.0 || s.next_f32() >= q {
+                            break;
+                        }
+                        w.scale(1.0 / q);
+                    }
+                }
+                let (u1, u2) = (s.next_f32(), s.next_f32());
+                d = phase.sample(d, u1, u2);
                 continue;
             }
-            // Real scattering event.
-            o += t * d;
-            w.scatter(&m.sigma_t, &m.albedo, t);
-            depth += 1;
-            if depth >= settings.max_depth {
-                break;
-            }
-            if let Some(light) = &scene.light {
-                if m.eta == 1.0 {
-                    next_event(scene, settings.shadow, &phase, light, o, d, &w, &mut l, s);
-                } else {
-                    next_event_refracted(scene, &phase, light, o, d, &w, &mut l);
-                }
-            }
-            if depth > settings.rr_depth {
-                // Roulette only paths whose weight fell below 1 (pbrt-v4): survival q = max β.
-                // Unlike Mitsuba's q = min(max β, 0.95) this never inflates weights above 1, which
-                // matters for long, weakly absorbing walks; the expectation is the same.
-                let q = w.max();
-                if q < 1.0 {
-                    if q <= 0.0 || s.next_f32() >= q {
-                        break;
-                    }
-                    w.scale(1.0 / q);
-                }
-            }
-            let (u1, u2) = (s.next_f32(), s.next_f32());
-            d = phase.sample(d, u1, u2);
         } else {
             let hit = match first.take() {
                 Some(h) => h,
                 None => scene.accel.closest(o, d, 0.0, f32::INFINITY),
             };
-            match hit {
-                None => {
-                    if let Some(env) = &scene.environment {
-                        for ((l, b), e) in l.iter_mut().zip(w.beta).zip(env.radiance) {
-                            *l += b * e;
-                        }
-                    }
-                    break;
-                }
-                Some(hit) => {
-                    interface_events += 1;
-                    if interface_events > MAX_INTERFACE_EVENTS
-                        || !cross_interface(
-                            m.eta,
-                            settings.spawn_offset,
-                            &hit,
-                            &mut o,
-                            &mut d,
-                            &mut inside,
-                            &mut w,
-                            s,
-                        )
-                    {
-                        break;
+            let Some(hit) = hit else {
+                if let Some(env) = &scene.environment {
+                    for ((l, b), e) in l.iter_mut().zip(w.beta).zip(env.radiance) {
+                        *l += b * e;
                     }
                 }
-            }
+                break;
+            };
+            hit
+        };
+        interface_events += 1;
+        let spawn = settings.spawn_offset;
+        if interface_events > MAX_INTERFACE_EVENTS
+            || !cross_interface(m.eta, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s)
+        {
+            break;
         }
     }
     for v in &mut l {
