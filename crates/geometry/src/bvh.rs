@@ -25,6 +25,12 @@
 //! same box test: 16–25 % fewer instructions and 30–38 % fewer mispredicted branches per query on
 //! the path tracer's query stream, measured with callgrind.)
 //!
+//! On CPUs with AVX2 (detected at run time) the queries run a second instance of the same code,
+//! compiled with AVX2 enabled, whose box test widens and tests all eight children in one 256-bit
+//! lane; it performs the same IEEE operations in the same order as the portable two-lane kernel,
+//! so every query returns the same bits either way (`traverse::tests::kernels_agree_bit_for_bit`;
+//! renders compared with `cmp`). `TRANSLUCENT_ISA=portable` forces the portable kernel.
+//!
 //! Known limitation: boxes are culled by the ray's `t` range inside them, while the `t` the
 //! watertight test reports for a triangle seen almost exactly edge-on may lie outside that range
 //! by up to the triangle's depth along the ray (its barycentric weights are ill-conditioned; `t`

@@ -5,9 +5,39 @@ use std::mem::MaybeUninit;
 
 use glam::{Vec3, Vec3A};
 
-use super::traverse::BoxRay;
+#[cfg(target_arch = "x86_64")]
+use super::traverse::{Avx2, avx2_available};
+use super::traverse::{BoxKernel, BoxRay, Portable};
 use super::{Accel, Hit, valid_ray};
 use crate::triangle::{TriHit, WatertightRay};
+
+/// Defines a query `$name` that runs its generic body `$body::<K>` with the AVX2 box kernel when
+/// the CPU has it ([`avx2_available`]; the body is then compiled with AVX2 enabled, through the
+/// wrapper `$avx2`) and with the portable kernel otherwise. Both give identical results.
+macro_rules! dispatched {
+    ($(#[$m:meta])* fn $name:ident $(<$($g:ident: $b:path),*>)?
+        (&self $(, $a:ident: $t:ty)*) -> $r:ty => $avx2:ident, $body:ident) => {
+        $(#[$m])*
+        #[inline]
+        fn $name $(<$($g: $b),*>)? (&self $(, $a: $t)*) -> $r {
+            #[cfg(target_arch = "x86_64")]
+            if avx2_available() {
+                // SAFETY: the CPU supports AVX2 (checked at run time).
+                return unsafe { self.$avx2($($a),*) };
+            }
+            self.$body::<Portable $($(, $g)*)?>($($a),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
+        unsafe fn $avx2 $(<$($g: $b),*>)? (&self $(, $a: $t)*) -> $r {
+            self.$body::<Avx2 $($(, $g)*)?>($($a),*)
+        }
+    };
+}
+
+/// A raw hit on a line: BVH-order primitive, the triangle test's result, line parameter `s`.
+type LineHit = (u32, TriHit, f32);
 
 /// Fixed, irrational-looking direction used by [`Accel::contains`] (avoids axis-aligned edges).
 const CONTAINS_DIR: Vec3 = Vec3::new(0.548_546_7, 0.627_302_6, 0.552_787_9);
@@ -49,12 +79,25 @@ impl Accel {
             || best.is_some_and(|(b, _)| self.prim_tri[prim as usize] < self.prim_tri[b as usize])
     }
 
-    fn closest_bvh(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(u32, TriHit)> {
+    dispatched! {
+        /// The closest hit as a BVH-order primitive and the triangle test's result.
+        fn closest_bvh(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(u32, TriHit)>
+            => closest_bvh_avx2, closest_bvh_k
+    }
+
+    #[inline(always)]
+    fn closest_bvh_k<K: BoxKernel>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(u32, TriHit)> {
         let wr = WatertightRay::new(o, d);
         let br = BoxRay::new(o, d, tmin);
         let mut best_t = tmax;
         let mut best: Option<(u32, TriHit)> = None;
-        self.bvh_traverse(&br, d, tmax, |first, count| {
+        self.bvh_traverse::<K>(&br, d, tmax, |first, count| {
             for prim in first..first + count {
                 let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
                 let lim = Self::limit(&best, best_t, tmax);
@@ -108,23 +151,29 @@ impl Accel {
 
     /// A raw line hit (primitive, triangle hit, line parameter s) as a [`Hit`] with `t = s`.
     #[inline]
-    fn line_hit(&self, h: Option<(u32, TriHit, f32)>, dir: Vec3) -> Option<Hit> {
+    fn line_hit(&self, h: Option<LineHit>, dir: Vec3) -> Option<Hit> {
         h.map(|(prim, th, s)| Hit {
             t: s,
             ..self.make_hit(prim, th, dir)
         })
     }
 
-    /// The traversal of [`first_hits_both_ways`](Self::first_hits_both_ways), without building
-    /// the hits.
-    #[allow(clippy::type_complexity)]
-    fn both_ways_raw(
+    dispatched! {
+        /// The traversal of [`first_hits_both_ways`](Self::first_hits_both_ways), without
+        /// building the hits.
+        fn both_ways_raw(&self, x: Vec3, dir: Vec3, ahead: (f32, f32), behind: (f32, f32))
+            -> (Option<LineHit>, Option<LineHit>)
+            => both_ways_raw_avx2, both_ways_raw_k
+    }
+
+    #[inline(always)]
+    fn both_ways_raw_k<K: BoxKernel>(
         &self,
         x: Vec3,
         dir: Vec3,
         ahead: (f32, f32),
         behind: (f32, f32),
-    ) -> (Option<(u32, TriHit, f32)>, Option<(u32, TriHit, f32)>) {
+    ) -> (Option<LineHit>, Option<LineHit>) {
         let s_lo = ahead.0.min(behind.0);
         let s_hi = ahead.1.max(behind.1);
         let len = s_hi - s_lo;
@@ -134,14 +183,14 @@ impl Accel {
         let (o, d) = (Vec3A::from(x + s_lo * dir), Vec3A::from(dir));
         let wr = WatertightRay::new(o, d);
         let br = BoxRay::new(o, d, 0.0);
-        let mut fwd: Option<(u32, TriHit, f32)> = None;
-        let mut back: Option<(u32, TriHit, f32)> = None;
+        let mut fwd: Option<LineHit> = None;
+        let mut back: Option<LineHit> = None;
         let tri_of = |prim: u32| self.prim_tri[prim as usize];
-        let cutoff = |fwd: &Option<(u32, TriHit, f32)>| {
+        let cutoff = |fwd: &Option<LineHit>| {
             let a = fwd.map_or(ahead.1, |(_, _, s)| s);
             (a.max(behind.1) - s_lo).min(len)
         };
-        self.bvh_traverse(&br, d, len, |first, count| {
+        self.bvh_traverse::<K>(&br, d, len, |first, count| {
             for prim in first..first + count {
                 let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
                 let Some(th) = wr.intersect_hit(v0, v1, v2, 0.0, cutoff(&fwd).next_up()) else {
@@ -172,11 +221,21 @@ impl Accel {
         if !valid_ray(dir, tmin, tmax) || self.tris.is_empty() {
             return false;
         }
+        self.occluded_bvh(origin, dir, tmin, tmax)
+    }
+
+    dispatched! {
+        fn occluded_bvh(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool
+            => occluded_avx2, occluded_k
+    }
+
+    #[inline(always)]
+    fn occluded_k<K: BoxKernel>(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let mut hit = false;
         let wr = WatertightRay::new(o, d);
         let br = BoxRay::new(o, d, tmin);
-        self.bvh_traverse(&br, d, tmax, |first, count| {
+        self.bvh_traverse::<K>(&br, d, tmax, |first, count| {
             hit = (first..first + count).any(|prim| {
                 let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
                 wr.intersect(v0, v1, v2, tmin, tmax).is_some()
@@ -194,15 +253,33 @@ impl Accel {
         dir: Vec3,
         tmin: f32,
         tmax: f32,
-        mut f: impl FnMut(u32, TriHit),
+        f: impl FnMut(u32, TriHit),
     ) {
         if !valid_ray(dir, tmin, tmax) || self.tris.is_empty() {
             return;
         }
+        self.for_each_hit_bvh(origin, dir, tmin, tmax, f);
+    }
+
+    dispatched! {
+        fn for_each_hit_bvh<F: FnMut(u32, TriHit)>(
+            &self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32, f: F) -> ()
+            => for_each_hit_avx2, for_each_hit_k
+    }
+
+    #[inline(always)]
+    fn for_each_hit_k<K: BoxKernel, F: FnMut(u32, TriHit)>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        mut f: F,
+    ) {
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let wr = WatertightRay::new(o, d);
         let br = BoxRay::new(o, d, tmin);
-        self.bvh_traverse(&br, d, tmax, |first, count| {
+        self.bvh_traverse::<K>(&br, d, tmax, |first, count| {
             for prim in first..first + count {
                 let [v0, v1, v2] = self.tris[prim as usize].map(Vec3A::from);
                 if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, tmax) {
