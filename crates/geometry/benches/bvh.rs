@@ -141,6 +141,16 @@ fn build(bencher: divan::Bencher) {
         .bench_values(Accel::new);
 }
 
+/// The supporting-plane flags of `Accel::exit_is_final` (computed on first use, one thread).
+#[divan::bench(sample_count = 5, sample_size = 1)]
+fn supporting_planes(bencher: divan::Bencher) {
+    let mesh = MESH.clone();
+    bencher
+        .counter(ItemsCount::new(mesh.triangle_count()))
+        .with_inputs(|| Accel::new(mesh.clone()))
+        .bench_values(|a| a.exit_is_final(0));
+}
+
 #[divan::bench(args = [1, 2], sample_count = 10, sample_size = 1)]
 fn closest_out(bencher: divan::Bencher, threads: usize) {
     run(bencher, threads, &RAYS_OUT, |&(o, d, _)| {

@@ -45,7 +45,10 @@
 //! traversal; `queries` the public ray queries built on it.
 
 mod queries;
+mod support;
 mod traverse;
+
+use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
@@ -125,6 +128,9 @@ pub struct Accel {
     tris: Vec<[Vec3; 3]>,
     /// BVH order → original triangle index (obvhs `primitive_indices`).
     prim_tri: Vec<u32>,
+    /// Per original triangle: its plane supports the mesh ([`Accel::exit_is_final`]); computed
+    /// on first use.
+    supporting: OnceLock<Vec<u64>>,
 }
 
 impl Accel {
@@ -139,6 +145,7 @@ impl Accel {
                 bvh: CwBvh::default(),
                 tris: Vec::new(),
                 prim_tri: Vec::new(),
+                supporting: OnceLock::new(),
             };
         }
         let obvhs_tris: Vec<Triangle> = corners
@@ -162,6 +169,7 @@ impl Accel {
             bvh,
             tris,
             prim_tri,
+            supporting: OnceLock::new(),
         }
     }
 

@@ -161,6 +161,10 @@ pub fn radiance_primary(
     let mut inside = false;
     let mut depth = 0u32;
     let mut interface_events = 0u32;
+    // The path left the medium through a triangle whose plane has the whole mesh behind it
+    // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
+    // so the query for a re-entry is skipped (the BVH would answer "no hit").
+    let mut escaped = false;
 
     loop {
         // The boundary the path meets next, or a scattering event / the end of the path.
@@ -204,6 +208,7 @@ pub fn radiance_primary(
         } else {
             let hit = match first.take() {
                 Some(h) => h,
+                None if escaped => None,
                 None => scene.accel.closest(o, d, 0.0, f32::INFINITY),
             };
             let Some(hit) = hit else {
@@ -223,6 +228,7 @@ pub fn radiance_primary(
         {
             break;
         }
+        escaped = !inside && d.dot(hit.ng) > 0.0 && scene.accel.exit_is_final(hit.tri);
     }
     for v in &mut l {
         if !v.is_finite() {

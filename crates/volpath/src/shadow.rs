@@ -95,8 +95,10 @@ const MAX_CROSSINGS: u32 = 64;
 ///
 /// Inside, each query is a closest hit limited to min(budget left, distance left), so a
 /// collision costs one short query. Outside, it is a closest hit to the light; a hit there is a
-/// re-entry (a concave surface) and the walk goes on inside. Whether a crossing leaves or enters
-/// is read from the hit's facing, as everywhere in the tracer.
+/// re-entry (a concave surface) and the walk goes on inside; after leaving through a triangle
+/// whose plane supports the mesh ([`Accel::exit_is_final`]) there can be none, and that query is
+/// skipped. Whether a crossing leaves or enters is read from the hit's facing, as everywhere in
+/// the tracer.
 pub fn tracked_inside_length(accel: &Accel, p: Vec3, light: Vec3, budget: f32) -> Option<f32> {
     let seg = light - p;
     let dist = seg.length();
@@ -125,6 +127,10 @@ pub fn tracked_inside_length(accel: &Accel, p: Vec3, light: Vec3, budget: f32) -
                     budget -= hit.t;
                     travelled += hit.t;
                     inside = hit.entering(d);
+                    if !inside && accel.exit_is_final(hit.tri) {
+                        // Left through a supporting plane: nothing of the mesh lies ahead.
+                        return Some(len_in);
+                    }
                     o = offset_origin(hit.p, hit.ng, d);
                 }
             }
