@@ -48,7 +48,7 @@ mod queries;
 mod support;
 mod traverse;
 
-use std::sync::OnceLock;
+use std::sync::atomic::AtomicU8;
 
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
@@ -128,9 +128,9 @@ pub struct Accel {
     tris: Vec<[Vec3; 3]>,
     /// BVH order → original triangle index (obvhs `primitive_indices`).
     prim_tri: Vec<u32>,
-    /// Per original triangle: its plane supports the mesh ([`Accel::exit_is_final`]); computed
-    /// on first use.
-    supporting: OnceLock<Vec<u64>>,
+    /// Per original triangle: whether its plane supports the mesh ([`Accel::exit_is_final`]),
+    /// decided on first use.
+    supporting: Vec<AtomicU8>,
 }
 
 impl Accel {
@@ -145,7 +145,7 @@ impl Accel {
                 bvh: CwBvh::default(),
                 tris: Vec::new(),
                 prim_tri: Vec::new(),
-                supporting: OnceLock::new(),
+                supporting: Vec::new(),
             };
         }
         let obvhs_tris: Vec<Triangle> = corners
@@ -168,8 +168,8 @@ impl Accel {
             mesh,
             bvh,
             tris,
+            supporting: support::undecided(prim_tri.len()),
             prim_tri,
-            supporting: OnceLock::new(),
         }
     }
 

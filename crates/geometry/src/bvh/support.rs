@@ -21,11 +21,22 @@
 //!
 //! The search for a vertex in front descends the BVH and prunes every child whose (quantised,
 //! conservative, widened by one quantisation step) box lies behind the plane, so a hull triangle
-//! costs a few dozen box tests. The flags are computed in parallel on first use.
+//! costs a few dozen box tests. Each triangle is decided when a ray first leaves through it.
 
 use glam::{DVec3, Vec3};
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use super::Accel;
+
+const UNKNOWN: u8 = 0;
+const SUPPORTING: u8 = 1;
+const NOT_SUPPORTING: u8 = 2;
+
+/// The per-triangle flags of [`Accel::exit_is_final`], all undecided.
+pub(super) fn undecided(triangles: usize) -> Vec<AtomicU8> {
+    (0..triangles).map(|_| AtomicU8::new(UNKNOWN)).collect()
+}
 
 /// τ / max |corner coordinate| (module docs): 2⁻²².
 pub const TOLERANCE: f64 = 1.0 / 4_194_304.0;
@@ -33,34 +44,32 @@ pub const TOLERANCE: f64 = 1.0 / 4_194_304.0;
 impl Accel {
     /// True when no point of the mesh lies in front of the plane of triangle `tri` (original
     /// index), i.e. a ray leaving the medium through it cannot meet the mesh again (module
-    /// docs). Computed for all triangles on the first call, on the calling thread (0.75 µs per
-    /// triangle: 12 ms for 16 k triangles; not parallel, so that a first call from inside a
-    /// rayon task cannot wait on itself).
+    /// docs). Decided on the first call for each triangle (0.75–5 µs) and remembered; calls from
+    /// several threads at once may decide it twice, with the same answer.
     #[inline]
     pub fn exit_is_final(&self, tri: u32) -> bool {
-        let bits = self.supporting.get_or_init(|| self.supporting_planes());
-        bits.get(tri as usize / 64)
-            .is_some_and(|w| w >> (tri % 64) & 1 == 1)
+        let Some(flag) = self.supporting.get(tri as usize) else {
+            return false;
+        };
+        match flag.load(Ordering::Relaxed) {
+            SUPPORTING => true,
+            NOT_SUPPORTING => false,
+            _ => self.decide_supporting(tri as usize),
+        }
     }
 
-    /// The flags of [`exit_is_final`](Self::exit_is_final), one bit per original triangle.
-    fn supporting_planes(&self) -> Vec<u64> {
-        let n = self.mesh.triangle_count();
-        let mut stack = Vec::with_capacity(64);
-        let flags: Vec<bool> = (0..n)
-            .map(|i| self.behind_plane(self.mesh.triangle(i), &mut stack))
-            .collect();
-        let mut bits = vec![0u64; n.div_ceil(64)];
-        for (i, f) in flags.into_iter().enumerate() {
-            bits[i / 64] |= (f as u64) << (i % 64);
-        }
-        bits
+    #[cold]
+    fn decide_supporting(&self, tri: usize) -> bool {
+        let yes = self.behind_plane(self.mesh.triangle(tri));
+        let v = if yes { SUPPORTING } else { NOT_SUPPORTING };
+        self.supporting[tri].store(v, Ordering::Relaxed);
+        yes
     }
 
     /// Whether every vertex of the mesh satisfies `n · (v − v₀) ≤ τ` (module docs) for the plane
     /// of the triangle with corners `c` (outward normal by the CCW convention). Degenerate
-    /// triangles (no normal): false. `stack` is scratch space.
-    fn behind_plane(&self, c: [Vec3; 3], stack: &mut Vec<u32>) -> bool {
+    /// triangles (no normal): false.
+    fn behind_plane(&self, c: [Vec3; 3]) -> bool {
         let tol = TOLERANCE * c.iter().fold(0.0f32, |m, v| m.max(v.abs().max_element())) as f64;
         let [v0, v1, v2] = c.map(|v| v.as_dvec3());
         let Some(n) = (v1 - v0).cross(v2 - v0).try_normalize() else {
@@ -73,10 +82,13 @@ impl Accel {
         }
         let in_front = |v: Vec3| n.dot(v.as_dvec3()) > h;
         // Depth first, the child reaching farthest in front of the plane first (a vertex in
-        // front, if any, is most likely there).
-        stack.clear();
-        stack.push(0);
-        while let Some(cur) = stack.pop() {
+        // front, if any, is most likely there). Fixed capacity: at most 7 siblings wait per
+        // level.
+        let mut stack = [0u32; 256];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let cur = stack[len];
             let node = &nodes[cur as usize];
             let e = node.compute_extent();
             let (p, e) = (
@@ -123,7 +135,13 @@ impl Accel {
             }
             let inner = &mut inner[..n_inner];
             inner.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-            stack.extend(inner.iter().map(|&(_, c)| c));
+            for &(_, c) in inner.iter() {
+                if len == stack.len() {
+                    return false; // deeper than any sane tree: no claim
+                }
+                stack[len] = c;
+                len += 1;
+            }
         }
         true
     }
