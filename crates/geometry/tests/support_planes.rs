@@ -47,8 +47,16 @@ fn brute_force(mesh: &Mesh, i: usize) -> bool {
 /// 97.2 % of the box's triangles are flagged, which only forgoes the shortcut on the rest.)
 #[test]
 fn convex_shapes_support_every_triangle() {
-    for name in ["sphere"] {
-        let mesh = shape(name);
+    // The default sphere, and one of the reference scene's size (radius 0.125, 5,120 triangles).
+    let small = Shape::Sphere {
+        radius: 0.125,
+        subdivisions: 4,
+    };
+    for (name, s) in [
+        ("sphere", Shape::from_name("sphere").unwrap()),
+        ("small sphere", small),
+    ] {
+        let mesh = s.build().expect("valid sphere");
         let accel = Accel::new(mesh.clone());
         let flagged = (0..mesh.triangle_count() as u32)
             .filter(|&i| accel.exit_is_final(i))
