@@ -77,6 +77,21 @@ impl BoxRay {
         let slack = (e * 255.0 + po.abs()) * self.inv.abs() * BOX_SLACK;
         (scale, off - slack, off + slack)
     }
+
+    /// Per axis, the eight children's quantised planes the ray meets first and last (min and
+    /// max swapped where the direction is negative), widened by `widen`.
+    #[inline(always)]
+    fn near_far<T>(&self, node: &CwBvhNode, widen: impl Fn(&[u8; 8]) -> T) -> [(T, T); 3] {
+        let pick = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| {
+            let (l, h) = (widen(lo), widen(hi));
+            if neg { (h, l) } else { (l, h) }
+        };
+        [
+            pick(self.neg[0], &node.child_min_x, &node.child_max_x),
+            pick(self.neg[1], &node.child_min_y, &node.child_max_y),
+            pick(self.neg[2], &node.child_min_z, &node.child_max_z),
+        ]
+    }
 }
 
 /// The child-box test of the traversal: the children of `node` whose (grown, see the module doc)
@@ -94,13 +109,7 @@ impl BoxKernel for Portable {
     #[inline(always)]
     fn intersect8(br: &BoxRay, node: &CwBvhNode, tmax: f32) -> (u32, [f32; 8]) {
         let (scale, lo, hi) = br.node_frame(node);
-        let halves = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| {
-            let (l, h) = (bytes_to_f32(lo), bytes_to_f32(hi));
-            if neg { (h, l) } else { (l, h) }
-        };
-        let (nx, fx) = halves(br.neg[0], &node.child_min_x, &node.child_max_x);
-        let (ny, fy) = halves(br.neg[1], &node.child_min_y, &node.child_max_y);
-        let (nz, fz) = halves(br.neg[2], &node.child_min_z, &node.child_max_z);
+        let [(nx, fx), (ny, fy), (nz, fz)] = br.near_far(node, bytes_to_f32);
         let mut mask = 0u32;
         let mut near = [0.0f32; 8];
         for h in 0..2 {
@@ -145,13 +154,7 @@ unsafe fn intersect8_avx2(br: &BoxRay, node: &CwBvhNode, tmax: f32) -> (u32, [f3
         let b = _mm_cvtsi64_si128(i64::from_le_bytes(*v));
         _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b))
     };
-    let pair = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| {
-        let (l, h) = (widen(lo), widen(hi));
-        if neg { (h, l) } else { (l, h) }
-    };
-    let (nx, fx) = pair(br.neg[0], &node.child_min_x, &node.child_max_x);
-    let (ny, fy) = pair(br.neg[1], &node.child_min_y, &node.child_max_y);
-    let (nz, fz) = pair(br.neg[2], &node.child_min_z, &node.child_max_z);
+    let [(nx, fx), (ny, fy), (nz, fz)] = br.near_far(node, widen);
     let plane = |q: __m256, s: f32, o: f32| {
         _mm256_add_ps(_mm256_mul_ps(q, _mm256_set1_ps(s)), _mm256_set1_ps(o))
     };
