@@ -50,6 +50,32 @@ pub struct VolpathBenchArgs {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Shadow estimators to time (default: all three; `tracked` is Mitsuba 3's).
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub shadow: Vec<ShadowName>,
+    /// Channel sampling schemes to time (default: both; `single` is Mitsuba 3's).
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub sampling: Vec<SamplingName>,
+}
+
+/// A shadow estimator as the bench names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ShadowName {
+    /// Delta tracking with closest-hit queries (Mitsuba 3's estimator).
+    Tracked,
+    /// Closed-form transmittance, inside length from the light's triangle lists (our default).
+    Exact,
+    /// Closed-form transmittance, inside length from an all-hits BVH query.
+    ExactBvh,
+}
+
+/// A channel sampling scheme as the bench names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SamplingName {
+    /// Spectral MIS over the three channels (our default).
+    Spectral,
+    /// One channel per path with reweighting (Mitsuba 3's scheme).
+    Single,
 }
 
 /// Mitsuba 3 (llvm_ad_rgb, 2 cores, 32 spp) seconds per view, from the measurement.
@@ -139,6 +165,19 @@ fn volpath(a: &VolpathBenchArgs) -> Result<()> {
         .into_iter()
         .flat_map(|sh| {
             [ChannelSampling::SpectralMis, ChannelSampling::SingleChannel].map(|c| (c, sh))
+        })
+        .filter(|&(sampling, (shadow, light_lists))| {
+            let shadow_name = match (shadow, light_lists) {
+                (ShadowTransmittance::Tracked, _) => ShadowName::Tracked,
+                (ShadowTransmittance::Exact, true) => ShadowName::Exact,
+                (ShadowTransmittance::Exact, false) => ShadowName::ExactBvh,
+            };
+            let sampling_name = match sampling {
+                ChannelSampling::SpectralMis => SamplingName::Spectral,
+                ChannelSampling::SingleChannel => SamplingName::Single,
+            };
+            (a.shadow.is_empty() || a.shadow.contains(&shadow_name))
+                && (a.sampling.is_empty() || a.sampling.contains(&sampling_name))
         });
         for (sampling, (shadow, light_lists)) in variants {
             let settings = VolpathSettings {

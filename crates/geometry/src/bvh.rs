@@ -40,10 +40,16 @@
 //! dominant-axis slab) cost 5–17 % more instructions per query, so it is not done; no test
 //! exposes the case (the brute-force comparisons of `tests/bvh.rs` include edge-on rays).
 //!
+//! Short queries that start far from the surface (free flights and tracked shadow rays deep in a
+//! dense medium) are answered without the BVH: a grid of lower bounds on the distance to the mesh
+//! (`clearance`) shows that the segment cannot reach any triangle.
+//!
 //! Layout of the code: this module holds the hit record, the BVH build and the hit-record
 //! construction; `traverse` the conservative SIMD child-box test and the depth-first CWBVH
-//! traversal; `queries` the public ray queries built on it.
+//! traversal; `queries` the public ray queries built on it; `support` the supporting-plane flags
+//! of [`Accel::exit_is_final`]; `clearance` the distance-bound grid.
 
+mod clearance;
 mod queries;
 mod support;
 mod traverse;
@@ -131,6 +137,8 @@ pub struct Accel {
     /// Per original triangle: whether its plane supports the mesh ([`Accel::exit_is_final`]),
     /// decided on first use.
     supporting: Vec<AtomicU8>,
+    /// Lower bounds on the distance to the mesh, per grid cell (`clearance`).
+    clearance: clearance::Clearance,
 }
 
 impl Accel {
@@ -146,6 +154,7 @@ impl Accel {
                 tris: Vec::new(),
                 prim_tri: Vec::new(),
                 supporting: Vec::new(),
+                clearance: clearance::Clearance::default(),
             };
         }
         let obvhs_tris: Vec<Triangle> = corners
@@ -167,6 +176,7 @@ impl Accel {
         Accel {
             mesh,
             bvh,
+            clearance: clearance::Clearance::build(&tris),
             tris,
             supporting: support::undecided(prim_tri.len()),
             prim_tri,

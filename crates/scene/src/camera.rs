@@ -113,15 +113,24 @@ impl Camera {
 
     /// [`project`](Self::project) plus the depth `(p − origin)·z` along the view direction.
     pub fn project_depth(&self, p: Vec3) -> Option<(f32, f32, f32)> {
-        let d = self.rotation.transpose() * (p - self.origin);
-        if d.z <= 0.0 {
-            return None;
-        }
+        self.projector()(p)
+    }
+
+    /// [`project_depth`](Self::project_depth) with its per-camera constants (the field of view's
+    /// tangent, the film) computed once, for projecting many points.
+    pub fn projector(&self) -> impl Fn(Vec3) -> Option<(f32, f32, f32)> + use<> {
         let t = (0.5 * self.fov_x_deg.to_radians()).tan();
         let (x0, y0, w, h) = self.film();
-        let px = (1.0 - d.x / d.z / t) * 0.5 * w;
-        let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
-        Some((px - x0, py - y0, d.z))
+        let (to_cam, origin) = (self.rotation.transpose(), self.origin);
+        move |p| {
+            let d = to_cam * (p - origin);
+            if d.z <= 0.0 {
+                return None;
+            }
+            let px = (1.0 - d.x / d.z / t) * 0.5 * w;
+            let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
+            Some((px - x0, py - y0, d.z))
+        }
     }
 
     /// Per-pixel candidate triangles of `accel` for this camera's primary rays
@@ -136,9 +145,13 @@ impl Camera {
         if !off.iter().all(|e| e.abs() <= 1e-5) {
             return None;
         }
-        PixelBins::build(accel, self.width, self.height, self.origin, |p| {
-            self.project_depth(p)
-        })
+        PixelBins::build(
+            accel,
+            self.width,
+            self.height,
+            self.origin,
+            self.projector(),
+        )
     }
 
     /// (x0, y0, film width, film height) in pixels, as f32.

@@ -15,11 +15,11 @@ use crate::triangle::{TriHit, WatertightRay};
 /// the CPU has it ([`avx2_available`]; the body is then compiled with AVX2 enabled, through the
 /// wrapper `$avx2`) and with the portable kernel otherwise. Both give identical results.
 macro_rules! dispatched {
-    ($(#[$m:meta])* fn $name:ident $(<$($g:ident: $b:path),*>)?
+    ($(#[$m:meta])* $vis:vis fn $name:ident $(<$($g:ident: $b:path),*>)?
         (&self $(, $a:ident: $t:ty)*) -> $r:ty => $avx2:ident, $body:ident) => {
         $(#[$m])*
         #[inline]
-        fn $name $(<$($g: $b),*>)? (&self $(, $a: $t)*) -> $r {
+        $vis fn $name $(<$($g: $b),*>)? (&self $(, $a: $t)*) -> $r {
             #[cfg(target_arch = "x86_64")]
             if avx2_available() {
                 // SAFETY: the CPU supports AVX2 (checked at run time).
@@ -47,11 +47,22 @@ impl Accel {
     /// at the same `t`, the one with the smallest triangle index.
     #[inline]
     pub fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        if !valid_ray(dir, tmin, tmax) || self.tris.is_empty() {
+        if !valid_ray(dir, tmin, tmax)
+            || self.tris.is_empty()
+            || self.out_of_reach(origin, dir, tmax)
+        {
             return None;
         }
         let (prim, th) = self.closest_bvh(origin.into(), dir.into(), tmin, tmax)?;
         Some(self.make_hit(prim, th, dir))
+    }
+
+    /// Whether the segment `origin + t·dir`, `t < tmax`, lies within the clearance of its origin
+    /// (`clearance` module): no triangle can be hit, the BVH is not asked.
+    #[inline(always)]
+    pub(super) fn out_of_reach(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let reach = self.clearance.reach(origin.into());
+        reach > 0.0 && tmax * dir.length() <= reach
     }
 
     /// Upper limit for the triangle test while `best` holds the closest hit so far at `best_t`:
@@ -81,7 +92,7 @@ impl Accel {
 
     dispatched! {
         /// The closest hit as a BVH-order primitive and the triangle test's result.
-        fn closest_bvh(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(u32, TriHit)>
+        pub(super) fn closest_bvh(&self, o: Vec3A, d: Vec3A, tmin: f32, tmax: f32) -> Option<(u32, TriHit)>
             => closest_bvh_avx2, closest_bvh_k
     }
 
@@ -218,7 +229,10 @@ impl Accel {
     /// True when anything is hit with `tmin < t < tmax`.
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        if !valid_ray(dir, tmin, tmax) || self.tris.is_empty() {
+        if !valid_ray(dir, tmin, tmax)
+            || self.tris.is_empty()
+            || self.out_of_reach(origin, dir, tmax)
+        {
             return false;
         }
         self.occluded_bvh(origin, dir, tmin, tmax)
