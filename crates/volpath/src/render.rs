@@ -61,6 +61,7 @@ pub fn render_image(
     // Camera rays through per-pixel triangle lists (bit-identical to the BVH; when the view
     // allows them).
     let bins = camera.pixel_bins(scene.accel);
+    let rays = camera.ray_gen();
     let light_bins = match scene.light_bins {
         None => shadow_lists(scene, settings),
         Some(_) => None,
@@ -82,7 +83,7 @@ pub fn render_image(
                 for i in 0..rs.spp {
                     let (jx, jy) = pixel_jitter(i, key, &mut s);
                     let (fx, fy) = (x as f32 + jx, y as f32 + jy);
-                    let (o, d) = camera.ray(fx, fy);
+                    let (o, d) = rays.ray(fx, fy);
                     let first = bins
                         .as_ref()
                         .map(|b| b.closest_film(scene.accel, fx, fy, d, 0.0, f32::INFINITY));
