@@ -142,9 +142,12 @@ pub(crate) fn light_contribution(
     if cos_l <= 0.0 || ng.dot(dir) <= 0.0 {
         return (0.0, 0.0);
     }
-    if scene
-        .accel
-        .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
+    // Leaving through a supporting plane (`Accel::exit_is_final`; ng·dir > 0 here) the shadow
+    // ray moves into a half-space that holds no part of the mesh: nothing can occlude it.
+    if !scene.accel.exit_is_final(hit.tri)
+        && scene
+            .accel
+            .occluded(offset_origin(x_i, ng, dir), dir, 0.0, r)
     {
         return (0.0, 0.0);
     }
