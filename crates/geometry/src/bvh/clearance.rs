@@ -202,8 +202,8 @@ impl Clearance {
         if !(f.cmpge(Vec3A::ZERO).all() && f.cmplt(self.dims_f).all()) {
             return 0.0;
         }
-        let c = f.as_uvec3();
-        let k = self.k[self.index(c.x, c.y, c.z)];
+        let [x, y, z] = truncate(f);
+        let k = self.k[self.index(x, y, z)];
         if k <= 1 {
             return 0.0;
         }
@@ -215,9 +215,27 @@ impl Clearance {
     pub(crate) fn cells_from_surface(&self, o: Vec3) -> Option<u8> {
         let f = (Vec3A::from(o) - self.lo) * self.inv_h;
         (f.cmpge(Vec3A::ZERO).all() && f.cmplt(self.dims_f).all()).then(|| {
-            let c = f.as_uvec3();
-            self.k[self.index(c.x, c.y, c.z)]
+            let [x, y, z] = truncate(f);
+            self.k[self.index(x, y, z)]
         })
+    }
+}
+
+/// The integer parts of three non-negative coordinates below 2³¹ (one SSE2 conversion on
+/// x86-64; `as u32` would add the saturating checks Rust defines).
+#[inline(always)]
+fn truncate(f: Vec3A) -> [u32; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_cvttps_epi32, _mm_storeu_si128};
+        let mut out = [0u32; 4];
+        // SAFETY: SSE2 is part of the x86-64 baseline; the store writes 16 bytes into `out`.
+        unsafe { _mm_storeu_si128(out.as_mut_ptr().cast(), _mm_cvttps_epi32(__m128::from(f))) };
+        [out[0], out[1], out[2]]
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        f.as_uvec3().to_array()
     }
 }
 
