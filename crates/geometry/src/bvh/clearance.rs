@@ -26,6 +26,10 @@
 //! whose reported `t` may be any of its corners' depths; there the grid returns the true answer,
 //! no crossing within reach.)
 //!
+//! The absolute tolerance grows with the distance of the mesh from the origin, like the f32
+//! rounding it covers: a mesh whose cells are smaller than 2⁻¹⁶ of its coordinates' magnitude
+//! (a 1 cm object 100 m from the origin) gets no skips, only the BVH.
+//!
 //! Cost: `CELLS_PER_AXIS³` bytes at most (256 KiB), built in a few milliseconds; a query reads
 //! one byte. Measured in BENCHMARKS.md ("The clearance grid").
 
@@ -321,7 +325,17 @@ mod tests {
             minor: 0.15,
             segments: 32,
         };
+        // Far from the origin (the tolerance is relative to the coordinates' magnitude), and
+        // flat (a grid one cell thick along z: every cell is a surface cell).
+        let mut far = blob.build().unwrap();
+        far.positions
+            .iter_mut()
+            .for_each(|p| *p += Vec3::new(100.0, -50.0, 25.0));
+        let mut flat = cube();
+        flat.indices.truncate(2);
         vec![
+            ("far", far),
+            ("flat", flat),
             ("cube", cube()),
             ("blob", blob.build().unwrap()),
             ("torus", torus.build().unwrap()),
@@ -346,10 +360,7 @@ mod tests {
                 .collect();
             let k = |c: [i64; 3]| g.k[g.index(c[0] as u32, c[1] as u32, c[2] as u32)];
             let surface: Vec<[i64; 3]> = cells.iter().copied().filter(|&c| k(c) == 0).collect();
-            assert!(
-                !surface.is_empty() && surface.len() < cells.len() / 2,
-                "{name}"
-            );
+            assert!(!surface.is_empty(), "{name}");
             let mut rng = Pcg32::seed_from_u64(11);
             let mut far = 0;
             for _ in 0..500 {
@@ -363,7 +374,10 @@ mod tests {
                 assert_eq!(k(c), brute, "{name}: cell {c:?}");
                 far += usize::from(brute > 2);
             }
-            assert!(far > 50, "{name}: only {far} cells far from the surface");
+            assert!(
+                name == "flat" || far > 50,
+                "{name}: only {far} cells far from the surface"
+            );
         }
     }
 
@@ -378,8 +392,13 @@ mod tests {
                 if u + v > 1.0 {
                     (u, v) = (1.0 - u, 1.0 - v);
                 }
-                let p = a + u * (b - a) + v * (c - a);
-                assert_eq!(g.cells_from_surface(p), Some(0), "{name}: {p}");
+                // The point and its cell in f64: an f32 point would carry the rounding of the
+                // coordinates, which `reach` covers by its slack, not the marking.
+                let [a, b, c] = [a, b, c].map(|v| v.as_dvec3());
+                let p = a + (b - a) * u as f64 + (c - a) * v as f64;
+                let f = (p - Vec3::from(g.lo).as_dvec3()) * g.inv_h as f64;
+                let [x, y, z] = f.to_array().map(|e| e as u32);
+                assert_eq!(g.k[g.index(x, y, z)], 0, "{name}: {p}");
             }
         }
     }
@@ -417,7 +436,7 @@ mod tests {
                 );
             }
             assert!(
-                positive > 200,
+                name == "flat" || positive > 200,
                 "{name}: only {positive} points with a positive reach"
             );
         }
@@ -453,7 +472,10 @@ mod tests {
                 );
                 skipped += usize::from(accel.out_of_reach(o, d, tmax));
             }
-            assert!(skipped > 2_000, "{name}: only {skipped} queries skipped");
+            assert!(
+                name == "flat" || skipped > 2_000,
+                "{name}: only {skipped} queries skipped"
+            );
         }
     }
 }
