@@ -213,16 +213,6 @@ impl Clearance {
         }
         (k - 1) as f32 * self.h - self.slack
     }
-
-    /// The stored Chebyshev distance of the cell holding `o`, if inside the grid (for tests).
-    #[cfg(test)]
-    pub(crate) fn cells_from_surface(&self, o: Vec3) -> Option<u8> {
-        let f = (Vec3A::from(o) - self.lo) * self.inv_h;
-        (f.cmpge(Vec3A::ZERO).all() && f.cmplt(self.dims_f).all()).then(|| {
-            let [x, y, z] = truncate(f);
-            self.k[self.index(x, y, z)]
-        })
-    }
 }
 
 /// The integer parts of three non-negative coordinates below 2³¹ (one SSE2 conversion on
