@@ -90,11 +90,25 @@ impl Accel {
             len -= 1;
             let cur = stack[len];
             let node = &nodes[cur as usize];
+            // The reach of a child (the largest n·x over its box, one quantisation step wider
+            // on every side) is n·p + Σ_k n_k·e_k·(q_k ± 1): per axis the quantised max + 1
+            // where n_k ≥ 0, the min − 1 where n_k < 0 (e_k > 0).
             let e = node.compute_extent();
             let (p, e) = (
                 node.p.as_dvec3(),
                 DVec3::new(e.x as f64, e.y as f64, e.z as f64),
             );
+            let base = n.dot(p);
+            let s = n * e;
+            let side = |k: usize| {
+                let (lo, hi) = [
+                    (&node.child_min_x, &node.child_max_x),
+                    (&node.child_min_y, &node.child_max_y),
+                    (&node.child_min_z, &node.child_max_z),
+                ][k];
+                if n[k] >= 0.0 { (hi, 1.0) } else { (lo, -1.0) }
+            };
+            let axes = [side(0), side(1), side(2)];
             let imask = node.imask as u32;
             let mut inner: [(f64, u32); 8] = [(0.0, 0); 8];
             let mut n_inner = 0;
@@ -104,19 +118,10 @@ impl Accel {
                 if !is_inner && meta == 0 {
                     continue; // empty slot
                 }
-                // The child's box, one quantisation step wider on every side.
-                let q = |lo: &[u8; 8], hi: &[u8; 8], k: usize| {
-                    (
-                        p[k] + e[k] * (lo[slot] as f64 - 1.0),
-                        p[k] + e[k] * (hi[slot] as f64 + 1.0),
-                    )
-                };
-                let b = [
-                    q(&node.child_min_x, &node.child_max_x, 0),
-                    q(&node.child_min_y, &node.child_max_y, 1),
-                    q(&node.child_min_z, &node.child_max_z, 2),
-                ];
-                let reach: f64 = (0..3).map(|k| (n[k] * b[k].0).max(n[k] * b[k].1)).sum();
+                let reach: f64 = base
+                    + (0..3)
+                        .map(|k| s[k] * (axes[k].0[slot] as f64 + axes[k].1))
+                        .sum::<f64>();
                 if reach <= h {
                     continue;
                 }
