@@ -170,7 +170,7 @@ struct RowResult {
     value: Vec<[f32; 3]>,
     d_sigma_t: Vec<[f32; 3]>,
     d_albedo: Vec<[f32; 3]>,
-    loss: f64,
+    loss: [f64; 3],
     g_t: [f64; 3],
     g_a: [f64; 3],
 }
@@ -197,7 +197,7 @@ fn run(
                 value: Vec::new(),
                 d_sigma_t: Vec::new(),
                 d_albedo: Vec::new(),
-                loss: 0.0,
+                loss: [0.0; 3],
                 g_t: [0.0; 3],
                 g_a: [0.0; 3],
             };
@@ -213,7 +213,7 @@ fn run(
                     let tp = t.get(x as u32, y);
                     for c in 0..3 {
                         let (l, dl) = loss.element(value[x][c], tp[c]);
-                        r.loss += l;
+                        r.loss[c] += l;
                         r.g_t[c] += dl * dt[x][c] as f64;
                         r.g_a[c] += dl * da[x][c] as f64;
                     }
@@ -234,6 +234,7 @@ fn run(
     let n_inv = 1.0 / (3.0 * w as f64 * h as f64).max(1.0);
     let mut out = LossGradient {
         loss: 0.0,
+        loss_channels: [0.0; 3],
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
         images: None,
@@ -244,8 +245,8 @@ fn run(
         d_albedo: Image::new(w, h),
     });
     for (y, r) in rows.into_iter().enumerate() {
-        out.loss += r.loss;
         for c in 0..3 {
+            out.loss_channels[c] += r.loss[c];
             out.d_sigma_t[c] += r.g_t[c];
             out.d_albedo[c] += r.g_a[c];
         }
@@ -256,7 +257,8 @@ fn run(
             im.d_albedo.data[s].copy_from_slice(&r.d_albedo);
         }
     }
-    out.loss *= n_inv;
+    out.loss_channels = out.loss_channels.map(|v| v * n_inv);
+    out.loss = out.loss_channels.iter().sum();
     out.d_sigma_t = out.d_sigma_t.map(|v| v * n_inv);
     out.d_albedo = out.d_albedo.map(|v| v * n_inv);
     out.images = images;

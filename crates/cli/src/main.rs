@@ -45,7 +45,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render the built-in demo scene (a bumpy blob in a paper-range medium) and write its images.
+    /// The whole round trip on the built-in scene: render a bumpy blob in a hidden paper-range
+    /// medium, recover σ_t and α from the images (`ours`, then one bias-correction step), print
+    /// truth against estimate and write the plots.
     Demo(demo::DemoArgs),
     /// Render every view of a scene file (TOML/JSON, see SCENE.md) or dataset folder.
     Render(render_cmd::RenderArgs),

@@ -47,6 +47,13 @@ pub struct OptimizeArgs {
     /// other) instead of the single-render product (biased by their covariance).
     #[arg(long)]
     pub two_renders: bool,
+    /// Normalise each view's loss, per channel, by the loss of a black image against its target,
+    /// so that dim views (light that crossed the object) count as much as bright ones.
+    #[arg(long)]
+    pub normalize_views: bool,
+    /// With --normalize-views: no view weighs more than 1/FLOOR times an average view.
+    #[arg(long, default_value_t = 0.01, value_name = "FLOOR")]
+    pub view_weight_floor: f64,
     /// Initial σ_t (1/unit; one value or R,G,B).
     #[arg(long, default_value = "50", value_parser = parse_rgb)]
     pub init_sigma_t: [f32; 3],
@@ -158,6 +165,13 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.views_per_iter = a.budget.views_per_iter;
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
     c.two_renders = a.two_renders;
+    anyhow::ensure!(
+        a.view_weight_floor > 0.0 && a.view_weight_floor <= 1.0,
+        "--view-weight-floor must be in (0, 1], got {}",
+        a.view_weight_floor
+    );
+    c.normalize_views = a.normalize_views;
+    c.view_weight_floor = a.view_weight_floor;
     c.crop = a.budget.crop;
     c.lr_sigma_t = a.lr_sigma_t;
     c.lr_albedo = a.lr_albedo;

@@ -112,6 +112,57 @@ pub struct OptimizeConfig {
     /// and Adam's memory of those steps keeps σ_t low (BENCHMARKS.md, "Albedo first").
     #[serde(default)]
     pub albedo_warmup: u32,
+    /// Normalise each view's loss, per channel, by the loss of a black image against its target
+    /// ([`view_weights`]): dim views (light that crossed the object) then count as much as
+    /// bright ones instead of vanishing beside them in Adam's second moment.
+    #[serde(default)]
+    pub normalize_views: bool,
+    /// With `normalize_views`: the normaliser is at least this fraction of the mean over views,
+    /// so no view weighs more than 1/floor times an average one.
+    #[serde(default = "default_view_weight_floor")]
+    pub view_weight_floor: f64,
+}
+
+fn default_view_weight_floor() -> f64 {
+    0.01
+}
+
+/// The per-view, per-channel loss weights w_{v,c} = L̄_c / max(L_{v,c}, f·L̄_c), where
+/// L_{v,c} = ℓ(0, T_v) is the loss of a black render against the target's channel c (mean T² for
+/// L2, mean |T| for L1), L̄_c its mean over views and f the floor. All ones without
+/// normalisation. The weights depend on the targets only, so the weighted loss is still a sum of
+/// per-pixel losses and both gradient estimators (one render, two renders) keep their
+/// properties; the weights only change which views the optimum balances.
+pub fn view_weights(images: &[&Image], loss: Loss, normalize: bool, floor: f64) -> Vec<[f64; 3]> {
+    if !normalize {
+        return vec![[1.0; 3]; images.len()];
+    }
+    let black: Vec<[f64; 3]> = images
+        .iter()
+        .map(|im| {
+            let mut s = [0.0; 3];
+            for p in &im.data {
+                for c in 0..3 {
+                    s[c] += loss.element(0.0, p[c]).0;
+                }
+            }
+            s.map(|v| v / im.data.len().max(1) as f64)
+        })
+        .collect();
+    let n = black.len().max(1) as f64;
+    let mean: [f64; 3] = std::array::from_fn(|c| black.iter().map(|b| b[c]).sum::<f64>() / n);
+    black
+        .iter()
+        .map(|b| {
+            std::array::from_fn(|c| {
+                if mean[c] > 0.0 {
+                    mean[c] / b[c].max(floor * mean[c])
+                } else {
+                    1.0
+                }
+            })
+        })
+        .collect()
 }
 
 mod method_name {
@@ -169,6 +220,8 @@ impl OptimizeConfig {
             init,
             seed: 0,
             albedo_warmup: 0,
+            normalize_views: false,
+            view_weight_floor: default_view_weight_floor(),
         }
     }
 }
@@ -216,6 +269,8 @@ pub struct Optimizer<'a> {
     adam: Adam,
     u: Vec<f32>,
     history: Vec<IterationRecord>,
+    /// Per-view, per-channel loss weights ([`view_weights`]).
+    weights: Vec<[f64; 3]>,
 }
 
 mod checkpoint;
@@ -263,7 +318,15 @@ impl<'a> Optimizer<'a> {
         targets: Vec<TargetView<'a>>,
         p: Parts,
     ) -> Self {
+        let images: Vec<&Image> = targets.iter().map(|t| t.image).collect();
+        let weights = view_weights(
+            &images,
+            config.loss,
+            config.normalize_views,
+            config.view_weight_floor,
+        );
         Self {
+            weights,
             config,
             accel,
             model,
@@ -372,10 +435,11 @@ impl<'a> Optimizer<'a> {
                     &scene, t.camera, t.light, &rs, &ds, t.image, c.loss, false, None,
                 )?
             };
-            loss += g.loss / views.len() as f64;
+            let w = self.weights[v];
             for ch in 0..3 {
-                ds_t[ch] += g.d_sigma_t[ch] / views.len() as f64;
-                da[ch] += g.d_albedo[ch] / views.len() as f64;
+                loss += w[ch] * g.loss_channels[ch] / views.len() as f64;
+                ds_t[ch] += w[ch] * g.d_sigma_t[ch] / views.len() as f64;
+                da[ch] += w[ch] * g.d_albedo[ch] / views.len() as f64;
             }
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
@@ -434,6 +498,7 @@ impl<'a> Optimizer<'a> {
 fn decorrelated_gradient(i1: &Image, d2: &DiffImages, target: &Image, loss: Loss) -> LossGradient {
     let mut g = LossGradient {
         loss: 0.0,
+        loss_channels: [0.0; 3],
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
         images: None,
@@ -442,13 +507,14 @@ fn decorrelated_gradient(i1: &Image, d2: &DiffImages, target: &Image, loss: Loss
     for ((a, t), (dt, da)) in pixels.zip(d2.d_sigma_t.data.iter().zip(&d2.d_albedo.data)) {
         for ch in 0..3 {
             let (l, dl) = loss.element(a[ch], t[ch]);
-            g.loss += l;
+            g.loss_channels[ch] += l;
             g.d_sigma_t[ch] += dl * dt[ch] as f64;
             g.d_albedo[ch] += dl * da[ch] as f64;
         }
     }
     let n_inv = 1.0 / (3 * i1.data.len()).max(1) as f64;
-    g.loss *= n_inv;
+    g.loss_channels = g.loss_channels.map(|v| v * n_inv);
+    g.loss = g.loss_channels.iter().sum();
     g.d_sigma_t = g.d_sigma_t.map(|v| v * n_inv);
     g.d_albedo = g.d_albedo.map(|v| v * n_inv);
     g

@@ -245,3 +245,72 @@ fn damaged_checkpoint_is_refused() {
         "{e}"
     );
 }
+
+/// `view_weights`: a view 10× brighter gets 1/100 of the L2 weight (1/10 for L1), so every view's
+/// black-image loss weighs the same; a view dimmer than the floor is capped at 1/floor times the
+/// mean; without normalisation all weights are 1.
+#[test]
+fn view_weights_equalise_black_losses_with_a_floor() {
+    use bssrdf::diff::Loss;
+    use inverse::optimize::view_weights;
+    let s = setup();
+    let a = &s.targets[0];
+    let scaled = |k: f32| {
+        let mut im = a.clone();
+        im.data.iter_mut().for_each(|p| *p = p.map(|v| v * k));
+        im
+    };
+    let (b, dim) = (scaled(10.0), scaled(1e-3));
+    assert!(
+        view_weights(&[a, &b], Loss::L2, false, 0.01)
+            .iter()
+            .all(|w| *w == [1.0; 3])
+    );
+    for (loss, power) in [(Loss::L2, 2), (Loss::L1, 1)] {
+        let w = view_weights(&[a, &b], loss, true, 1e-6);
+        for c in 0..3 {
+            let ratio = w[0][c] / w[1][c];
+            let want = 10f64.powi(power);
+            assert!((ratio / want - 1.0).abs() < 1e-5, "{loss:?} c{c}: {ratio}");
+        }
+        // With a floor of 0.1 the dim view's normaliser is 0.1 of the mean: weight 10.
+        let w = view_weights(&[a, &b, &dim], loss, true, 0.1);
+        for c in 0..3 {
+            assert!((w[2][c] - 10.0).abs() < 1e-9, "{loss:?} c{c}: {}", w[2][c]);
+        }
+    }
+}
+
+/// The optimiser applies the weights: one iteration with `normalize_views` has the gradient of
+/// the same iteration without it times the drawn view's weight (same seed, same renders).
+#[test]
+fn normalized_views_scale_the_drawn_views_gradient() {
+    use inverse::optimize::view_weights;
+    let s = setup();
+    let mut c = config(1);
+    c.views_per_iter = 1;
+    let mut plain = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    c.normalize_views = true;
+    let mut weighted = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let (p, w) = (
+        plain.step().unwrap().clone(),
+        weighted.step().unwrap().clone(),
+    );
+    assert_eq!(p.views, w.views);
+    let v = p.views[0];
+    let images: Vec<&Image> = s.targets.iter().collect();
+    let weights = view_weights(&images, c.loss, true, c.view_weight_floor);
+    assert!(
+        weights.iter().any(|w| (w[0] - 1.0).abs() > 0.05),
+        "{weights:?}"
+    );
+    for ch in 0..3 {
+        let want = p.d_albedo[ch] * weights[v][ch];
+        assert!(
+            (w.d_albedo[ch] - want).abs() <= 1e-12 * want.abs().max(1e-30),
+            "c{ch}: {} vs {want}",
+            w.d_albedo[ch]
+        );
+        assert!(p.d_albedo[ch] != 0.0);
+    }
+}

@@ -188,7 +188,11 @@ impl Loss {
 /// images when asked for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LossGradient {
+    /// ℓ, the sum of `loss_channels`.
     pub loss: f64,
+    /// The loss's share of each colour channel (each averaged over all 3·W·H pixel channels,
+    /// like `loss`), for per-channel weights such as the optimiser's view normalisation.
+    pub loss_channels: [f64; 3],
     pub d_sigma_t: [f64; 3],
     pub d_albedo: [f64; 3],
     pub images: Option<DiffImages>,
