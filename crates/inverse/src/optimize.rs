@@ -115,16 +115,24 @@ pub struct OptimizeConfig {
     /// Normalise each view's loss, per channel, by the loss of a black image against its target
     /// ([`view_weights`]): dim views (light that crossed the object) then count as much as
     /// bright ones instead of vanishing beside them in Adam's second moment.
-    #[serde(default)]
+    /// (Left out of the JSON when off, so runs written before the option compare equal.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub normalize_views: bool,
     /// With `normalize_views`: the normaliser is at least this fraction of the mean over views,
     /// so no view weighs more than 1/floor times an average one.
-    #[serde(default = "default_view_weight_floor")]
+    #[serde(
+        default = "default_view_weight_floor",
+        skip_serializing_if = "is_default_view_weight_floor"
+    )]
     pub view_weight_floor: f64,
 }
 
 fn default_view_weight_floor() -> f64 {
     0.01
+}
+
+fn is_default_view_weight_floor(f: &f64) -> bool {
+    *f == default_view_weight_floor()
 }
 
 /// The per-view, per-channel loss weights w_{v,c} = L̄_c / max(L_{v,c}, f·L̄_c), where

@@ -314,3 +314,21 @@ fn normalized_views_scale_the_drawn_views_gradient() {
         assert!(p.d_albedo[ch] != 0.0);
     }
 }
+
+/// Options added after runs were written stay out of the configuration's JSON at their defaults,
+/// so `experiment` and `--resume` still recognise those runs as made with the same settings.
+#[test]
+fn config_json_leaves_out_default_view_normalisation() {
+    let mut c = config(3);
+    let v = serde_json::to_value(&c).unwrap();
+    assert!(v.get("normalize_views").is_none(), "{v}");
+    assert!(v.get("view_weight_floor").is_none(), "{v}");
+    let back: OptimizeConfig = serde_json::from_value(v).unwrap();
+    assert_eq!(back, c);
+    c.normalize_views = true;
+    c.view_weight_floor = 0.2;
+    let v = serde_json::to_value(&c).unwrap();
+    assert_eq!(v["normalize_views"], true);
+    assert_eq!(v["view_weight_floor"], 0.2);
+    assert_eq!(serde_json::from_value::<OptimizeConfig>(v).unwrap(), c);
+}
