@@ -296,6 +296,14 @@ impl<'a> Optimizer<'a> {
         if targets.is_empty() {
             return Err(InverseError::Invalid("no target views".into()));
         }
+        if config.normalize_views
+            && !(config.view_weight_floor > 0.0 && config.view_weight_floor <= 1.0)
+        {
+            return Err(InverseError::Invalid(format!(
+                "view_weight_floor must be in (0, 1], got {}",
+                config.view_weight_floor
+            )));
+        }
         if config.views_per_iter == 0 || config.spp == 0 {
             return Err(InverseError::Invalid(
                 "views per iteration and spp must be at least 1".into(),

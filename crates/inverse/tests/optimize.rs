@@ -313,6 +313,12 @@ fn normalized_views_scale_the_drawn_views_gradient() {
         );
         assert!(p.d_albedo[ch] != 0.0);
     }
+    // A floor outside (0, 1] is refused with its name.
+    c.view_weight_floor = 0.0;
+    let err = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s))
+        .err()
+        .expect("a zero floor is refused");
+    assert!(err.to_string().contains("view_weight_floor"), "{err}");
 }
 
 /// Options added after runs were written stay out of the configuration's JSON at their defaults,
