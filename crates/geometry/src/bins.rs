@@ -40,6 +40,29 @@ use crate::triangle::{TriHit, WatertightRay};
 /// the projection of a point on it agree to about 10⁻⁴ pixel at 4k resolution.
 pub const MARGIN: f32 = 1.0 / 16.0;
 
+/// How far (in pixels) the origin of a continued camera ray may project from the camera ray's
+/// film point for [`PixelBins::closest_along`] to answer it (a small part of [`MARGIN`]; the
+/// offsets after a boundary crossing are about 10⁻⁵ of the distance).
+pub const CONTINUATION_OFFSET: f32 = 1.0 / 20.0;
+
+/// How many candidates a [`FilmCursor`] remembers.
+pub const CURSOR_CAPACITY: usize = 24;
+
+/// One camera ray's walk through its pixel's candidate list ([`PixelBins::cursor`]): how far
+/// the list has been scanned for the film point `(fx, fy)` and which of the scanned candidates
+/// passed the edge test there (the others cannot be met by the camera ray or by a ray
+/// continuing it, [`PixelBins::closest_along`]).
+#[derive(Clone, Debug)]
+pub struct FilmCursor<'a> {
+    list: &'a [(f32, u32)],
+    fx: f32,
+    fy: f32,
+    scanned: usize,
+    passed: [u32; CURSOR_CAPACITY],
+    /// Candidates that passed; beyond [`CURSOR_CAPACITY`] the cursor forgets them all.
+    n_passed: usize,
+}
+
 /// Beyond this mean number of candidates per pixel the bins are not built.
 pub const MAX_ENTRIES_PER_PIXEL: u64 = 256;
 
@@ -268,7 +291,8 @@ impl PixelBins {
         if x >= w || y >= h {
             return None;
         }
-        self.closest_in(accel, self.lists.at(x, y), dir, tmin, tmax, |_| true)
+        let list = self.lists.at(x, y);
+        self.closest_in(accel, list, self.origin, dir, tmin, tmax, |t| t, |_| true)
     }
 
     /// [`closest`](Self::closest) for the ray from the camera origin through the film point
@@ -287,41 +311,190 @@ impl PixelBins {
         tmin: f32,
         tmax: f32,
     ) -> Option<Hit> {
+        let mut cursor = self.cursor(fx, fy);
+        self.closest_first(accel, &mut cursor, dir, tmin, tmax)
+    }
+
+    /// [`Accel::closest`]`(origin, dir, tmin, tmax)`, bit for bit, for a ray that continues the
+    /// camera ray through the film point `(fx, fy)` (`dir` generated from it, as for
+    /// [`closest_film`](Self::closest_film)) from a point `origin` near that ray: the ray that
+    /// crossed an index-matched boundary and goes on in the same direction (the first free
+    /// flight inside the medium, the search for a re-entry behind it). `origin_film` is the
+    /// projection `(px, py, z)` of `origin` by the projector the bins were built with.
+    ///
+    /// `None` (ask the BVH) when `origin` does not project within [`CONTINUATION_OFFSET`] pixels
+    /// of `(fx, fy)`. Why the lists suffice otherwise: the ray is parallel to the camera ray, so
+    /// its projection is a segment from the projection of `origin` towards the vanishing point of
+    /// `dir`, which is `(fx, fy)` (to the 10⁻⁴ pixel of the ray generation). Every point of the
+    /// ray therefore projects within the offset of `(fx, fy)`, well inside [`MARGIN`] and
+    /// [`EDGE_MARGIN`], and a triangle it meets is among the pixel's candidates and passes the
+    /// edge test. The early stop moves with the origin's depth `z₀`: with `v_i − origin =
+    /// s_i·dir + w_i` (`|w_i| ≤ D` for a triangle the ray meets), `z_i ≤ s_i + D + z₀` when every
+    /// `s_i ≥ 0`, so `t ≥ min z_i − (1 + √2)·D − z₀ > lb − z₀`; a corner with `s_i < 0` has
+    /// `z_i ≤ D + z₀`, hence `lb < z₀`. So no candidate with `lb > z₀ + t_best` can improve on
+    /// `t_best` (we add 10⁻⁴ of `z₀ + t_best` for the rounding of `z₀`).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn closest_along(
+        &self,
+        accel: &Accel,
+        fx: f32,
+        fy: f32,
+        origin: Vec3,
+        origin_film: (f32, f32, f32),
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Option<Hit>> {
+        let mut cursor = self.cursor(fx, fy);
+        self.closest_next(accel, &mut cursor, origin, origin_film, dir, tmin, tmax)
+    }
+
+    /// A [`FilmCursor`] for the camera ray through the film point `(fx, fy)`.
+    #[inline]
+    pub fn cursor(&self, fx: f32, fy: f32) -> FilmCursor<'_> {
         let (w, h) = self.size();
         // x + jitter may round up to the pixel's right edge (= w for the last column): that film
         // point still lies in the pixel's (closed) bin, so the bin index is clamped.
-        if !(fx >= 0.0 && fy >= 0.0 && fx <= w as f32 && fy <= h as f32) {
-            return None;
+        let inside = fx >= 0.0 && fy >= 0.0 && fx <= w as f32 && fy <= h as f32;
+        let list = match inside {
+            true => self
+                .lists
+                .at((fx as u32).min(w - 1), (fy as u32).min(h - 1)),
+            false => &[],
+        };
+        FilmCursor {
+            list,
+            fx,
+            fy,
+            scanned: 0,
+            passed: [0; CURSOR_CAPACITY],
+            n_passed: 0,
         }
-        let list = self
-            .lists
-            .at((fx as u32).min(w - 1), (fy as u32).min(h - 1));
-        self.closest_in(accel, list, dir, tmin, tmax, |prim| {
-            inside_edges(&self.edges[prim as usize], fx, fy)
-        })
     }
 
-    /// The closest hit among the candidates of `list` that pass `keep` (the loop of
-    /// [`Accel::closest`] over a list sorted by lower bound: stops at the first `lb > t_best`).
+    /// [`closest_film`](Self::closest_film) through a cursor: the same answer, and the
+    /// candidates it scanned are remembered for [`closest_next`](Self::closest_next).
+    #[inline]
+    pub fn closest_first(
+        &self,
+        accel: &Accel,
+        cursor: &mut FilmCursor,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        self.closest_cursor(accel, cursor, self.origin, dir, tmin, tmax, |t| t)
+    }
+
+    /// [`closest_along`](Self::closest_along) through the cursor of the camera ray it
+    /// continues. The edge test depends only on the film point, so the candidates that the
+    /// cursor's earlier queries scanned and that passed it are tested again from the new origin
+    /// without a second pass over the list; the scan then goes on where it stopped.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn closest_next(
+        &self,
+        accel: &Accel,
+        cursor: &mut FilmCursor,
+        origin: Vec3,
+        origin_film: (f32, f32, f32),
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Option<Hit>> {
+        let (px, py, z0) = origin_film;
+        let (dx, dy) = (px - cursor.fx, py - cursor.fy);
+        let near = dx * dx + dy * dy <= CONTINUATION_OFFSET * CONTINUATION_OFFSET;
+        if !(near && z0 > 0.0 && z0.is_finite()) {
+            return None;
+        }
+        let bound = |t: f32| (z0 + t) * (1.0 + 1e-4);
+        Some(self.closest_cursor(accel, cursor, origin, dir, tmin, tmax, bound))
+    }
+
+    /// The closest hit of `(origin, dir)` among the cursor's candidates: those it has passed
+    /// already, then the rest of its list until `lb > bound(t_best)`. A cursor that has passed
+    /// more than [`CURSOR_CAPACITY`] candidates scans its list from the start every time.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn closest_cursor(
+        &self,
+        accel: &Accel,
+        cursor: &mut FilmCursor,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        bound: impl Fn(f32) -> f32,
+    ) -> Option<Hit> {
+        let (fx, fy) = (cursor.fx, cursor.fy);
+        let keep = |prim: u32| inside_edges(&self.edges[prim as usize], fx, fy);
+        if cursor.n_passed > CURSOR_CAPACITY {
+            return self.closest_in(accel, cursor.list, origin, dir, tmin, tmax, bound, keep);
+        }
+        if cursor.list.is_empty() || !crate::bvh::valid_ray(dir, tmin, tmax) {
+            return None;
+        }
+        let tris = accel.bvh_triangles();
+        let wr = WatertightRay::new(Vec3A::from(origin), Vec3A::from(dir));
+        let mut best_t = tmax;
+        let mut best: Option<(u32, TriHit)> = None;
+        let test = |prim: u32, best_t: &mut f32, best: &mut Option<(u32, TriHit)>| {
+            let [v0, v1, v2] = tris[prim as usize].map(Vec3A::from);
+            let lim = Accel::limit(best, *best_t, tmax);
+            if let Some(th) = wr.intersect_hit(v0, v1, v2, tmin, lim)
+                && accel.improves(th.t, prim, best, *best_t)
+            {
+                *best_t = th.t;
+                *best = Some((prim, th));
+            }
+        };
+        for &prim in &cursor.passed[..cursor.n_passed] {
+            test(prim, &mut best_t, &mut best);
+        }
+        while let Some(&(lb, prim)) = cursor.list.get(cursor.scanned) {
+            if lb > bound(best_t) {
+                break;
+            }
+            cursor.scanned += 1;
+            if !keep(prim) {
+                continue;
+            }
+            if cursor.n_passed < CURSOR_CAPACITY {
+                cursor.passed[cursor.n_passed] = prim;
+            }
+            cursor.n_passed += 1;
+            test(prim, &mut best_t, &mut best);
+        }
+        best.map(|(prim, th)| accel.make_hit(prim, th, dir))
+    }
+
+    /// The closest hit of the ray `(origin, dir)` among the candidates of `list` that pass
+    /// `keep` (the loop of [`Accel::closest`] over a list sorted by lower bound: stops at the
+    /// first `lb > bound(t_best)`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn closest_in(
         &self,
         accel: &Accel,
         list: &[(f32, u32)],
+        origin: Vec3,
         dir: Vec3,
         tmin: f32,
         tmax: f32,
+        bound: impl Fn(f32) -> f32,
         keep: impl Fn(u32) -> bool,
     ) -> Option<Hit> {
         if list.is_empty() || !crate::bvh::valid_ray(dir, tmin, tmax) {
             return None;
         }
         let tris = accel.bvh_triangles();
-        let wr = WatertightRay::new(Vec3A::from(self.origin), Vec3A::from(dir));
+        let wr = WatertightRay::new(Vec3A::from(origin), Vec3A::from(dir));
         let mut best_t = tmax;
         let mut best: Option<(u32, TriHit)> = None;
         for &(lb, prim) in list {
-            if lb > best_t {
+            if lb > bound(best_t) {
                 break;
             }
             if !keep(prim) {

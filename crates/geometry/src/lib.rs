@@ -33,7 +33,7 @@ pub mod sampling;
 pub mod shapes;
 pub mod triangle;
 
-pub use bins::PixelBins;
+pub use bins::{FilmCursor, PixelBins};
 pub use bvh::{Accel, Hit};
 pub use error::GeometryError;
 pub use frame::Frame;

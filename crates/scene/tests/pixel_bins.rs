@@ -5,7 +5,7 @@
 //! projections of mesh vertices and edge midpoints (a hit on a shared vertex or edge, where the
 //! tie-break decides). Deterministic.
 
-use geometry::{Accel, Mesh, Shape, Vec3, sharp_box};
+use geometry::{Accel, Mesh, Shape, Vec3, bvh::offset_origin, sharp_box};
 use glam::Mat3;
 use scene::Camera;
 
@@ -96,6 +96,61 @@ fn check(
     want.is_some()
 }
 
+/// Counts of the continued queries ([`continuation`]): answered by the lists, left to the BVH.
+#[derive(Default)]
+struct Continued {
+    answered: usize,
+    declined: usize,
+}
+
+/// The camera ray through film point `(fx, fy)` continued through every boundary it crosses
+/// as an index-matched medium's path does before it scatters: from the spawned origin, a short
+/// flight (`tmax` drawn on the scale of `radius`) and then an unlimited one, through one cursor
+/// and through a fresh one ([`PixelBins::closest_along`]), each answer equal to
+/// `accel.closest` of the same ray whenever the lists give one. Every other origin is also
+/// moved sideways by `push` (× radius): the lists must then decline or still be exact.
+#[allow(clippy::too_many_arguments)]
+fn continuation(
+    cam: &Camera,
+    accel: &Accel,
+    bins: &geometry::PixelBins,
+    (fx, fy): (f32, f32),
+    radius: f32,
+    push: f32,
+    u: &mut Uniforms,
+    n: &mut Continued,
+) {
+    let (o, d) = cam.ray(fx, fy);
+    let project = cam.projector();
+    let mut cursor = bins.cursor(fx, fy);
+    let mut hit = bins.closest_first(accel, &mut cursor, d, 0.0, f32::INFINITY);
+    assert_eq!(hit, accel.closest(o, d, 0.0, f32::INFINITY));
+    let side = d.any_orthonormal_vector();
+    for crossing in 0..16 {
+        let Some(h) = hit else { break };
+        let mut o2 = offset_origin(h.p, h.ng, d);
+        if crossing % 2 == 1 {
+            o2 += push * radius * side;
+        }
+        let at = project(o2).expect("in front of the camera");
+        let short = -(1.0 - u.next()).ln() * 0.2 * radius;
+        for tmax in [short, f32::INFINITY] {
+            let want = accel.closest(o2, d, 0.0, tmax);
+            let fresh = bins.closest_along(accel, fx, fy, o2, at, d, 0.0, tmax);
+            let got = bins.closest_next(accel, &mut cursor, o2, at, d, 0.0, tmax);
+            assert_eq!(got, fresh, "cursor and fresh lists differ at ({fx}, {fy})");
+            match got {
+                Some(got) => {
+                    assert_eq!(got, want, "continued ray at ({fx}, {fy}), tmax {tmax}");
+                    n.answered += 1;
+                }
+                None => n.declined += 1,
+            }
+            hit = want;
+        }
+    }
+}
+
 #[test]
 fn pixel_bins_answer_primary_rays_exactly_like_the_bvh() {
     let mut u = Uniforms(11);
@@ -154,6 +209,42 @@ fn pixel_bins_answer_primary_rays_exactly_like_the_bvh() {
             hits > 1000 && misses > 1000,
             "{name}: {hits} hits, {misses} misses: not a discriminating test"
         );
+    }
+}
+
+/// Rays continuing a camera ray through an index-matched boundary (the volumetric tracer's
+/// first flight inside and its search for re-entries) get the BVH's answer from the lists, bit
+/// for bit, or are handed back to the BVH; origins pushed 10⁻⁵ of the object's size off the
+/// line are still answered, origins pushed 10⁻² must be declined.
+#[test]
+fn pixel_bins_answer_continued_rays_exactly_like_the_bvh() {
+    let mut u = Uniforms(12);
+    for (name, mesh) in meshes() {
+        let accel = Accel::new(mesh.clone());
+        let (lo, hi) = mesh.bounds();
+        let (center, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+        for (push, should_answer) in [(1e-5, true), (1e-2, false)] {
+            let mut n = Continued::default();
+            for cam in cameras(center, radius) {
+                let bins = cam.pixel_bins(&accel).expect("bins");
+                for y in 0..cam.height {
+                    for x in 0..cam.width {
+                        let f = (x as f32 + u.next(), y as f32 + u.next());
+                        continuation(&cam, &accel, &bins, f, radius, push, &mut u, &mut n);
+                    }
+                }
+            }
+            let Continued { answered, declined } = n;
+            assert!(answered > 2000, "{name}: only {answered} continued queries");
+            if should_answer {
+                assert_eq!(declined, 0, "{name}: {declined} of {answered} declined");
+            } else {
+                assert!(
+                    declined > answered / 4,
+                    "{name}: pushed 10⁻² off the line, {declined} declined, {answered} answered"
+                );
+            }
+        }
     }
 }
 

@@ -23,7 +23,7 @@
 //!
 //! Limitations: the camera must be outside the object; the mesh must be closed.
 
-use geometry::{Accel, Hit, LightBins, bvh::offset_origin};
+use geometry::{Accel, FilmCursor, Hit, LightBins, PixelBins, bvh::offset_origin};
 use glam::Vec3;
 use scene::{Environment, Medium, PointLight};
 
@@ -137,15 +137,52 @@ pub fn radiance(
     radiance_primary(scene, settings, origin, dir, None, s)
 }
 
-/// [`radiance`] for a ray from outside the object whose first surface hit is already known:
-/// `first` is `Some(scene.accel.closest(origin, dir, 0, ∞))` (e.g. from the camera's
-/// [`geometry::PixelBins`], which answer it bit for bit), `None` to query it here.
+/// A camera ray that came through the camera's per-pixel triangle lists ([`PixelBins`]): they
+/// answer its first hit and every later closest-hit query along the same line (the first free
+/// flight inside an index-matched medium, the search for a re-entry behind it), bit for bit as
+/// the BVH would ([`PixelBins::closest_first`], [`PixelBins::closest_next`]).
+pub struct CameraLine<'a> {
+    bins: &'a PixelBins,
+    cursor: FilmCursor<'a>,
+    project: &'a dyn Fn(Vec3) -> Option<(f32, f32, f32)>,
+}
+
+impl<'a> CameraLine<'a> {
+    /// The ray through the film point `(fx, fy)` (pixels) of the view that `bins` were built
+    /// for with the projector `project` (`(px, py, depth)` of a world point); the ray's
+    /// direction must be generated from that film point.
+    #[inline]
+    pub fn new(
+        bins: &'a PixelBins,
+        fx: f32,
+        fy: f32,
+        project: &'a dyn Fn(Vec3) -> Option<(f32, f32, f32)>,
+    ) -> Self {
+        CameraLine {
+            bins,
+            cursor: bins.cursor(fx, fy),
+            project,
+        }
+    }
+
+    /// `accel.closest(o, d, 0, tmax)` from the lists, or `None` when they cannot answer it.
+    #[inline]
+    fn closest(&mut self, accel: &Accel, o: Vec3, d: Vec3, tmax: f32) -> Option<Option<Hit>> {
+        let at = (self.project)(o)?;
+        let c = &mut self.cursor;
+        self.bins.closest_next(accel, c, o, at, d, 0.0, tmax)
+    }
+}
+
+/// [`radiance`] for a camera ray: with `line`, its closest-hit queries along the camera ray's
+/// line go through the camera's lists ([`CameraLine`]); `None` asks the BVH for everything.
+/// The result is the same either way.
 pub fn radiance_primary(
     scene: &VolpathScene,
     settings: &VolpathSettings,
     origin: Vec3,
     dir: Vec3,
-    mut first: Option<Option<Hit>>,
+    line: Option<CameraLine>,
     s: &mut Sampler,
 ) -> [f32; 3] {
     let m = &scene.medium;
@@ -165,17 +202,28 @@ pub fn radiance_primary(
     // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
     // so the query for a re-entry is skipped (the BVH would answer "no hit").
     let mut escaped = false;
+    // The path still runs along the camera ray (no scattering, no change of direction), and the
+    // camera's lists can answer its queries.
+    let mut on_line = line.filter(|_| m.eta == 1.0);
+    // The closest hit along `o + t·d`, `t < tmax`.
+    let closest = |on_line: &mut Option<CameraLine>, o: Vec3, d: Vec3, tmax: f32| {
+        on_line
+            .as_mut()
+            .and_then(|l| l.closest(scene.accel, o, d, tmax))
+            .unwrap_or_else(|| scene.accel.closest(o, d, 0.0, tmax))
+    };
 
     loop {
         // The boundary the path meets next, or a scattering event / the end of the path.
         let hit = if inside {
             let t = w.sample_distance(&m.sigma_t, s.next_f32());
-            if let Some(hit) = scene.accel.closest(o, d, 0.0, t) {
+            if let Some(hit) = closest(&mut on_line, o, d, t) {
                 w.pass(&m.sigma_t, hit.t);
                 hit
             } else {
                 // Real scattering event.
                 o += t * d;
+                on_line = None;
                 w.scatter(&m.sigma_t, &m.albedo, t);
                 depth += 1;
                 if depth >= settings.max_depth {
@@ -206,10 +254,15 @@ pub fn radiance_primary(
                 continue;
             }
         } else {
-            let hit = match first.take() {
-                Some(h) => h,
-                None if escaped => None,
-                None => scene.accel.closest(o, d, 0.0, f32::INFINITY),
+            let hit = if escaped {
+                None
+            } else if interface_events == 0
+                && let Some(l) = &mut on_line
+            {
+                l.bins
+                    .closest_first(scene.accel, &mut l.cursor, d, 0.0, f32::INFINITY)
+            } else {
+                closest(&mut on_line, o, d, f32::INFINITY)
             };
             let Some(hit) = hit else {
                 if let Some(env) = &scene.environment {

@@ -23,7 +23,8 @@ pub mod shadow;
 pub mod spectral;
 
 pub use integrator::{
-    ChannelSampling, SpawnOffset, VolpathScene, VolpathSettings, radiance, radiance_primary,
+    CameraLine, ChannelSampling, SpawnOffset, VolpathScene, VolpathSettings, radiance,
+    radiance_primary,
 };
 pub use render::{RenderSettings, render_image, shadow_lists};
 pub use shadow::ShadowTransmittance;

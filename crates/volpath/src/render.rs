@@ -8,7 +8,7 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image};
 
-use crate::integrator::{VolpathScene, VolpathSettings, radiance_primary};
+use crate::integrator::{CameraLine, VolpathScene, VolpathSettings, radiance_primary};
 use crate::rng::{Sampler, hash_key};
 use crate::shadow::ShadowTransmittance;
 
@@ -58,9 +58,10 @@ pub fn render_image(
     progress: Option<&ProgressBar>,
 ) -> Image {
     let (w, h) = (camera.width, camera.height);
-    // Camera rays through per-pixel triangle lists (bit-identical to the BVH; when the view
-    // allows them).
+    // Camera rays, and their continuation through an index-matched boundary, through per-pixel
+    // triangle lists (bit-identical to the BVH; when the view allows them).
     let bins = camera.pixel_bins(scene.accel);
+    let project = camera.projector();
     let rays = camera.ray_gen();
     let light_bins = match scene.light_bins {
         None => shadow_lists(scene, settings),
@@ -84,10 +85,10 @@ pub fn render_image(
                     let (jx, jy) = pixel_jitter(i, key, &mut s);
                     let (fx, fy) = (x as f32 + jx, y as f32 + jy);
                     let (o, d) = rays.ray(fx, fy);
-                    let first = bins
+                    let line = bins
                         .as_ref()
-                        .map(|b| b.closest_film(scene.accel, fx, fy, d, 0.0, f32::INFINITY));
-                    let l = radiance_primary(scene, settings, o, d, first, &mut s);
+                        .map(|bins| CameraLine::new(bins, fx, fy, &project));
+                    let l = radiance_primary(scene, settings, o, d, line, &mut s);
                     for c in 0..3 {
                         acc[c] += l[c] as f64;
                     }
