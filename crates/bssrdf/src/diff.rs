@@ -106,7 +106,24 @@ pub fn render_diff(
     ds: &DiffSettings,
     progress: Option<&ProgressBar>,
 ) -> Result<DiffImages, RenderError> {
-    let out = run(scene, camera, light, rs, ds, None, true, progress)?;
+    render_diff_view(
+        scene,
+        &ViewRays::new(scene, camera, light),
+        rs,
+        ds,
+        progress,
+    )
+}
+
+/// [`render_diff`] of a view whose rays are already set up (`view` built over `scene.accel`).
+pub fn render_diff_view(
+    scene: &LearnedScene,
+    view: &ViewRays,
+    rs: &RenderSettings,
+    ds: &DiffSettings,
+    progress: Option<&ProgressBar>,
+) -> Result<DiffImages, RenderError> {
+    let out = run(scene, view, rs, ds, None, true, progress)?;
     Ok(out.images.expect("images were requested"))
 }
 
@@ -130,16 +147,9 @@ pub fn render_loss_gradient(
             target.width, target.height, camera.width, camera.height
         )));
     }
-    run(
-        scene,
-        camera,
-        light,
-        rs,
-        ds,
-        Some((target, loss)),
-        keep_images,
-        progress,
-    )
+    let view = ViewRays::new(scene, camera, light);
+    let target = Some((target, loss));
+    run(scene, &view, rs, ds, target, keep_images, progress)
 }
 
 /// Network inputs and outputs of one set of offset samples (descriptor at another scale).
@@ -178,8 +188,7 @@ struct RowResult {
 #[allow(clippy::too_many_arguments)]
 fn run(
     scene: &LearnedScene,
-    camera: &Camera,
-    light: &PointLight,
+    view: &ViewRays,
     rs: &RenderSettings,
     ds: &DiffSettings,
     target: Option<(&Image, Loss)>,
@@ -187,12 +196,11 @@ fn run(
     progress: Option<&ProgressBar>,
 ) -> Result<LossGradient, RenderError> {
     let consts = Consts::new(scene, ds)?;
-    let (w, h) = (camera.width, camera.height);
-    let view = ViewRays::new(scene, camera, light);
+    let (w, h) = (view.camera.width, view.camera.height);
     let rows: Vec<RowResult> = (0..h)
         .into_par_iter()
         .map_init(DiffBuffers::default, |buf, y| {
-            diff_row(scene, &view, rs, ds, &consts, y, buf)?;
+            diff_row(scene, view, rs, ds, &consts, y, buf)?;
             let mut r = RowResult {
                 value: Vec::new(),
                 d_sigma_t: Vec::new(),

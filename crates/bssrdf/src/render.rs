@@ -102,9 +102,10 @@ pub struct LearnedSettings {
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
-/// impossible, the per-pixel triangle lists of the camera ([`Camera::pixel_bins`]), built once
-/// per rendered view.
-pub(crate) struct ViewRays<'a> {
+/// impossible, the per-pixel triangle lists of the camera ([`Camera::pixel_bins`]). Built once
+/// per rendered view; renders of the same view with the same scene geometry can share one
+/// ([`render_image_view`], [`crate::diff::render_diff_view`]).
+pub struct ViewRays<'a> {
     pub(crate) camera: &'a Camera,
     pub(crate) light: &'a PointLight,
     rays: RayGen,
@@ -112,7 +113,9 @@ pub(crate) struct ViewRays<'a> {
 }
 
 impl<'a> ViewRays<'a> {
-    pub(crate) fn new(scene: &LearnedScene, camera: &'a Camera, light: &'a PointLight) -> Self {
+    /// The rays of `camera` over `scene.accel` (lists unless
+    /// [`LearnedSettings::bvh_camera_rays`]), lit by `light`.
+    pub fn new(scene: &LearnedScene, camera: &'a Camera, light: &'a PointLight) -> Self {
         let bins = if scene.settings.bvh_camera_rays {
             None
         } else {
@@ -325,13 +328,23 @@ pub fn render_image(
     rs: &RenderSettings,
     progress: Option<&ProgressBar>,
 ) -> Result<Image, RenderError> {
+    render_image_view(scene, &ViewRays::new(scene, camera, light), rs, progress)
+}
+
+/// [`render_image`] of a view whose rays are already set up (`view` built over `scene.accel`).
+pub fn render_image_view(
+    scene: &LearnedScene,
+    view: &ViewRays,
+    rs: &RenderSettings,
+    progress: Option<&ProgressBar>,
+) -> Result<Image, RenderError> {
+    let camera = view.camera;
     let (w, h) = (camera.width as usize, camera.height as usize);
     let mut img = Image::new(camera.width, camera.height);
-    let view = ViewRays::new(scene, camera, light);
     let result: Result<(), RenderError> = img.data.par_chunks_mut(w).enumerate().try_for_each_init(
         RowBuffers::default,
         |buf, (y, row)| {
-            render_row(scene, &view, rs, y as u32, buf)?;
+            render_row(scene, view, rs, y as u32, buf)?;
             let inv = 1.0 / rs.spp.max(1) as f64;
             for (px, s) in row.iter_mut().zip(&buf.sums) {
                 *px = s.map(|v| (v * inv) as f32);

@@ -16,6 +16,8 @@
 //!   light at distance 3 (the shadow rays of one view), by the BVH and by the light's
 //!   per-direction triangle lists ([`geometry::LightBins`], built outside the timing;
 //!   `light_lists_build` times the build).
+//! * `pixel_bins_build`: the per-pixel triangle lists of a 256² pinhole view from distance 3
+//!   ([`geometry::PixelBins`]), which every rendered view builds for its camera rays.
 //!
 //! Every ray benchmark traces the whole batch on an explicit rayon pool of 1 or 2 threads
 //! (`args`), and reports the throughput in rays/s (divan "item/s"); Mrays/s = item/s / 1e6.
@@ -23,7 +25,7 @@
 use std::sync::LazyLock;
 
 use divan::counter::ItemsCount;
-use geometry::{Accel, LightBins, Mesh, Shape, Vec3};
+use geometry::{Accel, LightBins, Mesh, PixelBins, Shape, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
@@ -239,4 +241,25 @@ fn light_inside_length_lists(bencher: divan::Bencher, threads: usize) {
     run(bencher, threads, &LIGHT_POINTS, |&a| {
         (LIGHT_BINS.inside_length(&ACCEL, a) > 0.5) as u32
     });
+}
+
+#[divan::bench(sample_count = 10, sample_size = 1)]
+fn pixel_bins_build(bencher: divan::Bencher) {
+    LazyLock::force(&ACCEL);
+    let (w, h) = (256u32, 256u32);
+    let origin = Vec3::new(0.0, 0.0, 3.0);
+    let t = 20f32.to_radians().tan();
+    // Looking down −z, x to the right of the image, y up.
+    let project = move |p: Vec3| {
+        let d = p - origin;
+        let z = -d.z;
+        (z > 0.0).then(|| {
+            let px = (1.0 + d.x / z / t) * 0.5 * w as f32;
+            let py = (1.0 - d.y / z / t) * 0.5 * h as f32;
+            (px, py, z)
+        })
+    };
+    bencher
+        .counter(ItemsCount::new(MESH.triangle_count()))
+        .bench(|| PixelBins::build(&ACCEL, w, h, origin, project).map(|b| b.mean_candidates()));
 }

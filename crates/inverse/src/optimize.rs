@@ -17,11 +17,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bssrdf::diff::{
-    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal, render_diff,
+    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal, render_diff_view,
     render_loss_gradient,
 };
 use bssrdf::nn::ShapeAdaptiveModel;
-use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
+use bssrdf::render::{
+    LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, ViewRays, render_image_view,
+};
 use geometry::Accel;
 use learn::optim::{Adam, AdamConfig, AdamState};
 use scene::{Camera, Image, Medium, PointLight};
@@ -443,8 +445,10 @@ impl<'a> Optimizer<'a> {
                     seed: hash_key(&[c.seed, k as u64, 0xB]),
                     ..rs
                 };
-                let i1 = render_image(&scene, t.camera, t.light, &rs, None)?;
-                let d2 = render_diff(&scene, t.camera, t.light, &rs_b, &ds, None)?;
+                // One set of camera rays (the view's triangle lists) for both renders.
+                let view = ViewRays::new(&scene, t.camera, t.light);
+                let i1 = render_image_view(&scene, &view, &rs, None)?;
+                let d2 = render_diff_view(&scene, &view, &rs_b, &ds, None)?;
                 decorrelated_gradient(&i1, &d2, t.image, c.loss)
             } else {
                 render_loss_gradient(
