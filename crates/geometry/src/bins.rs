@@ -27,9 +27,14 @@
 //! the lists would exceed [`MAX_ENTRIES_PER_PIXEL`] entries per pixel on average (huge
 //! overlapping triangles), [`PixelBins::build`] returns `None` and the caller keeps the BVH.
 //!
-//! Cost: one pass over the triangles per view (a few ms for 80 k triangles) and 8 bytes per
-//! (triangle, pixel) overlap; a camera ray then costs a few triangle tests instead of a BVH
-//! descent.
+//! Continued rays. A ray that crosses an index-matched boundary goes on along the camera ray's
+//! line from an origin a few ulps off it; [`PixelBins::closest_along`] answers its closest-hit
+//! queries from the same list (the argument is in its docs), and a [`FilmCursor`] carries one
+//! camera ray's scan from query to query so that the edge tests are not repeated.
+//!
+//! Cost: one pass over the triangles per view (a few ms for 80 k triangles, in parallel) and 8
+//! bytes per (triangle, pixel) overlap; a camera ray then costs a few triangle tests instead of
+//! a BVH descent.
 
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;

@@ -21,6 +21,11 @@
 //! such scenes black); we connect through the refraction by manifold NEE ([`crate::manifold`]),
 //! which is exact for convex objects (see its limitations). Environment light works for every η.
 //!
+//! Queries. Free flights ask [`Accel::closest`] (which skips the BVH when the clearance grid
+//! rules out a hit); the shadow rays read the light's lists ([`LightBins`]); a camera ray and
+//! the path's queries along its line until the first scattering (index-matched boundary) read
+//! the camera's per-pixel lists ([`CameraLine`]). Every list answers exactly as the BVH would.
+//!
 //! Limitations: the camera must be outside the object; the mesh must be closed.
 
 use geometry::{Accel, FilmCursor, Hit, LightBins, PixelBins, bvh::offset_origin};
