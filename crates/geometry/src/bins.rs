@@ -28,7 +28,7 @@
 //! overlapping triangles), [`PixelBins::build`] returns `None` and the caller keeps the BVH.
 //!
 //! Continued rays. A ray that crosses an index-matched boundary goes on along the camera ray's
-//! line from an origin a few ulps off it; [`PixelBins::closest_along`] answers its closest-hit
+//! line from an origin a few ulps off it; [`PixelBins::closest_next`] answers its closest-hit
 //! queries from the same list (the argument is in its docs), and a [`FilmCursor`] carries one
 //! camera ray's scan from query to query so that the edge tests are not repeated.
 //!
@@ -47,7 +47,7 @@ use crate::triangle::{TriHit, WatertightRay};
 pub const MARGIN: f32 = 1.0 / 16.0;
 
 /// How far (in pixels) the origin of a continued camera ray may project from the camera ray's
-/// film point for [`PixelBins::closest_along`] to answer it (a small part of [`MARGIN`]; the
+/// film point for [`PixelBins::closest_next`] to answer it (a small part of [`MARGIN`]; the
 /// offsets after a boundary crossing are about 10⁻⁵ of the distance).
 pub const CONTINUATION_OFFSET: f32 = 1.0 / 20.0;
 
@@ -57,7 +57,7 @@ pub const CURSOR_CAPACITY: usize = 24;
 /// One camera ray's walk through its pixel's candidate list ([`PixelBins::cursor`]): how far
 /// the list has been scanned for the film point `(fx, fy)` and which of the scanned candidates
 /// passed the edge test there (the others cannot be met by the camera ray or by a ray
-/// continuing it, [`PixelBins::closest_along`]).
+/// continuing it, [`PixelBins::closest_next`]).
 #[derive(Clone, Debug)]
 pub struct FilmCursor<'a> {
     list: &'a [(f32, u32)],
@@ -337,41 +337,6 @@ impl PixelBins {
         self.closest_first(accel, &mut cursor, dir, tmin, tmax)
     }
 
-    /// [`Accel::closest`]`(origin, dir, tmin, tmax)`, bit for bit, for a ray that continues the
-    /// camera ray through the film point `(fx, fy)` (`dir` generated from it, as for
-    /// [`closest_film`](Self::closest_film)) from a point `origin` near that ray: the ray that
-    /// crossed an index-matched boundary and goes on in the same direction (the first free
-    /// flight inside the medium, the search for a re-entry behind it). `origin_film` is the
-    /// projection `(px, py, z)` of `origin` by the projector the bins were built with.
-    ///
-    /// `None` (ask the BVH) when `origin` does not project within [`CONTINUATION_OFFSET`] pixels
-    /// of `(fx, fy)`. Why the lists suffice otherwise: the ray is parallel to the camera ray, so
-    /// its projection is a segment from the projection of `origin` towards the vanishing point of
-    /// `dir`, which is `(fx, fy)` (to the 10⁻⁴ pixel of the ray generation). Every point of the
-    /// ray therefore projects within the offset of `(fx, fy)`, well inside [`MARGIN`] and
-    /// [`EDGE_MARGIN`], and a triangle it meets is among the pixel's candidates and passes the
-    /// edge test. The early stop moves with the origin's depth `z₀`: with `v_i − origin =
-    /// s_i·dir + w_i` (`|w_i| ≤ D` for a triangle the ray meets), `z_i ≤ s_i + D + z₀` when every
-    /// `s_i ≥ 0`, so `t ≥ min z_i − (1 + √2)·D − z₀ > lb − z₀`; a corner with `s_i < 0` has
-    /// `z_i ≤ D + z₀`, hence `lb < z₀`. So no candidate with `lb > z₀ + t_best` can improve on
-    /// `t_best` (we add 10⁻⁴ of `z₀ + t_best` for the rounding of `z₀`).
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    pub fn closest_along(
-        &self,
-        accel: &Accel,
-        fx: f32,
-        fy: f32,
-        origin: Vec3,
-        origin_film: (f32, f32, f32),
-        dir: Vec3,
-        tmin: f32,
-        tmax: f32,
-    ) -> Option<Option<Hit>> {
-        let mut cursor = self.cursor(fx, fy);
-        self.closest_next(accel, &mut cursor, origin, origin_film, dir, tmin, tmax)
-    }
-
     /// A [`FilmCursor`] for the camera ray through the film point `(fx, fy)`.
     #[inline]
     pub fn cursor(&self, fx: f32, fy: f32) -> FilmCursor<'_> {
@@ -409,10 +374,29 @@ impl PixelBins {
         self.closest_cursor(accel, cursor, self.origin, dir, tmin, tmax, |t| t)
     }
 
-    /// [`closest_along`](Self::closest_along) through the cursor of the camera ray it
-    /// continues. The edge test depends only on the film point, so the candidates that the
-    /// cursor's earlier queries scanned and that passed it are tested again from the new origin
-    /// without a second pass over the list; the scan then goes on where it stopped.
+    /// [`Accel::closest`]`(origin, dir, tmin, tmax)`, bit for bit, for a ray that continues the
+    /// camera ray through the film point `(fx, fy)` (`dir` generated from it, as for
+    /// [`closest_film`](Self::closest_film)) from a point `origin` near that ray: the ray that
+    /// crossed an index-matched boundary and goes on in the same direction (the first free
+    /// flight inside the medium, the search for a re-entry behind it). `origin_film` is the
+    /// projection `(px, py, z)` of `origin` by the projector the bins were built with.
+    ///
+    /// `None` (ask the BVH) when `origin` does not project within [`CONTINUATION_OFFSET`] pixels
+    /// of `(fx, fy)`. Why the lists suffice otherwise: the ray is parallel to the camera ray, so
+    /// its projection is a segment from the projection of `origin` towards the vanishing point of
+    /// `dir`, which is `(fx, fy)` (to the 10⁻⁴ pixel of the ray generation). Every point of the
+    /// ray therefore projects within the offset of `(fx, fy)`, well inside [`MARGIN`] and
+    /// [`EDGE_MARGIN`], and a triangle it meets is among the pixel's candidates and passes the
+    /// edge test. The early stop moves with the origin's depth `z₀`: with `v_i − origin =
+    /// s_i·dir + w_i` (`|w_i| ≤ D` for a triangle the ray meets), `z_i ≤ s_i + D + z₀` when every
+    /// `s_i ≥ 0`, so `t ≥ min z_i − (1 + √2)·D − z₀ > lb − z₀`; a corner with `s_i < 0` has
+    /// `z_i ≤ D + z₀`, hence `lb < z₀`. So no candidate with `lb > z₀ + t_best` can improve on
+    /// `t_best` (we add 10⁻⁴ of `z₀ + t_best` for the rounding of `z₀`).
+    ///
+    /// `cursor` is the camera ray's ([`cursor`](Self::cursor) of `(fx, fy)`). The edge test
+    /// depends only on the film point, so the candidates that the cursor's earlier queries
+    /// scanned and that passed it are tested again from the new origin without a second pass
+    /// over the list; the scan then goes on where it stopped.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub fn closest_next(

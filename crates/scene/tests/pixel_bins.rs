@@ -106,7 +106,7 @@ struct Continued {
 /// The camera ray through film point `(fx, fy)` continued through every boundary it crosses
 /// as an index-matched medium's path does before it scatters: from the spawned origin, a short
 /// flight (`tmax` drawn on the scale of `radius`) and then an unlimited one, through one cursor
-/// and through a fresh one ([`PixelBins::closest_along`]), each answer equal to
+/// and through a fresh one, each answer equal to
 /// `accel.closest` of the same ray whenever the lists give one. Every other origin is also
 /// moved sideways by `push` (× radius): the lists must then decline or still be exact.
 #[allow(clippy::too_many_arguments)]
@@ -136,7 +136,7 @@ fn continuation(
         let short = -(1.0 - u.next()).ln() * 0.2 * radius;
         for tmax in [short, f32::INFINITY] {
             let want = accel.closest(o2, d, 0.0, tmax);
-            let fresh = bins.closest_along(accel, fx, fy, o2, at, d, 0.0, tmax);
+            let fresh = bins.closest_next(accel, &mut bins.cursor(fx, fy), o2, at, d, 0.0, tmax);
             let got = bins.closest_next(accel, &mut cursor, o2, at, d, 0.0, tmax);
             assert_eq!(got, fresh, "cursor and fresh lists differ at ({fx}, {fy})");
             match got {
