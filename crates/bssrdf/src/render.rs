@@ -132,9 +132,10 @@ impl<'a> ViewRays<'a> {
     /// The ray through film point (x + jx, y + jy) and its closest hit (`Accel::closest`).
     #[inline]
     fn trace(&self, accel: &Accel, x: u32, y: u32, jx: f32, jy: f32) -> (Vec3, Option<Hit>) {
-        let (o, d) = self.rays.ray(x as f32 + jx, y as f32 + jy);
+        let (fx, fy) = (x as f32 + jx, y as f32 + jy);
+        let (o, d) = self.rays.ray(fx, fy);
         let hit = match &self.bins {
-            Some(b) => b.closest(accel, x, y, d, 0.0, f32::INFINITY),
+            Some(b) => b.closest_film(accel, fx, fy, d, 0.0, f32::INFINITY),
             None => accel.closest(o, d, 0.0, f32::INFINITY),
         };
         (d, hit)

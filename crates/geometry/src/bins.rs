@@ -32,12 +32,11 @@
 //! queries from the same list (the argument is in its docs), and a [`FilmCursor`] carries one
 //! camera ray's scan from query to query so that the edge tests are not repeated.
 //!
-//! Cost: one pass over the triangles per view (a few ms for 80 k triangles, in parallel) and 8
+//! Cost: one pass over the triangles per view (a few ms for 80 k triangles) and 8
 //! bytes per (triangle, pixel) overlap; a camera ray then costs a few triangle tests instead of
 //! a BVH descent.
 
 use glam::{Vec3, Vec3A};
-use rayon::prelude::*;
 
 use crate::bvh::{Accel, Hit};
 use crate::triangle::{TriHit, WatertightRay};
@@ -93,13 +92,16 @@ impl Lists {
         width: u32,
         height: u32,
         sorted: bool,
-        project: impl Fn(Vec3) -> Option<(f32, f32, f32)> + Sync,
+        project: impl Fn(Vec3) -> Option<(f32, f32, f32)>,
     ) -> Option<Lists> {
         let tris = accel.bvh_triangles();
         let pixels = width as usize * height as usize;
         if pixels == 0 || tris.is_empty() || tris.len() >= u32::MAX as usize {
             return None;
         }
+        // Per triangle: pixel box (x0, x1, y0, y1), inclusive (x0 > x1: empty), and lb.
+        let mut boxes: Vec<([u32; 4], f32)> = Vec::with_capacity(tris.len());
+        let mut total: u64 = 0;
         let range = |lo: f32, hi: f32, n: u32| -> Option<(u32, u32)> {
             let (l, h) = ((lo - MARGIN).floor(), (hi + MARGIN).floor());
             if h < 0.0 || l > (n - 1) as f32 {
@@ -107,38 +109,30 @@ impl Lists {
             }
             Some((l.max(0.0) as u32, h.min((n - 1) as f32) as u32))
         };
-        // Per triangle: pixel box (x0, x1, y0, y1), inclusive (x0 > x1: empty), and lb.
-        let boxes: Vec<([u32; 4], f32)> = tris
-            .par_iter()
-            .map(|corners| {
-                let mut lo = [f32::INFINITY; 2];
-                let mut hi = [f32::NEG_INFINITY; 2];
-                let mut z_min = f32::INFINITY;
-                for &v in corners {
-                    let (px, py, z) = project(v)?;
-                    if !(px.is_finite() && py.is_finite() && z.is_finite() && z > 0.0) {
-                        return None;
-                    }
-                    lo = [lo[0].min(px), lo[1].min(py)];
-                    hi = [hi[0].max(px), hi[1].max(py)];
-                    z_min = z_min.min(z);
+        for corners in tris {
+            let mut lo = [f32::INFINITY; 2];
+            let mut hi = [f32::NEG_INFINITY; 2];
+            let mut z_min = f32::INFINITY;
+            for &v in corners {
+                let (px, py, z) = project(v)?;
+                if !(px.is_finite() && py.is_finite() && z.is_finite() && z > 0.0) {
+                    return None;
                 }
-                let [a, b, c] = *corners;
-                let diameter = (b - a).length().max((c - b).length()).max((a - c).length());
-                let lb = z_min - 2.5 * diameter - 1e-4 * z_min;
-                Some(
-                    match (range(lo[0], hi[0], width), range(lo[1], hi[1], height)) {
-                        (Some((x0, x1)), Some((y0, y1))) => ([x0, x1, y0, y1], lb),
-                        _ => ([1, 0, 1, 0], lb),
-                    },
-                )
-            })
-            .collect::<Option<_>>()?;
-        let area = |b: &[u32; 4]| match b[0] <= b[1] {
-            true => (b[1] - b[0] + 1) as u64 * (b[3] - b[2] + 1) as u64,
-            false => 0,
-        };
-        let total: u64 = boxes.iter().map(|(b, _)| area(b)).sum();
+                lo = [lo[0].min(px), lo[1].min(py)];
+                hi = [hi[0].max(px), hi[1].max(py)];
+                z_min = z_min.min(z);
+            }
+            let [a, b, c] = *corners;
+            let diameter = (b - a).length().max((c - b).length()).max((a - c).length());
+            let lb = z_min - 2.5 * diameter - 1e-4 * z_min;
+            match (range(lo[0], hi[0], width), range(lo[1], hi[1], height)) {
+                (Some((x0, x1)), Some((y0, y1))) => {
+                    total += (x1 - x0 + 1) as u64 * (y1 - y0 + 1) as u64;
+                    boxes.push(([x0, x1, y0, y1], lb));
+                }
+                _ => boxes.push(([1, 0, 1, 0], lb)),
+            }
+        }
         if total > MAX_ENTRIES_PER_PIXEL * pixels as u64 || total >= u32::MAX as u64 {
             return None;
         }
@@ -169,21 +163,10 @@ impl Lists {
             }
         }
         if sorted {
-            // Rows in parallel: split the entries at the rows' offsets.
-            let mut rows = Vec::with_capacity(height as usize);
-            let mut rest = entries.as_mut_slice();
-            for y in 0..height as usize {
-                let row = &offsets[y * width as usize..=(y + 1) * width as usize];
-                let (head, tail) = rest.split_at_mut((row[width as usize] - row[0]) as usize);
-                rows.push((row, head));
-                rest = tail;
+            for p in 0..pixels {
+                entries[offsets[p] as usize..offsets[p + 1] as usize]
+                    .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             }
-            rows.into_par_iter().for_each(|(row, entries)| {
-                for p in 0..width as usize {
-                    let (a, b) = ((row[p] - row[0]) as usize, (row[p + 1] - row[0]) as usize);
-                    entries[a..b].sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                }
-            });
         }
         Some(Lists {
             width,
@@ -271,12 +254,12 @@ impl PixelBins {
         width: u32,
         height: u32,
         origin: Vec3,
-        project: impl Fn(Vec3) -> Option<(f32, f32, f32)> + Sync,
+        project: impl Fn(Vec3) -> Option<(f32, f32, f32)>,
     ) -> Option<PixelBins> {
         let lists = Lists::build(accel, width, height, true, &project)?;
         let edges = accel
             .bvh_triangles()
-            .par_iter()
+            .iter()
             .map(|c| edges(c.map(|v| project(v).map_or((0.0, 0.0), |(x, y, _)| (x, y)))))
             .collect();
         Some(PixelBins {
