@@ -207,13 +207,14 @@ pub fn radiance_primary(
     // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
     // so the query for a re-entry is skipped (the BVH would answer "no hit").
     let mut escaped = false;
-    // The path still runs along the camera ray (no scattering, no change of direction), and the
-    // camera's lists can answer its queries.
-    let mut on_line = line.filter(|_| m.eta == 1.0);
+    // The path still runs along the camera ray (an index-matched boundary does not turn it; no
+    // scattering yet), so the camera's lists can answer its queries.
+    let mut line = line;
+    let mut on_line = m.eta == 1.0;
     // The closest hit along `o + t·d`, `t < tmax`.
-    let closest = |on_line: &mut Option<CameraLine>, o: Vec3, d: Vec3, tmax: f32| {
-        on_line
-            .as_mut()
+    let closest = |line: &mut Option<CameraLine>, on_line: bool, o: Vec3, d: Vec3, tmax: f32| {
+        line.as_mut()
+            .filter(|_| on_line)
             .and_then(|l| l.closest(scene.accel, o, d, tmax))
             .unwrap_or_else(|| scene.accel.closest(o, d, 0.0, tmax))
     };
@@ -222,13 +223,13 @@ pub fn radiance_primary(
         // The boundary the path meets next, or a scattering event / the end of the path.
         let hit = if inside {
             let t = w.sample_distance(&m.sigma_t, s.next_f32());
-            if let Some(hit) = closest(&mut on_line, o, d, t) {
+            if let Some(hit) = closest(&mut line, on_line, o, d, t) {
                 w.pass(&m.sigma_t, hit.t);
                 hit
             } else {
                 // Real scattering event.
                 o += t * d;
-                on_line = None;
+                on_line = false;
                 w.scatter(&m.sigma_t, &m.albedo, t);
                 depth += 1;
                 if depth >= settings.max_depth {
@@ -262,12 +263,12 @@ pub fn radiance_primary(
             let hit = if escaped {
                 None
             } else if interface_events == 0
-                && let Some(l) = &mut on_line
+                && let Some(l) = &mut line
             {
                 l.bins
                     .closest_first(scene.accel, &mut l.cursor, d, 0.0, f32::INFINITY)
             } else {
-                closest(&mut on_line, o, d, f32::INFINITY)
+                closest(&mut line, on_line, o, d, f32::INFINITY)
             };
             let Some(hit) = hit else {
                 if let Some(env) = &scene.environment {
