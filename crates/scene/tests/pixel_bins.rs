@@ -39,6 +39,16 @@ fn meshes() -> Vec<(String, Mesh)> {
     out
 }
 
+/// Each test mesh with its BVH, bounding-box centre and half-diagonal.
+fn scenes() -> impl Iterator<Item = (String, Mesh, Accel, Vec3, f32)> {
+    meshes().into_iter().map(|(name, mesh)| {
+        let accel = Accel::new(mesh.clone());
+        let (lo, hi) = mesh.bounds();
+        let (center, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+        (name, mesh, accel, center, radius)
+    })
+}
+
 fn cameras(center: Vec3, radius: f32) -> Vec<Camera> {
     let mut out = Vec::new();
     for (k, (dir, dist, fov)) in [
@@ -154,10 +164,7 @@ fn continuation(
 #[test]
 fn pixel_bins_answer_primary_rays_exactly_like_the_bvh() {
     let mut u = Uniforms(11);
-    for (name, mesh) in meshes() {
-        let accel = Accel::new(mesh.clone());
-        let (lo, hi) = mesh.bounds();
-        let (center, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+    for (name, mesh, accel, center, radius) in scenes() {
         let (mut hits, mut misses) = (0, 0);
         for cam in cameras(center, radius) {
             let bins = cam
@@ -219,10 +226,7 @@ fn pixel_bins_answer_primary_rays_exactly_like_the_bvh() {
 #[test]
 fn pixel_bins_answer_continued_rays_exactly_like_the_bvh() {
     let mut u = Uniforms(12);
-    for (name, mesh) in meshes() {
-        let accel = Accel::new(mesh.clone());
-        let (lo, hi) = mesh.bounds();
-        let (center, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+    for (name, _, accel, center, radius) in scenes() {
         for (push, should_answer) in [(1e-5, true), (1e-2, false)] {
             let mut n = Continued::default();
             for cam in cameras(center, radius) {
