@@ -26,5 +26,5 @@ pub use integrator::{
     CameraLine, ChannelSampling, SpawnOffset, VolpathScene, VolpathSettings, radiance,
     radiance_primary,
 };
-pub use render::{RenderSettings, render_image, shadow_lists};
+pub use render::{Progressive, RenderSettings, render_image, shadow_lists};
 pub use shadow::ShadowTransmittance;

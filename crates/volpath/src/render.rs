@@ -3,7 +3,7 @@
 //! Pixel positions use Owen-scrambled Sobol points (Burley 2020) per pixel for the first 2¹⁶
 //! samples; all other dimensions come from the pixel's PCG32 stream.
 
-use geometry::LightBins;
+use geometry::{LightBins, PixelBins};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image};
@@ -25,11 +25,10 @@ pub struct RenderSettings {
 #[inline]
 pub fn pixel_jitter(i: u32, key: u64, s: &mut Sampler) -> (f32, f32) {
     if i < (1 << 16) {
-        let seed = key as u32;
-        (
-            sobol_burley::sample(i, 0, seed),
-            sobol_burley::sample(i, 1, seed),
-        )
+        // Dimensions 0 and 1 of `sobol_burley::sample`, computed together (the same values;
+        // the index scramble is shared and the dimensions run in SIMD lanes).
+        let [x, y, _, _] = sobol_burley::sample_4d(i, 0, key as u32);
+        (x, y)
     } else {
         (s.next_f32(), s.next_f32())
     }
@@ -50,6 +49,9 @@ pub fn shadow_lists(scene: &VolpathScene, settings: &VolpathSettings) -> Option<
 }
 
 /// Render one view. `progress` is advanced by one per finished row.
+///
+/// The same image as a [`Progressive`] render advanced by `rs.spp` samples in any number of
+/// passes.
 pub fn render_image(
     scene: &VolpathScene,
     settings: &VolpathSettings,
@@ -57,48 +59,115 @@ pub fn render_image(
     rs: &RenderSettings,
     progress: Option<&ProgressBar>,
 ) -> Image {
-    let (w, h) = (camera.width, camera.height);
-    // Camera rays, and their continuation through an index-matched boundary, through per-pixel
-    // triangle lists (bit-identical to the BVH; when the view allows them).
-    let bins = camera.pixel_bins(scene.accel);
-    let project = camera.projector();
-    let rays = camera.ray_gen();
-    let light_bins = match scene.light_bins {
-        None => shadow_lists(scene, settings),
-        Some(_) => None,
-    };
-    let scene = &VolpathScene {
-        light_bins: scene.light_bins.or(light_bins.as_ref()),
-        ..*scene
-    };
-    let mut img = Image::new(w, h);
-    img.data
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, px) in row.iter_mut().enumerate() {
-                let pixel = y as u64 * w as u64 + x as u64;
-                let mut s = Sampler::new(rs.seed, rs.view, pixel, 0);
-                let key = hash_key(&[rs.seed, rs.view, pixel, 1]);
-                let mut acc = [0.0f64; 3];
-                for i in 0..rs.spp {
-                    let (jx, jy) = pixel_jitter(i, key, &mut s);
-                    let (fx, fy) = (x as f32 + jx, y as f32 + jy);
-                    let (o, d) = rays.ray(fx, fy);
-                    let line = bins
-                        .as_ref()
-                        .map(|bins| CameraLine::new(bins, fx, fy, &project));
-                    let l = radiance_primary(scene, settings, o, d, line, &mut s);
-                    for c in 0..3 {
-                        acc[c] += l[c] as f64;
+    let mut p = Progressive::new(scene, settings, camera, rs.seed, rs.view);
+    p.advance(rs.spp, progress);
+    p.image()
+}
+
+/// The state of one pixel between passes: its random stream, its Sobol scramble key and the sums
+/// of its samples so far.
+struct PixelState {
+    stream: Sampler,
+    key: u64,
+    sum: [f64; 3],
+}
+
+/// A view rendered in passes: [`Progressive::advance`] adds samples to every pixel, continuing
+/// each pixel's random stream and Sobol sequence where the last pass left them, so that passes of
+/// n₁, n₂, … samples give bit for bit the image of [`render_image`] at n₁ + n₂ + … spp. Used
+/// where the number of samples is decided while rendering (`validate-mitsuba --equal-time`
+/// renders until the reference's render time is spent).
+pub struct Progressive<'a> {
+    scene: VolpathScene<'a>,
+    settings: VolpathSettings,
+    camera: Camera,
+    /// The camera's per-pixel triangle lists (when the view allows them), built once.
+    bins: Option<PixelBins>,
+    /// The shadow rays' lists, when the scene does not bring them and the settings use them.
+    light_bins: Option<LightBins>,
+    pixels: Vec<PixelState>,
+    spp: u32,
+}
+
+impl<'a> Progressive<'a> {
+    /// A view with no samples yet: streams keyed by `(seed, view, pixel)` as in
+    /// [`render_image`].
+    pub fn new(
+        scene: &VolpathScene<'a>,
+        settings: &VolpathSettings,
+        camera: &Camera,
+        seed: u64,
+        view: u64,
+    ) -> Self {
+        let pixels = (0..camera.width as u64 * camera.height as u64)
+            .map(|pixel| PixelState {
+                stream: Sampler::new(seed, view, pixel, 0),
+                key: hash_key(&[seed, view, pixel, 1]),
+                sum: [0.0; 3],
+            })
+            .collect();
+        let light_bins = match scene.light_bins {
+            None => shadow_lists(scene, settings),
+            Some(_) => None,
+        };
+        Progressive {
+            scene: *scene,
+            settings: *settings,
+            camera: camera.clone(),
+            bins: camera.pixel_bins(scene.accel),
+            light_bins,
+            pixels,
+            spp: 0,
+        }
+    }
+
+    /// Samples per pixel so far.
+    pub fn spp(&self) -> u32 {
+        self.spp
+    }
+
+    /// Add `samples` samples to every pixel (pixels in parallel, one task per row). `progress`
+    /// is advanced by one per finished row.
+    pub fn advance(&mut self, samples: u32, progress: Option<&ProgressBar>) {
+        let w = self.camera.width as usize;
+        let project = self.camera.projector();
+        let rays = self.camera.ray_gen();
+        let scene = &VolpathScene {
+            light_bins: self.scene.light_bins.or(self.light_bins.as_ref()),
+            ..self.scene
+        };
+        let (settings, bins, first) = (&self.settings, self.bins.as_ref(), self.spp);
+        self.pixels
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, px) in row.iter_mut().enumerate() {
+                    let s = &mut px.stream;
+                    for i in first..first + samples {
+                        let (jx, jy) = pixel_jitter(i, px.key, s);
+                        let (fx, fy) = (x as f32 + jx, y as f32 + jy);
+                        let (o, d) = rays.ray(fx, fy);
+                        let line = bins.map(|bins| CameraLine::new(bins, fx, fy, &project));
+                        let l = radiance_primary(scene, settings, o, d, line, s);
+                        for c in 0..3 {
+                            px.sum[c] += l[c] as f64;
+                        }
                     }
                 }
-                let inv = 1.0 / rs.spp.max(1) as f64;
-                *px = acc.map(|v| (v * inv) as f32);
-            }
-            if let Some(pb) = progress {
-                pb.inc(1);
-            }
-        });
-    img
+                if let Some(pb) = progress {
+                    pb.inc(1);
+                }
+            });
+        self.spp += samples;
+    }
+
+    /// The mean of the samples so far (black before the first pass).
+    pub fn image(&self) -> Image {
+        let mut img = Image::new(self.camera.width, self.camera.height);
+        let inv = 1.0 / self.spp.max(1) as f64;
+        for (px, st) in img.data.iter_mut().zip(&self.pixels) {
+            *px = st.sum.map(|v| (v * inv) as f32);
+        }
+        img
+    }
 }

@@ -63,7 +63,12 @@ impl SpectralWeight {
         let mut mean_r = 0.0;
         for j in 0..3 {
             // p_j / p_h = (σ_t,j / σ_t,h) e^{−(σ_t,j − σ_t,h) t};  f_j / p_h = α_j · p_j / p_h.
-            let ratio = sigma_t[j] / sigma_t[h] * (-(sigma_t[j] - sigma_t[h]) * t).exp();
+            // For the hero itself that is exactly 1 (x/x and e^{−0}), without calling exp.
+            let ratio = if j == h {
+                1.0
+            } else {
+                sigma_t[j] / sigma_t[h] * (-(sigma_t[j] - sigma_t[h]) * t).exp()
+            };
             self.r[j] *= ratio;
             self.beta[j] *= albedo[j] * ratio;
             mean_r += self.r[j];
@@ -77,7 +82,11 @@ impl SpectralWeight {
         let h = self.hero;
         let mut mean_r = 0.0;
         for j in 0..3 {
-            let e_j = (-(sigma_t[j] - sigma_t[h]) * t_b).exp();
+            let e_j = if j == h {
+                1.0
+            } else {
+                (-(sigma_t[j] - sigma_t[h]) * t_b).exp()
+            };
             self.r[j] *= e_j;
             self.beta[j] *= e_j;
             mean_r += self.r[j];

@@ -125,3 +125,24 @@ fn pixel_jitter_is_uniform_over_the_pixel() {
         );
     }
 }
+
+/// Below 2^16 samples the jitter is dimensions 0 and 1 of the pixel's Owen-scrambled Sobol
+/// sequence (`sample_4d` computes them together): the same values as `sobol_burley::sample`.
+#[test]
+fn pixel_jitter_is_the_first_two_sobol_dimensions() {
+    let mut s = Sampler::new(1, 2, 3, 0);
+    for key in [0u64, 0xDEAD_BEEF, 12345, u64::MAX] {
+        for i in (0..1u32 << 16).step_by(7) {
+            let (x, y) = pixel_jitter(i, key, &mut s);
+            let seed = key as u32;
+            assert_eq!(
+                (x.to_bits(), y.to_bits()),
+                (
+                    sobol_burley::sample(i, 0, seed).to_bits(),
+                    sobol_burley::sample(i, 1, seed).to_bits()
+                ),
+                "sample {i}, key {key}"
+            );
+        }
+    }
+}

@@ -233,3 +233,60 @@ fn render_image_matches_the_bvh_reference_loop() {
         assert!(nonzero > 50, "{shadow:?}: only {nonzero} lit pixels");
     }
 }
+
+/// A [`volpath::Progressive`] render continues every pixel's streams from pass to pass: passes of
+/// 1, 2 and 3 samples give bit for bit `render_image` at 6 spp, with the scene's own shadow lists
+/// and with lists built by the progressive render itself; before any pass the image is black.
+#[test]
+fn progressive_passes_give_the_image_of_one_render() {
+    use scene::{Camera, Medium, PointLight};
+    use volpath::{
+        Progressive, RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists,
+    };
+
+    let accel = torus();
+    let cam = Camera::look_at(Vec3::new(-0.4, 0.7, 1.5), Vec3::ZERO, Vec3::Y, 40.0, 20, 16);
+    let mut scene = VolpathScene {
+        accel: &accel,
+        medium: Medium {
+            sigma_t: [25.0, 35.0, 50.0],
+            albedo: [0.9, 0.95, 0.8],
+            g: 0.3,
+            eta: 1.0,
+        },
+        light: Some(PointLight {
+            position: Vec3::new(-1.0, 1.2, 0.8),
+            intensity: [2.0; 3],
+        }),
+        environment: None,
+        light_bins: None,
+    };
+    let settings = VolpathSettings::default();
+    let rs = RenderSettings {
+        spp: 6,
+        seed: 5,
+        view: 3,
+    };
+    let whole = render_image(&scene, &settings, &cam, &rs, None);
+    assert!(
+        whole.data.iter().any(|p| p[0] > 0.0),
+        "the view must see the lit torus"
+    );
+    let lists = shadow_lists(&scene, &settings).expect("exact shadows use the light's lists");
+    for shared in [false, true] {
+        scene.light_bins = shared.then_some(&lists);
+        let mut p = Progressive::new(&scene, &settings, &cam, rs.seed, rs.view);
+        assert!(p.image().data.iter().all(|px| *px == [0.0; 3]));
+        for n in [1, 2, 3] {
+            p.advance(n, None);
+        }
+        assert_eq!(p.spp(), rs.spp);
+        for (i, (a, b)) in p.image().data.iter().zip(&whole.data).enumerate() {
+            assert_eq!(
+                a.map(f32::to_bits),
+                b.map(f32::to_bits),
+                "pixel {i}, lists shared: {shared}"
+            );
+        }
+    }
+}

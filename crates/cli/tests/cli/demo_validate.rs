@@ -232,3 +232,75 @@ fn validate_mitsuba_fails_when_reference_is_twice_as_bright() {
     // Our render at half the light is half the reference: mean ratio 0.5.
     assert_stdout_has(&r, &["0.5000"]);
 }
+
+/// `--equal-time` renders in passes until the time budget is spent, reports the spp it reached
+/// within the budget, and `--spp` with that number gives the same images; without a budget (the synthetic
+/// scene.json records no render time) it says where to give one.
+#[test]
+fn validate_mitsuba_equal_time_reaches_an_spp_that_reproduces_its_images() {
+    let t = tmp();
+    mitsuba_reference(t.path(), "ref", 1.0);
+    fn with<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+        // The reference is an 8-spp render: its noise, not the tolerances, is not the point here.
+        let base = [
+            "-q",
+            "validate-mitsuba",
+            "ref",
+            "--spawn-offset",
+            "robust",
+            "--seed",
+            "3",
+            "--lit-tolerance",
+            "0.5",
+            "--dark-tolerance",
+            "0.5",
+        ];
+        base.into_iter().chain(extra.iter().copied()).collect()
+    }
+    let r = ok(
+        t.path(),
+        &with(&["--equal-time", "--time-per-view", "0.2", "--out", "eq"]),
+    );
+    assert_stdout_has(&r, &["equal time: ", "all 2 views within tolerance"]);
+    let spp: u32 = r
+        .stdout
+        .split("equal time: ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no spp in the equal-time line\n{}", r.describe()));
+    assert!(
+        spp >= 32 && spp.is_multiple_of(32),
+        "{spp} spp: passes are 32 spp"
+    );
+    let secs: f64 = r
+        .stdout
+        .split(" spp in ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no time in the equal-time line\n{}", r.describe()));
+    // Within the budget unless one pass alone overran it (a loaded machine).
+    assert!(secs <= 0.2 || spp == 32, "{secs} s/view at {spp} spp");
+    let spp_arg = spp.to_string();
+    ok(t.path(), &with(&["--spp", &spp_arg, "--out", "fixed"]));
+    assert_same_images(
+        &t.path().join("eq"),
+        &t.path().join("fixed"),
+        2,
+        "--equal-time differs from --spp at the spp it reached",
+    );
+
+    let r = fails(t.path(), &with(&["--equal-time", "--out", "x"]));
+    assert_stderr_has(&r, &["records no render time", "--time-per-view"]);
+    let r = fails(
+        t.path(),
+        &with(&["--equal-time", "--time-per-view", "0", "--out", "x"]),
+    );
+    assert_stderr_has(&r, &["--time-per-view must be a positive number"]);
+    let r = fails(
+        t.path(),
+        &with(&["--equal-time", "--spp", "8", "--out", "x"]),
+    );
+    assert_stderr_has(&r, &["--spp"]);
+}
