@@ -34,6 +34,31 @@ fn torus() -> Accel {
     )
 }
 
+/// The torus's medium (index-matched, g as given) lit by a point light of intensity 2 at `light`.
+fn lit_scene(
+    accel: &Accel,
+    sigma_t: [f32; 3],
+    albedo: [f32; 3],
+    g: f32,
+    light: Vec3,
+) -> volpath::VolpathScene<'_> {
+    volpath::VolpathScene {
+        accel,
+        medium: scene::Medium {
+            sigma_t,
+            albedo,
+            g,
+            eta: 1.0,
+        },
+        light: Some(scene::PointLight {
+            position: light,
+            intensity: [2.0; 3],
+        }),
+        environment: None,
+        light_bins: None,
+    }
+}
+
 /// A point inside the torus tube: angle φ around the Y axis, offset (r, θ) in the tube.
 fn inside_point(phi: f32, r: f32, theta: f32) -> Vec3 {
     let radial = 0.35 + r * theta.cos();
@@ -161,12 +186,10 @@ fn tracked_transmittance_is_unbiased() {
 /// bit, with both shadow estimators.
 #[test]
 fn render_image_matches_the_bvh_reference_loop() {
-    use scene::{Camera, Medium, PointLight};
+    use scene::Camera;
     use volpath::render::pixel_jitter;
     use volpath::rng::hash_key;
-    use volpath::{
-        RenderSettings, VolpathScene, VolpathSettings, radiance, render_image, shadow_lists,
-    };
+    use volpath::{RenderSettings, VolpathSettings, radiance, render_image, shadow_lists};
 
     let accel = torus();
     let cam = Camera::look_at(Vec3::new(0.3, 0.9, 1.4), Vec3::ZERO, Vec3::Y, 40.0, 24, 20);
@@ -174,21 +197,13 @@ fn render_image_matches_the_bvh_reference_loop() {
         cam.pixel_bins(&accel).is_some(),
         "the bins path must be exercised"
     );
-    let scene = VolpathScene {
-        accel: &accel,
-        medium: Medium {
-            sigma_t: [20.0, 30.0, 45.0],
-            albedo: [0.95, 0.9, 0.85],
-            g: 0.0,
-            eta: 1.0,
-        },
-        light: Some(PointLight {
-            position: Vec3::new(1.0, 1.5, 0.5),
-            intensity: [2.0; 3],
-        }),
-        environment: None,
-        light_bins: None,
-    };
+    let scene = lit_scene(
+        &accel,
+        [20.0, 30.0, 45.0],
+        [0.95, 0.9, 0.85],
+        0.0,
+        Vec3::new(1.0, 1.5, 0.5),
+    );
     let rs = RenderSettings {
         spp: 3,
         seed: 11,
@@ -239,28 +254,18 @@ fn render_image_matches_the_bvh_reference_loop() {
 /// and with lists built by the progressive render itself; before any pass the image is black.
 #[test]
 fn progressive_passes_give_the_image_of_one_render() {
-    use scene::{Camera, Medium, PointLight};
-    use volpath::{
-        Progressive, RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists,
-    };
+    use scene::Camera;
+    use volpath::{Progressive, RenderSettings, VolpathSettings, render_image, shadow_lists};
 
     let accel = torus();
     let cam = Camera::look_at(Vec3::new(-0.4, 0.7, 1.5), Vec3::ZERO, Vec3::Y, 40.0, 20, 16);
-    let mut scene = VolpathScene {
-        accel: &accel,
-        medium: Medium {
-            sigma_t: [25.0, 35.0, 50.0],
-            albedo: [0.9, 0.95, 0.8],
-            g: 0.3,
-            eta: 1.0,
-        },
-        light: Some(PointLight {
-            position: Vec3::new(-1.0, 1.2, 0.8),
-            intensity: [2.0; 3],
-        }),
-        environment: None,
-        light_bins: None,
-    };
+    let mut scene = lit_scene(
+        &accel,
+        [25.0, 35.0, 50.0],
+        [0.9, 0.95, 0.8],
+        0.3,
+        Vec3::new(-1.0, 1.2, 0.8),
+    );
     let settings = VolpathSettings::default();
     let rs = RenderSettings {
         spp: 6,

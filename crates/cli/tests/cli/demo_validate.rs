@@ -262,24 +262,21 @@ fn validate_mitsuba_equal_time_reaches_an_spp_that_reproduces_its_images() {
         &with(&["--equal-time", "--time-per-view", "0.2", "--out", "eq"]),
     );
     assert_stdout_has(&r, &["equal time: ", "all 2 views within tolerance"]);
-    let spp: u32 = r
-        .stdout
-        .split("equal time: ")
-        .nth(1)
-        .and_then(|s| s.split(' ').next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no spp in the equal-time line\n{}", r.describe()));
+    // "equal time: N spp in S s/view against …"
+    let number_after = |marker: &str| -> f64 {
+        r.stdout
+            .split(marker)
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no number after {marker:?}\n{}", r.describe()))
+    };
+    let spp = number_after("equal time: ") as u32;
     assert!(
         spp >= 32 && spp.is_multiple_of(32),
         "{spp} spp: passes are 32 spp"
     );
-    let secs: f64 = r
-        .stdout
-        .split(" spp in ")
-        .nth(1)
-        .and_then(|s| s.split(' ').next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no time in the equal-time line\n{}", r.describe()));
+    let secs = number_after(" spp in ");
     // Within the budget unless one pass alone overran it (a loaded machine).
     assert!(secs <= 0.2 || spp == 32, "{secs} s/view at {spp} spp");
     let spp_arg = spp.to_string();
