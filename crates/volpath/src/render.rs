@@ -100,6 +100,7 @@ impl<'a> Progressive<'a> {
         view: u64,
     ) -> Self {
         let pixels = (0..camera.width as u64 * camera.height as u64)
+            .into_par_iter()
             .map(|pixel| PixelState {
                 stream: Sampler::new(seed, view, pixel, 0),
                 key: hash_key(&[seed, view, pixel, 1]),
