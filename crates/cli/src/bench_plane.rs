@@ -13,7 +13,17 @@
 //! `--curvature κ` replaces the plane by a sphere of radius σ_n/|κ| touching the entry point,
 //! p(u) = u_z + κ/2·|u|² in units of σ_n (κ > 0: the medium is the ball, convex; κ < 0: the medium
 //! surrounds a spherical cavity, concave). The quadric is exact in the cubic descriptor, so this
-//! isolates how the networks respond to curvature from the fit, the mesh and the projection.
+//! isolates how the networks respond to curvature from the fit and the mesh.
+//!
+//! On a sphere the exit distance is measured along the surface (the great-circle distance
+//! R·θ from the entry point), for the walks' exits and for the model's proposals alike. The
+//! proposals are first moved onto the sphere as the renderer's projection Π moves them: along
+//! ∇p, which on a sphere is the radial line through its centre, with the renderer's default
+//! reach of [`DEFAULT_MAX_DIST_SCALE`]·σ_n; a proposal farther from the surface is a miss
+//! (reported, left out of the histogram). On the plane this is r = |(y₁, y₂)| as before. (Until
+//! session 28 the sphere's histograms used the distance from the normal axis, r = |(u_x, u_y)|,
+//! of unprojected proposals: every exit on the far side of the ball then piled up at r ≤ R, and
+//! proposals beyond R were counted where no exit can lie.)
 
 use std::path::PathBuf;
 
@@ -21,6 +31,7 @@ use anyhow::{Context, Result};
 use bssrdf::medium::{ReducedMedium, sigma_n};
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM, ShapeAdaptiveModel};
 use bssrdf::polynomial::{Poly3, light_space_frame};
+use bssrdf::projection::DEFAULT_MAX_DIST_SCALE;
 use clap::Args;
 use glam::{DVec3, Vec3};
 use learn::walk::{WalkMedium, WalkOutcome, WalkSurface, random_walk};
@@ -93,8 +104,43 @@ fn surface(kappa: f64) -> Poly3 {
     p
 }
 
-/// Absorbed fraction and radial histogram (r/σ_n) of random walks below `poly`.
-fn simulate(poly: &Poly3, albedo: f64, angle: f64, walks: u64, seed: u64) -> (f64, Vec<u64>) {
+/// Distance along the surface of `surface(κ)` from the entry point (the origin) to a point `q`
+/// on it, in units of σ_n: R·θ on the sphere of radius R = 1/|κ| centred at (0, 0, −1/κ), where θ
+/// is the angle at the centre; |(q_x, q_y)| on the plane.
+fn surface_distance(kappa: f64, q: DVec3) -> f64 {
+    if kappa == 0.0 {
+        return (q.x * q.x + q.y * q.y).sqrt();
+    }
+    let c = DVec3::new(0.0, 0.0, -1.0 / kappa);
+    let (a, b) = (-c, q - c);
+    a.angle_between(b) / kappa.abs()
+}
+
+/// Π of the renderer on `surface(κ)`: moves the proposal `x` (units of σ_n) along the gradient of
+/// p onto the surface. The gradient of p = u_z + κ/2·|u|² is ẑ + κu, parallel to u − c, so the
+/// line is the radial one through the centre c and the nearest surface point is c + R·(x − c)/|x − c|
+/// (x itself projected along ẑ on the plane). `None` when the surface is farther than `reach` (or x
+/// sits at the centre).
+fn project(kappa: f64, x: DVec3, reach: f64) -> Option<DVec3> {
+    if kappa == 0.0 {
+        return (x.z.abs() <= reach).then_some(DVec3::new(x.x, x.y, 0.0));
+    }
+    let c = DVec3::new(0.0, 0.0, -1.0 / kappa);
+    let (r, d) = (1.0 / kappa.abs(), x - c);
+    let len = d.length();
+    (len > 0.0 && (len - r).abs() <= reach).then(|| c + d * (r / len))
+}
+
+/// Absorbed fraction and histogram of exit distances along the surface (units of σ_n) of random
+/// walks below `poly` (the surface of curvature `kappa`).
+fn simulate(
+    poly: &Poly3,
+    kappa: f64,
+    albedo: f64,
+    angle: f64,
+    walks: u64,
+    seed: u64,
+) -> (f64, Vec<u64>) {
     let sn = sigma_n(1.0, albedo, 0.0);
     let surface = WalkSurface::new(poly, sn);
     let medium = WalkMedium {
@@ -112,8 +158,7 @@ fn simulate(poly: &Poly3, albedo: f64, angle: f64, walks: u64, seed: u64) -> (f6
                 let mut rng = Sampler::new(seed, 0xB1A4E, i, 0);
                 match random_walk(&surface, &medium, d_in, &mut rng) {
                     WalkOutcome::Exited(e) => {
-                        let p: DVec3 = e.position;
-                        h[bin((p.x * p.x + p.y * p.y).sqrt() / sn)] += 1;
+                        h[bin(surface_distance(kappa, e.position / sn))] += 1;
                     }
                     WalkOutcome::Absorbed { .. } => a += 1,
                     WalkOutcome::Invalid(_) => {}
@@ -131,15 +176,24 @@ fn simulate(poly: &Poly3, albedo: f64, angle: f64, walks: u64, seed: u64) -> (f6
     (absorbed as f64 / walks as f64, hist)
 }
 
-/// Absorb and the radial histogram of `n` decoded samples of `model` on `poly`.
+/// A model's Absorb, the histogram of exit distances along the surface of its `n` decoded
+/// samples after the renderer's projection ([`project`]), and the fraction of them that miss.
+struct ModelCase {
+    absorb: f64,
+    hist: Vec<u64>,
+    miss: f64,
+}
+
+/// [`ModelCase`] of `model` on `poly` = `surface(kappa)`.
 fn model_case(
     model: &ShapeAdaptiveModel,
     poly: &Poly3,
+    kappa: f64,
     albedo: f64,
     angle: f64,
     n: usize,
     seed: u64,
-) -> Result<(f64, Vec<u64>)> {
+) -> Result<ModelCase> {
     let d_in = Vec3::new(angle.sin() as f32, 0.0, -angle.cos() as f32);
     let ls = poly.to_light_space(d_in);
     let red = ReducedMedium::new(1.0, albedo, 0.0);
@@ -160,12 +214,20 @@ fn model_case(
     let mut y = vec![[0.0f32; POSITION_DIM]; n];
     model.decode(&f, &z, &vec![0u32; n], &mut y)?;
     let frame = light_space_frame(d_in);
-    let mut h = vec![0u64; BINS];
+    let mut hist = vec![0u64; BINS];
+    let mut misses = 0usize;
     for v in &y {
-        let w = frame.to_world(Vec3::from_array(*v));
-        h[bin(((w.x * w.x + w.y * w.y) as f64).sqrt())] += 1;
+        let w = frame.to_world(Vec3::from_array(*v)).as_dvec3();
+        match project(kappa, w, DEFAULT_MAX_DIST_SCALE as f64) {
+            Some(q) => hist[bin(surface_distance(kappa, q))] += 1,
+            None => misses += 1,
+        }
     }
-    Ok((absorb[0] as f64, h))
+    Ok(ModelCase {
+        absorb: absorb[0] as f64,
+        hist,
+        miss: misses as f64 / n.max(1) as f64,
+    })
 }
 
 pub fn run(a: &PlaneBenchArgs) -> Result<()> {
@@ -182,10 +244,11 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    let mut csv = String::from("albedo,angle_deg,curvature,walk_absorbed,model,absorb,radial_l1\n");
+    let mut csv =
+        String::from("albedo,angle_deg,curvature,walk_absorbed,model,absorb,radial_l1,miss\n");
     print!("{:>6} {:>5} {:>6} | {:>9}", "α", "angle", "κ", "walks abs");
     for (name, _) in &models {
-        print!(" | {name:>12}: Absorb  L1(r)");
+        print!(" | {name:>12}: Absorb  L1(r)  miss");
     }
     println!();
     let mut panels = Vec::new();
@@ -207,7 +270,7 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                 "--albedo values must be in (0, 1)"
             );
             let angle = angle_deg.to_radians();
-            let (abs_walk, h_walk) = simulate(&poly, albedo, angle, a.walks, a.seed);
+            let (abs_walk, h_walk) = simulate(&poly, kappa, albedo, angle, a.walks, a.seed);
             let p_walk = normalised(&h_walk);
             let centre = |i: usize| (i as f64 + 0.5) * R_MAX / BINS as f64;
             let mut series = vec![Series::new(
@@ -220,12 +283,13 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
             )];
             print!("{albedo:>6} {angle_deg:>5} {kappa:>6} | {abs_walk:>9.4}");
             for (name, m) in &models {
-                let (absorb, h) = model_case(m, &poly, albedo, angle, a.samples, a.seed)?;
-                let p = normalised(&h);
+                let ModelCase { absorb, hist, miss } =
+                    model_case(m, &poly, kappa, albedo, angle, a.samples, a.seed)?;
+                let p = normalised(&hist);
                 let l1: f64 = p.iter().zip(&p_walk).map(|(x, y)| (x - y).abs()).sum();
-                print!(" | {:>12}  {absorb:>6.4} {l1:>6.3}", "");
+                print!(" | {:>12}  {absorb:>6.4} {l1:>6.3} {miss:>5.3}", "");
                 csv.push_str(&format!(
-                    "{albedo},{angle_deg},{kappa},{abs_walk},{name},{absorb},{l1}\n"
+                    "{albedo},{angle_deg},{kappa},{abs_walk},{name},{absorb},{l1},{miss}\n"
                 ));
                 series.push(Series::new(
                     name.clone(),
@@ -239,7 +303,7 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                 } else {
                     format!("α = {albedo}, {angle_deg}° incidence, κ = {kappa}")
                 },
-                x_label: "exit distance r / σ_n".into(),
+                x_label: "exit distance along the surface / σ_n".into(),
                 y_label: "fraction of exits".into(),
                 log_y: false,
                 series,
@@ -278,6 +342,40 @@ mod tests {
             assert!((p.gradient(Vec3::ZERO) - Vec3::Z).length() < 1e-6);
             // The medium (p < 0) is the ball when convex, the outside of the cavity when concave.
             assert_eq!(p.eval(centre) < 0.0, kappa > 0.0);
+        }
+    }
+
+    /// Π moves proposals radially onto the sphere (the line of ∇p), with the reach as its limit,
+    /// and the distance along the surface is R·θ: a quarter circle at the equator, half a circle
+    /// at the far pole. On the plane both reduce to the distance from the normal axis.
+    #[test]
+    fn proposals_are_projected_radially_and_measured_along_the_surface() {
+        let plane = project(0.0, DVec3::new(3.0, 4.0, -0.5), 8.0).unwrap();
+        assert_eq!(plane, DVec3::new(3.0, 4.0, 0.0));
+        assert_eq!(surface_distance(0.0, plane), 5.0);
+        assert!(project(0.0, DVec3::new(0.0, 0.0, 9.0), 8.0).is_none());
+        for kappa in [0.4, -0.25] {
+            let r = 1.0 / f64::abs(kappa);
+            let c = DVec3::new(0.0, 0.0, -1.0 / kappa);
+            let poly = surface(kappa);
+            for x in [
+                DVec3::new(4.0, 1.0, 0.3),
+                DVec3::new(-0.5, 0.2, -1.0),
+                DVec3::new(0.1, -3.0, -6.0),
+            ] {
+                let q = project(kappa, x, 8.0).unwrap();
+                assert!(poly.eval(q.as_vec3()).abs() < 1e-5, "κ {kappa}: q = {q}");
+                // q lies on the line through x along ∇p(x).
+                let g = poly.gradient(x.as_vec3()).as_dvec3().normalize();
+                assert!((q - x).cross(g).length() < 1e-5 * (1.0 + (q - x).length()));
+            }
+            let equator = c + DVec3::X * r;
+            let pole = c + c.normalize() * r;
+            assert!(
+                (surface_distance(kappa, equator) - r * std::f64::consts::FRAC_PI_2).abs() < 1e-9
+            );
+            assert!((surface_distance(kappa, pole) - r * std::f64::consts::PI).abs() < 1e-9);
+            assert!(project(kappa, c + DVec3::Y * (r + 8.5), 8.0).is_none());
         }
     }
 }

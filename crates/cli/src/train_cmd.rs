@@ -97,6 +97,11 @@ pub struct FitArgs {
     /// Global-norm gradient clipping threshold.
     #[arg(long, default_value_t = 100.0)]
     pub clip: f32,
+    /// Weight of the mean squared position error in the loss (model-spec §6: 100). Read as a
+    /// Gaussian decoder, weight w means an output noise of σ² = 3/(2w) per dimension (units of
+    /// σ_n²), the finest detail of the exit distribution the VAE is asked to resolve.
+    #[arg(long, default_value_t = 100.0)]
+    pub position_weight: f32,
     /// Network widths: `son24` (Son et al.'s light model), `vkj19` (VKJ19's), or
     /// `F=32,32;A=16;D=32,32;E=32,32` (feature, absorption hidden, decoder hidden, encoder hidden).
     #[arg(long, default_value = "son24")]
@@ -250,5 +255,9 @@ mod tests {
             (1e-3, 0.5, 0.05, 100.0)
         );
         assert_eq!(f.widths, "son24");
+        assert_eq!(
+            f.position_weight,
+            learn::cvae::LossWeights::default().position
+        );
     }
 }

@@ -111,7 +111,10 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
                 clip_norm: a.clip,
                 ..Default::default()
             },
-            weights: Default::default(),
+            weights: learn::cvae::LossWeights {
+                position: a.position_weight,
+                ..Default::default()
+            },
             seed: a.seed,
             eval_every: a.eval_every.max(1),
             checkpoint_every: a.checkpoint_every.max(1),
@@ -121,6 +124,11 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
             frame_convention: bssrdf::model::FrameConvention::Vkj19,
             provenance: serde_json::Value::Null,
         };
+        anyhow::ensure!(
+            a.position_weight.is_finite() && a.position_weight > 0.0,
+            "--position-weight must be a positive number, got {}",
+            a.position_weight
+        );
         Trainer::new(config, norm, info, train_p, val_p)?
     };
     let total = trainer.config().steps;
