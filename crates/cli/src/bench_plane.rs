@@ -89,6 +89,14 @@ fn bin(r: f64) -> usize {
     ((r / R_MAX * BINS as f64) as usize).min(BINS - 1)
 }
 
+/// Mean exit distance (units of σ_n) of a normalised histogram, from its bin centres.
+fn mean_distance(p: &[f64]) -> f64 {
+    p.iter()
+        .enumerate()
+        .map(|(i, &q)| q * (i as f64 + 0.5) * R_MAX / BINS as f64)
+        .sum()
+}
+
 fn normalised(h: &[u64]) -> Vec<f64> {
     let n: u64 = h.iter().sum();
     h.iter().map(|&c| c as f64 / n.max(1) as f64).collect()
@@ -244,11 +252,15 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    let mut csv =
-        String::from("albedo,angle_deg,curvature,walk_absorbed,model,absorb,radial_l1,miss\n");
-    print!("{:>6} {:>5} {:>6} | {:>9}", "α", "angle", "κ", "walks abs");
+    let mut csv = String::from(
+        "albedo,angle_deg,curvature,walk_absorbed,walk_mean_r,model,absorb,radial_l1,miss,mean_r\n",
+    );
+    print!(
+        "{:>6} {:>5} {:>6} | {:>9} {:>6}",
+        "α", "angle", "κ", "walks abs", "mean r"
+    );
     for (name, _) in &models {
-        print!(" | {name:>12}: Absorb  L1(r)  miss");
+        print!(" | {name:>12}: Absorb  L1(r)  miss mean r");
     }
     println!();
     let mut panels = Vec::new();
@@ -281,15 +293,20 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                     .map(|(i, &p)| (centre(i), p))
                     .collect(),
             )];
-            print!("{albedo:>6} {angle_deg:>5} {kappa:>6} | {abs_walk:>9.4}");
+            let r_walk = mean_distance(&p_walk);
+            print!("{albedo:>6} {angle_deg:>5} {kappa:>6} | {abs_walk:>9.4} {r_walk:>6.3}");
             for (name, m) in &models {
                 let ModelCase { absorb, hist, miss } =
                     model_case(m, &poly, kappa, albedo, angle, a.samples, a.seed)?;
                 let p = normalised(&hist);
                 let l1: f64 = p.iter().zip(&p_walk).map(|(x, y)| (x - y).abs()).sum();
-                print!(" | {:>12}  {absorb:>6.4} {l1:>6.3} {miss:>5.3}", "");
+                let r = mean_distance(&p);
+                print!(
+                    " | {:>12}  {absorb:>6.4} {l1:>6.3} {miss:>5.3} {r:>6.3}",
+                    ""
+                );
                 csv.push_str(&format!(
-                    "{albedo},{angle_deg},{kappa},{abs_walk},{name},{absorb},{l1},{miss}\n"
+                    "{albedo},{angle_deg},{kappa},{abs_walk},{r_walk},{name},{absorb},{l1},{miss},{r}\n"
                 ));
                 series.push(Series::new(
                     name.clone(),
