@@ -89,10 +89,11 @@ use crate::medium::{ReducedMedium, sigma_n_derivatives};
 use crate::nn::INPUT_DIM;
 use crate::nn::{ALBEDO_INPUT, POSITION_DIM};
 use crate::render::{
-    LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers, ViewRays,
-    evaluate_networks, light_contribution, place_and_project, prepare_row, render_row,
-    run_networks,
+    EntrySampler, LearnedScene, NetOutputs, Pending, RenderError, RenderSettings, RowBuffers,
+    ViewRays, evaluate_networks, light_contribution, place_and_project, prepare_row, render_row,
+    run_networks, walk_entries, walk_media, walk_medium,
 };
+use crate::walk::WalkMedium;
 use consts::Consts;
 use naive::naive_light_derivative;
 
@@ -362,6 +363,25 @@ fn diff_row(
             &mut off.net,
             &mut row.ws,
         )?;
+        if scene.settings.entry == EntrySampler::Walks {
+            // The same walks (each sample's stream) in the offset set's descriptor and medium:
+            // σ_t ± Δ at σ_n(σ_t ± Δ), or channel c's scene at α_c ± Δα.
+            let m = &scene.medium;
+            let (media, kj): ([WalkMedium; 3], [f32; 3]) = if j < 2 {
+                (
+                    std::array::from_fn(|c| walk_medium(m, c, k.st_t[c][j], k.sn_t[c][j])),
+                    std::array::from_fn(|c| k.k_t[c][j]),
+                )
+            } else {
+                let a: [&LearnedScene; 3] = std::array::from_fn(|c| &k.alpha[c][j - 2]);
+                (
+                    std::array::from_fn(|c| walk_media(a[c])[c]),
+                    std::array::from_fn(|c| a[c].descriptor_scale[c]),
+                )
+            };
+            let (p, cf, dc) = (&row.pending, &row.coeffs, &row.dcoeffs);
+            walk_entries(&media, p, cf, dc, |c| kj[c], &mut off.net.y);
+        }
     }
     // Samples whose light term is not zero: only they need ∂Absorb/∂α (after the loop).
     buf.lit.clear();

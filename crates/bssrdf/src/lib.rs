@@ -37,3 +37,4 @@ pub mod polynomial;
 pub mod projection;
 pub mod render;
 pub mod son24;
+pub mod walk;

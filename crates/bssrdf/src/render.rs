@@ -57,11 +57,14 @@ use crate::projection::ProjectionRule;
 
 mod entry;
 mod features;
+mod walks;
 pub use entry::Incidence;
 pub(crate) use entry::{
     light_contribution, place_and_project, projection_gradient, proposed_point,
 };
 pub use features::{DFIT_STEP, VertexFeatures};
+pub use walks::{EntrySampler, MAX_TRIES as WALK_MAX_TRIES, walk_exit};
+pub(crate) use walks::{walk_entries, walk_media, walk_medium};
 
 /// Errors of the learned renderer.
 #[derive(Debug, thiserror::Error)]
@@ -99,6 +102,9 @@ pub struct LearnedSettings {
     /// written before the factor existed lack the field and read as isotropic.
     #[serde(default = "Incidence::absent")]
     pub incidence: Incidence,
+    /// Where the entry points come from: the decoder (default) or the random walks it imitates
+    /// (a diagnostic of the decoder, [`EntrySampler`]).
+    pub entry: EntrySampler,
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
@@ -244,8 +250,25 @@ impl<'a> LearnedScene<'a> {
         std::array::from_fn(|c| sigma_n[c] / self.features.sigma_n[c])
     }
 
+    /// The light-space descriptor the networks see: `coeffs` (at the fit scale) rescaled by
+    /// `k`, plus ln k times the fit derivative `dcoeffs` when there is one.
+    #[inline]
+    pub(crate) fn descriptor_at(coeffs: &Poly3, dcoeffs: Option<&Poly3>, k: f32) -> Poly3 {
+        if k == 1.0 {
+            return *coeffs;
+        }
+        let mut p = coeffs.rescaled(k);
+        if let Some(dc) = dcoeffs {
+            let l = k.ln();
+            for (v, d) in p.0.iter_mut().zip(&dc.0) {
+                *v += l * d;
+            }
+        }
+        p
+    }
+
     /// The normalised network inputs of a light-space descriptor `coeffs` (at the fit scale)
-    /// rescaled by `k`, for channel `c`.
+    /// rescaled by `k` ([`LearnedScene::descriptor_at`]), for channel `c`.
     #[inline]
     pub(crate) fn inputs_at(
         &self,
@@ -255,19 +278,9 @@ impl<'a> LearnedScene<'a> {
         k: f32,
     ) -> [f32; INPUT_DIM] {
         let m = &self.medium;
+        let p = Self::descriptor_at(coeffs, dcoeffs, k);
         let norm = self.model.normalisation();
-        if k == 1.0 {
-            norm.inputs(&coeffs.0, self.eff_albedo[c], m.g, m.eta)
-        } else {
-            let mut p = coeffs.rescaled(k);
-            if let Some(dc) = dcoeffs {
-                let l = k.ln();
-                for (v, d) in p.0.iter_mut().zip(&dc.0) {
-                    *v += l * d;
-                }
-            }
-            norm.inputs(&p.0, self.eff_albedo[c], m.g, m.eta)
-        }
+        norm.inputs(&p.0, self.eff_albedo[c], m.g, m.eta)
     }
 }
 
@@ -300,6 +313,8 @@ pub(crate) struct Pending {
     /// Unit tangential part of the camera ray's direction at x_o (its forward direction along
     /// the surface; zero at normal incidence): the camera side of the incidence factor.
     pub(crate) cam_fwd: Vec3,
+    /// Random stream of the sample's walks ([`EntrySampler::Walks`]), shared by its offsets.
+    pub(crate) key: u64,
 }
 
 /// Reused per worker thread.
@@ -513,12 +528,14 @@ pub(crate) fn prepare_row(
                 t_cam,
                 mu_cam: cos_cam,
                 cam_fwd: (d - n_o * d.dot(n_o)).normalize_or_zero(),
+                key: hash_key(&[rs.seed, rs.view, pixel, 2, i as u64]),
             });
         }
     }
 }
 
 /// Stage 2 of a row: feature MLP, S_abs and the decoder, batched over the row's samples.
+/// With [`EntrySampler::Walks`] the decoder's outputs are replaced by walk exits.
 pub(crate) fn run_networks(scene: &LearnedScene, buf: &mut RowBuffers) -> Result<(), RenderError> {
     evaluate_networks(
         scene.model,
@@ -527,7 +544,20 @@ pub(crate) fn run_networks(scene: &LearnedScene, buf: &mut RowBuffers) -> Result
         &mut buf.point,
         &mut buf.net,
         &mut buf.ws,
-    )
+    )?;
+    if scene.settings.entry == EntrySampler::Walks {
+        let k = |c: usize| scene.descriptor_scale[c];
+        let media = walk_media(scene);
+        walk_entries(
+            &media,
+            &buf.pending,
+            &buf.coeffs,
+            &buf.dcoeffs,
+            k,
+            &mut buf.net.y,
+        );
+    }
+    Ok(())
 }
 
 /// Feature MLP, Absorb and decoder for the samples `inputs` with latents `z` (one per input).

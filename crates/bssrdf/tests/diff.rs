@@ -16,7 +16,9 @@ use bssrdf::diff::{
     DiffImages, DiffMethod, DiffSettings, Loss, Primal, render_diff, render_loss_gradient,
 };
 use bssrdf::nn::ShapeAdaptiveModel;
-use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
+use bssrdf::render::{
+    EntrySampler, LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image,
+};
 use common::{layer, slab};
 use geometry::{Accel, Shape, Vec3};
 use scene::{Camera, Image, Medium, PointLight};
@@ -83,6 +85,7 @@ const PLANAR: LearnedSettings = LearnedSettings {
     bvh_camera_rays: false,
     exit: bssrdf::exit::ExitLaw::HalfSpace,
     incidence: bssrdf::render::Incidence::Directional,
+    entry: EntrySampler::Decoder,
 };
 
 fn rgb_medium() -> Medium {
@@ -370,6 +373,56 @@ fn offset_samples_follow_the_fit_derivative() {
     let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
     let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
     assert_same_seed_fd("dfit", &ours, &fd_same);
+}
+
+/// The walk sampler ([`EntrySampler::Walks`]: the decoder's proposals replaced by exits of walks
+/// in the same descriptor). Each sample keeps its random stream, so the offset samples repeat
+/// its walks at σ_n(σ_t ± Δ) in the rescaled descriptor (features fitted at another medium) and
+/// at α ± Δα: `ours` and `ours-alpha-offsets` equal the same-seed FD renders sample for sample as
+/// with the decoder, and `ours` agrees with FD on independent random numbers. `naive`, which
+/// differentiates the decoder's output, is refused with a message naming the fix.
+#[test]
+fn walk_sampler_offsets_equal_finite_differences() {
+    let mut s = sphere_setup(rgb_medium());
+    s.features = VertexFeatures::fit(&s.accel, &descriptor_fit_medium(), true, 0).unwrap();
+    s.settings.entry = EntrySampler::Walks;
+    let scene = s.scene();
+    let (spp, r) = (32, 24);
+    let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
+    let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
+    assert_same_seed_fd("walks", &ours, &fd_same);
+    // A walk that leaves in one descriptor may not in the other: the derivative is noisier
+    // than the decoder's, hence more samples than the decoder's tests use.
+    let fd = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, r..2 * r);
+    for c in 0..3 {
+        let zc = z(&ours, &fd, D_T, c);
+        eprintln!("walks channel {c}: ours vs fd z = {zc:.2}");
+        assert!(zc < 4.0, "channel {c}: z = {zc:.2}");
+    }
+    // The compared derivative is clearly non-zero: over the three channels (independent
+    // replicates per channel sum), more than 6 standard errors from 0.
+    let total: f64 = fd.mean[D_T].iter().sum();
+    let se = fd.se[D_T].iter().map(|e| e * e).sum::<f64>().sqrt();
+    eprintln!("walks Σ_c Σ∂I/∂σ_t = {total:.4e} ± {se:.2e}");
+    assert!(total.abs() > 6.0 * se, "{total:.4e} ± {se:.2e}");
+    let offs = replicate(&s, &scene, &ds(DiffMethod::OursAlphaOffsets), spp, 0..r);
+    for c in 0..3 {
+        let rel = (offs.mean[D_A][c] - fd_same.mean[D_A][c]).abs() / offs.mean[ABS_D_A][c];
+        eprintln!("walks channel {c}: α offsets vs same-seed FD, difference / Σ|D| = {rel:.2e}");
+        assert!(rel < 1e-3, "channel {c}: relative difference {rel:.2e}");
+    }
+    let err = render_diff(
+        &scene,
+        &s.camera,
+        &s.light,
+        &rs(4, 0),
+        &ds(DiffMethod::Naive),
+        None,
+    )
+    .err()
+    .expect("naive with walks must be refused")
+    .to_string();
+    assert!(err.contains("--entry-sampler decoder"), "{err}");
 }
 
 /// A slab lit by a near light, seen around the point under the light, away from every edge:

@@ -8,7 +8,8 @@
 //! the half-space law (camera and light both along the normal; `bssrdf::exit`) (the 3× one-hot channel weighting averages to one). S_abs,c is
 //! computed directly from the model for the plane inputs, so the test checks the assembly of the
 //! estimator (channel selection and weighting, absorption scale, Fresnel and Sw factors,
-//! projection, shadow rays) for an arbitrary network. Tolerance: 4.5 standard errors of the
+//! projection, shadow rays) for an arbitrary network. The same holds with the walk sampler
+//! (`EntrySampler::Walks`): its exits lie on the plane, and S_abs still comes from the network. Tolerance: 4.5 standard errors of the
 //! per-sample values (the channel choice makes each value 3v or 0; for a grey medium every sample
 //! serves all channels and has the value v).
 
@@ -19,7 +20,9 @@ use bssrdf::exit::{ExitLaw, ExitTable};
 use bssrdf::medium::{ReducedMedium, effective_albedo};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::polynomial::Poly3;
-use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
+use bssrdf::render::{
+    EntrySampler, LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image,
+};
 use common::{layer, slab};
 use geometry::Vec3;
 use scene::{Camera, Medium, PointLight};
@@ -38,13 +41,15 @@ fn model() -> ShapeAdaptiveModel {
 fn planar_estimator_matches_closed_form_on_a_lit_slab() {
     let accel = slab();
     let model = model();
-    for (eta, grey, law) in [
-        (1.0f32, false, ExitLaw::Cosine),
-        (1.4, false, ExitLaw::Cosine),
-        (1.0, true, ExitLaw::Cosine),
-        (1.0, false, ExitLaw::HalfSpace),
-        (1.4, false, ExitLaw::HalfSpace),
-        (1.0, true, ExitLaw::HalfSpace),
+    for (eta, grey, law, entry) in [
+        (1.0f32, false, ExitLaw::Cosine, EntrySampler::Decoder),
+        (1.4, false, ExitLaw::Cosine, EntrySampler::Decoder),
+        (1.0, true, ExitLaw::Cosine, EntrySampler::Decoder),
+        (1.0, false, ExitLaw::HalfSpace, EntrySampler::Decoder),
+        (1.4, false, ExitLaw::HalfSpace, EntrySampler::Decoder),
+        (1.0, true, ExitLaw::HalfSpace, EntrySampler::Decoder),
+        (1.4, false, ExitLaw::HalfSpace, EntrySampler::Walks),
+        (1.0, true, ExitLaw::HalfSpace, EntrySampler::Walks),
     ] {
         let medium = if grey {
             Medium {
@@ -65,6 +70,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
         let settings = LearnedSettings {
             planar_features: true,
             exit: law,
+            entry,
             ..Default::default()
         };
         let scene = LearnedScene::new(&accel, &model, &features, medium, settings).unwrap();
@@ -115,7 +121,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             let z = (m[c] - v).abs() / se;
             assert!(
                 z < 4.5,
-                "η={eta} {law:?} channel {c}: pixel mean {} vs closed form {v} (z = {z:.2})",
+                "η={eta} {law:?} {entry:?} channel {c}: pixel mean {} vs closed form {v} (z = {z:.2})",
                 m[c]
             );
         }
@@ -123,7 +129,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
 }
 
 #[test]
-fn images_do_not_depend_on_the_thread_count() {
+fn images_do_not_depend_on_the_thread_count_with_either_entry_sampler() {
     let accel = slab();
     let model = model();
     let medium = Medium {
@@ -133,14 +139,6 @@ fn images_do_not_depend_on_the_thread_count() {
         eta: 1.0,
     };
     let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
-    let scene = LearnedScene::new(
-        &accel,
-        &model,
-        &features,
-        medium,
-        LearnedSettings::default(),
-    )
-    .unwrap();
     let cam = Camera::look_at(Vec3::new(0.5, 1.5, 1.0), Vec3::ZERO, Vec3::Y, 40.0, 16, 16);
     let light = PointLight {
         position: Vec3::new(1.0, 2.0, 0.0),
@@ -151,16 +149,25 @@ fn images_do_not_depend_on_the_thread_count() {
         seed: 1,
         view: 2,
     };
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| render_image(&scene, &cam, &light, &rs, None).unwrap());
-    let two = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap()
-        .install(|| render_image(&scene, &cam, &light, &rs, None).unwrap());
-    assert_eq!(one, two);
-    assert!(one.mean()[0] > 0.0);
+    let mut images = Vec::new();
+    for entry in EntrySampler::ALL {
+        let settings = LearnedSettings {
+            entry,
+            ..Default::default()
+        };
+        let scene = LearnedScene::new(&accel, &model, &features, medium, settings).unwrap();
+        let render = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| render_image(&scene, &cam, &light, &rs, None).unwrap())
+        };
+        let (one, two) = (render(1), render(2));
+        assert_eq!(one, two, "{entry:?}");
+        assert!(one.mean()[0] > 0.0);
+        images.push(one);
+    }
+    // The walk sampler is not the decoder.
+    assert_ne!(images[0], images[1]);
 }

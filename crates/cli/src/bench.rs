@@ -31,6 +31,13 @@ pub enum BenchCommand {
     /// Learned models against directly simulated random walks on a half-space: absorption and
     /// the radial distribution of exit points.
     Plane(crate::bench_plane::PlaneBenchArgs),
+    /// Learned models against their held-out training data, binned by the surface's mean
+    /// curvature: exit distances (mean and tail quantiles) and absorption.
+    Spread(crate::bench_spread::SpreadBenchArgs),
+    /// The learned renderer's loss against a dataset's targets at scaled σ_t (α at the truth):
+    /// where its minimum lies, without an optimiser.
+    #[command(name = "loss-scan")]
+    LossScan(crate::bench_scan::LossScanArgs),
 }
 
 #[derive(Args)]
@@ -86,6 +93,8 @@ pub fn run(cmd: &BenchCommand) -> Result<()> {
         BenchCommand::Volpath(a) => volpath(a),
         BenchCommand::LearnedVsVolpath(a) => crate::bench_learned::run(a),
         BenchCommand::Plane(a) => crate::bench_plane::run(a),
+        BenchCommand::Spread(a) => crate::bench_spread::run(a),
+        BenchCommand::LossScan(a) => crate::bench_scan::run(a),
     }
 }
 

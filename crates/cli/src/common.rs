@@ -254,6 +254,12 @@ pub struct LearnedArgs {
     /// light's azimuth, as VKJ19/SON24).
     #[arg(long, default_value = "directional", value_parser = ["directional", "isotropic"])]
     pub incidence: String,
+    /// Where the entry points come from: `decoder` (the model's VAE decoder, the paper's method;
+    /// default) or `walks` (random walks in the same local cubic, conditioned on escape: the
+    /// distribution the decoder was trained to imitate; a diagnostic of the decoder, slower at
+    /// low albedo, not available with `--method naive`).
+    #[arg(long, default_value = "decoder", value_parser = ["decoder", "walks"])]
+    pub entry_sampler: String,
 }
 
 /// `--max-dist-scale`: a finite, positive multiple of σ_n.
@@ -300,7 +306,7 @@ impl LearnedArgs {
             _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
         };
         format!(
-            "model {model}, {} exit law, {} incidence, {projection}{}{}",
+            "model {model}, {} exit law, {} incidence, {projection}{}{}{}",
             self.exit_law,
             self.incidence,
             if self.planar_features {
@@ -310,6 +316,11 @@ impl LearnedArgs {
             },
             if self.frozen_descriptor {
                 ", frozen descriptor"
+            } else {
+                ""
+            },
+            if self.entry_sampler == "walks" {
+                ", entry points from walks (no decoder)"
             } else {
                 ""
             }
@@ -335,6 +346,7 @@ impl LearnedArgs {
                 "isotropic" => bssrdf::render::Incidence::Isotropic,
                 _ => bssrdf::render::Incidence::Directional,
             },
+            entry: bssrdf::render::EntrySampler::from_name(&self.entry_sampler).unwrap_or_default(),
         }
     }
 

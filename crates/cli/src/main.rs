@@ -5,6 +5,8 @@
 mod bench;
 mod bench_learned;
 mod bench_plane;
+mod bench_scan;
+mod bench_spread;
 mod common;
 mod compare;
 mod dataset_cmd;

@@ -3,7 +3,8 @@
 //! backward pass on the same `gemm`-based MLP code that inference uses, Adam, checkpoints.
 //!
 //! * [`sample`]: one training sample (the record of the samples file).
-//! * [`walk`]: random walks inside the fitted cubic polynomial surface (exact medium physics).
+//! * [`walk`]: random walks inside the fitted cubic polynomial surface (exact medium physics);
+//!   re-exported from [`bssrdf::walk`], where the renderer's walk sampler also uses them.
 //! * [`datagen`]: configurations (shape, medium, incident point and direction), the per-configuration
 //!   fit, absorption probability; parallel and seeded.
 //! * [`samplefile`]: the documented binary samples file with its header.
@@ -21,4 +22,4 @@ pub mod plot;
 pub mod sample;
 pub mod samplefile;
 pub mod train;
-pub mod walk;
+pub use bssrdf::walk;

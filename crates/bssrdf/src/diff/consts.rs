@@ -37,6 +37,12 @@ pub(super) struct Consts<'a> {
 impl<'a> Consts<'a> {
     pub(super) fn new(scene: &LearnedScene<'a>, ds: &DiffSettings) -> Result<Self, RenderError> {
         let m = &scene.medium;
+        if ds.method == DiffMethod::Naive && scene.settings.entry == EntrySampler::Walks {
+            return Err(RenderError::Medium(
+                "the naive estimator differentiates the decoder's output and needs the decoder;                  use --entry-sampler decoder with --method naive"
+                    .into(),
+            ));
+        }
         let g = m.g as f64;
         let norm = scene.model.normalisation();
         let mut c = Consts {

@@ -99,6 +99,10 @@ pub(crate) fn place_and_project(
     y: [f32; POSITION_DIM],
     sigma_n: f32,
 ) -> Option<geometry::Hit> {
+    // A walk sampler's sample without an escaping walk (`render::walks`).
+    if y[0].is_nan() {
+        return None;
+    }
     let x_t = proposed_point(p, y, sigma_n);
     let (grad, value) = projection_gradient(scene, p, x_t);
     project(

@@ -33,7 +33,7 @@
 //!
 //! Everything is allocation-free; the random stream is a [`Sampler`].
 
-use bssrdf::polynomial::{N_COEFFS, Poly3, monomials_f64};
+use crate::polynomial::{N_COEFFS, Poly3, monomials_f64};
 use glam::{DVec3, Vec3};
 use volpath::fresnel::{fresnel_dielectric, reflect, refract};
 use volpath::phase::HenyeyGreenstein;
