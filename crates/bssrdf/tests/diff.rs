@@ -419,8 +419,7 @@ fn walk_sampler_offsets_equal_finite_differences() {
         &ds(DiffMethod::Naive),
         None,
     )
-    .err()
-    .expect("naive with walks must be refused")
+    .expect_err("naive with walks must be refused")
     .to_string();
     assert!(err.contains("--entry-sampler decoder"), "{err}");
 }

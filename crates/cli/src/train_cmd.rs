@@ -6,7 +6,8 @@
 //! * `train fit --data DIR --out DIR`: trains, writes `checkpoint.bin` (atomic, every N steps),
 //!   `model.safetensors`, `history.csv`, `loss.png` and `train.json`; `--resume` continues a run
 //!   bit-identically.
-//! * `train all --out DIR`: both, with the defaults that made the shipped model.
+//! * `train all --out DIR`: data, the CVAE (`DIR/cvae/`), then the energy-score fine-tuning of
+//!   the decoder ([`learn::energy`]) into `DIR/model/`: the recipe of the shipped model.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -26,7 +27,8 @@ pub enum TrainCommand {
     Data(DataArgs),
     /// Train the conditional VAE and the absorption network on generated data (model-spec §6).
     Fit(FitArgs),
-    /// Generate data and train with the defaults of the shipped model (`models/`).
+    /// Generate data and train with the recipe of the shipped model (`models/`): the CVAE with
+    /// the defaults of `train fit`, then the energy-score fine-tuning of its decoder.
     All(AllArgs),
 }
 
@@ -112,6 +114,22 @@ pub struct FitArgs {
     /// Checkpoint every N steps.
     #[arg(long, default_value_t = 5000)]
     pub checkpoint_every: u64,
+    /// Objective: `cvae` (model-spec §6) or `energy` (the energy score of the decoder's
+    /// proposals against the walks' exits, plus the absorption term: fits the exit distribution
+    /// directly; `learn::energy`). `energy` is meant as a fine-tuning stage after `cvae`
+    /// (`--init`).
+    #[arg(long, default_value = "cvae", value_parser = ["cvae", "energy"])]
+    pub objective: String,
+    /// Latent draws per training row of the energy objective.
+    #[arg(long, default_value_t = 8)]
+    pub draws: usize,
+    /// Weight of the energy score (units of σ_n) against the absorption term (weight 5000).
+    #[arg(long, default_value_t = 100.0)]
+    pub energy_weight: f32,
+    /// Start from this model (a file written by `train fit`) instead of a fresh
+    /// initialisation: its widths and input normalisation are kept (fine-tuning).
+    #[arg(long)]
+    pub init: Option<PathBuf>,
     /// Seed (initialisation, batch order, VAE noise).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -149,16 +167,46 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
                 ..data
             })?;
             let fit: FitArgs = arg_defaults(&["--data", "d", "--out", "o"]);
-            run_fit(&FitArgs {
+            let cvae = FitArgs {
                 data: a.out.join("data"),
-                out: a.out.join("model"),
+                out: a.out.join("cvae"),
                 seed: a.seed,
                 overwrite: a.overwrite,
                 ..fit
-            })
+            };
+            run_fit(&cvae)?;
+            run_fit(&energy_stage(&cvae, a.out.join("model")))
         }
     }
 }
+
+/// The fine-tuning stage of the shipped recipe: the energy objective from the CVAE's model in
+/// `cvae.out`, on the same data and seed (settings measured in BENCHMARKS.md, session 30).
+pub fn energy_stage(cvae: &FitArgs, out: PathBuf) -> FitArgs {
+    FitArgs {
+        out,
+        init: Some(cvae.out.join("model.safetensors")),
+        objective: "energy".into(),
+        draws: ENERGY_DRAWS,
+        energy_weight: ENERGY_WEIGHT,
+        steps: ENERGY_STEPS,
+        lr: ENERGY_LR,
+        lr_decay: 0.5,
+        lr_decay_every: ENERGY_STEPS / 5,
+        lr_floor: 0.1,
+        ..cvae.clone()
+    }
+}
+
+/// Latent draws per row of the shipped fine-tuning.
+pub const ENERGY_DRAWS: usize = 8;
+/// Weight of the energy score against the absorption term (5000) in the shipped fine-tuning.
+pub const ENERGY_WEIGHT: f32 = 100.0;
+/// Steps of the shipped fine-tuning.
+pub const ENERGY_STEPS: u64 = 300_000;
+/// Initial learning rate of the shipped fine-tuning (halved every fifth of the steps, floored
+/// at a tenth).
+pub const ENERGY_LR: f32 = 2e-4;
 
 fn run_data(a: &DataArgs) -> Result<()> {
     anyhow::ensure!(a.meshes > 0, "--meshes must be at least 1");

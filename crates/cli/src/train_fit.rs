@@ -5,9 +5,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
+use bssrdf::nn::ShapeAdaptiveModel;
 use learn::cvae::Widths;
 use learn::samplefile::{SampleFileHeader, read_samples};
-use learn::train::{Prepared, TrainConfig, Trainer, normalisation_of, prepare};
+use learn::train::{Objective, Prepared, TrainConfig, Trainer, normalisation_of, prepare};
 
 use crate::common::progress;
 use crate::train_cmd::FitArgs;
@@ -72,7 +73,15 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     let ckpt = a.out.join("checkpoint.bin");
     let model_path = a.out.join("model.safetensors");
-    let norm = normalisation_of(&train)?;
+    let init = a
+        .init
+        .as_ref()
+        .map(|p| ShapeAdaptiveModel::load(p).with_context(|| format!("--init {}", p.display())))
+        .transpose()?;
+    let norm = match &init {
+        Some(m) => m.normalisation().clone(),
+        None => normalisation_of(&train)?,
+    };
     let train_p: Prepared = prepare(&train, &norm)?;
     let val_p: Prepared = prepare(&val, &norm)?;
     drop(val);
@@ -118,6 +127,13 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
             seed: a.seed,
             eval_every: a.eval_every.max(1),
             checkpoint_every: a.checkpoint_every.max(1),
+            objective: match a.objective.as_str() {
+                "energy" => Objective::EnergyScore {
+                    draws: a.draws,
+                    weight: a.energy_weight,
+                },
+                _ => Objective::Cvae,
+            },
         };
         let info = bssrdf::model::ModelInfo {
             c19_quirk: quirk,
@@ -129,7 +145,27 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
             "--position-weight must be a positive number, got {}",
             a.position_weight
         );
-        Trainer::new(config, norm, info, train_p, val_p)?
+        match init {
+            Some(model) => {
+                let path = a.init.as_ref().expect("init is loaded from --init");
+                anyhow::ensure!(
+                    model.info().c19_quirk == quirk,
+                    "--init {}: the model was fitted {} VKJ19's c_19 = 0 quirk and the data in {} \
+                     {} it; fine-tune on data made with the same setting (`train data \
+                     --no-c19-quirk`)",
+                    path.display(),
+                    if model.info().c19_quirk {
+                        "with"
+                    } else {
+                        "without"
+                    },
+                    a.data.display(),
+                    if quirk { "with" } else { "without" },
+                );
+                Trainer::from_model(config, model, train_p, val_p)?
+            }
+            None => Trainer::new(config, norm, info, train_p, val_p)?,
+        }
     };
     let total = trainer.config().steps;
     let pb = progress(total, "train");

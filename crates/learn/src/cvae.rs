@@ -22,6 +22,7 @@
 //! sub-batch order, so the gradient is bit-identical for any number of threads.
 
 use std::cell::RefCell;
+use std::ops::Range;
 
 use bssrdf::model::{ModelError, ModelInfo};
 use bssrdf::nn::ShapeAdaptiveModel;
@@ -57,6 +58,24 @@ impl Widths {
             decoder_hidden: vec![32, 32],
             encoder_hidden: vec![32, 32],
         }
+    }
+
+    /// The widths of `model`, `None` when it has no encoder (a render-only model such as the
+    /// imported reference weights cannot be trained further).
+    pub fn of(model: &ShapeAdaptiveModel) -> Option<Self> {
+        let outs = |m: &bssrdf::nn::Mlp| m.layers().iter().map(|l| l.n_out()).collect::<Vec<_>>();
+        let hidden = |m: &bssrdf::nn::Mlp| {
+            let mut v = outs(m);
+            v.pop();
+            v
+        };
+        let enc = model.encoder()?;
+        Some(Self {
+            feature: outs(model.feature_mlp()),
+            absorption_hidden: hidden(model.absorption_mlp()),
+            decoder_hidden: hidden(model.decoder()),
+            encoder_hidden: outs(enc.hidden()),
+        })
     }
 
     /// VKJ19's model (model-spec §4.1): F = 64,64,64; A 32; D 64,64,64; E 64,64,64.
@@ -106,6 +125,12 @@ pub struct LossParts {
     pub position_mse: f64,
     /// Unweighted mean squared absorption error.
     pub absorption_mse: f64,
+    /// Weighted energy-score term ([`crate::energy`]; 0 under the CVAE objective).
+    #[serde(default)]
+    pub energy: f64,
+    /// Unweighted energy score (units of σ_n; 0 under the CVAE objective).
+    #[serde(default)]
+    pub energy_score: f64,
 }
 
 impl LossParts {
@@ -116,6 +141,8 @@ impl LossParts {
         self.absorption += o.absorption;
         self.position_mse += o.position_mse;
         self.absorption_mse += o.absorption_mse;
+        self.energy += o.energy;
+        self.energy_score += o.energy_score;
     }
 }
 
@@ -144,6 +171,11 @@ impl Gradients {
         Self {
             flat: vec![0.0; n_params(model)],
         }
+    }
+
+    /// No values (a placeholder while the gradient buffer is lent out).
+    pub fn empty() -> Self {
+        Self { flat: Vec::new() }
     }
 
     /// The flat values.
@@ -282,35 +314,86 @@ pub fn init_model(
     )
 }
 
+/// Per-thread activations and scratch buffers of one pass.
 #[derive(Default)]
-struct Tapes {
-    feat: MlpTape,
-    abs: MlpTape,
-    enc: MlpTape,
-    dec: MlpTape,
-    enc_in: Vec<f32>,
-    dec_in: Vec<f32>,
-    mu: Vec<f32>,
-    lv: Vec<f32>,
-    d_out: Vec<f32>,
-    d_in: Vec<f32>,
-    d_f: Vec<f32>,
-    d_mu: Vec<f32>,
-    d_lv: Vec<f32>,
-    d_h: Vec<f32>,
-    d_h2: Vec<f32>,
+pub(crate) struct Tapes {
+    pub(crate) feat: MlpTape,
+    pub(crate) abs: MlpTape,
+    pub(crate) enc: MlpTape,
+    pub(crate) dec: MlpTape,
+    pub(crate) enc_in: Vec<f32>,
+    pub(crate) dec_in: Vec<f32>,
+    pub(crate) mu: Vec<f32>,
+    pub(crate) lv: Vec<f32>,
+    pub(crate) d_out: Vec<f32>,
+    pub(crate) d_in: Vec<f32>,
+    pub(crate) d_f: Vec<f32>,
+    pub(crate) d_mu: Vec<f32>,
+    pub(crate) d_lv: Vec<f32>,
+    pub(crate) d_h: Vec<f32>,
+    pub(crate) d_h2: Vec<f32>,
 }
 
 thread_local! {
     static TAPES: RefCell<Tapes> = RefCell::new(Tapes::default());
 }
 
-fn sized(v: &mut Vec<f32>, n: usize) -> &mut [f32] {
+/// `v` resized to `n` values, as a slice.
+pub(crate) fn sized(v: &mut Vec<f32>, n: usize) -> &mut [f32] {
     v.resize(n, 0.0);
     &mut v[..n]
 }
 
+/// The logistic function.
+pub(crate) fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
 mod pass;
+
+/// Runs `pass` over the sub-batches of `rows` rows in parallel and sums their loss parts (and,
+/// when `grads` is given, their gradients, which overwrite `grads`) in sub-batch order: the
+/// result is bit-identical for any thread count. Sub-batches have [`SUB_BATCH`] rows with
+/// gradients, 1024 without.
+pub(crate) fn batched(
+    model: &ShapeAdaptiveModel,
+    rows: usize,
+    grads: Option<&mut Gradients>,
+    pass: impl Fn(Range<usize>, Option<&mut [f32]>, &mut Tapes) -> LossParts + Sync,
+) -> LossParts {
+    let n = n_params(model);
+    let with_grad = grads.is_some();
+    let chunk = if with_grad { SUB_BATCH } else { 1024 };
+    let subs: Vec<(LossParts, Vec<f32>)> = (0..rows.div_ceil(chunk))
+        .into_par_iter()
+        .map(|i| {
+            let r = i * chunk..((i + 1) * chunk).min(rows);
+            let mut g = if with_grad {
+                vec![0.0f32; n]
+            } else {
+                Vec::new()
+            };
+            let parts = TAPES.with(|t| {
+                pass(
+                    r,
+                    with_grad.then_some(g.as_mut_slice()),
+                    &mut t.borrow_mut(),
+                )
+            });
+            (parts, g)
+        })
+        .collect();
+    let mut total = LossParts::default();
+    subs.iter().for_each(|(p, _)| total.add(p));
+    if let Some(grads) = grads {
+        grads.flat.resize(n, 0.0);
+        grads.flat.fill(0.0);
+        for (_, g) in &subs {
+            grads.flat.iter_mut().zip(g).for_each(|(a, b)| *a += b);
+        }
+    }
+    total
+}
 
 fn check(model: &ShapeAdaptiveModel, b: &Batch) -> Result<usize, ModelError> {
     let rows = b.absorption.len();
@@ -341,35 +424,10 @@ pub fn loss_and_grad(
     grads: &mut Gradients,
 ) -> Result<LossParts, ModelError> {
     let rows = check(model, batch)?;
-    let n = n_params(model);
     let inv = 1.0 / rows.max(1) as f32;
-    let subs: Vec<(LossParts, Vec<f32>)> = (0..rows.div_ceil(SUB_BATCH))
-        .into_par_iter()
-        .map(|i| {
-            let r = i * SUB_BATCH..((i + 1) * SUB_BATCH).min(rows);
-            let mut g = vec![0.0f32; n];
-            let parts = TAPES.with(|t| {
-                pass::run(
-                    model,
-                    batch,
-                    r,
-                    weights,
-                    inv,
-                    Some(&mut g),
-                    &mut t.borrow_mut(),
-                )
-            });
-            (parts, g)
-        })
-        .collect();
-    grads.flat.resize(n, 0.0);
-    grads.flat.fill(0.0);
-    let mut total = LossParts::default();
-    for (p, g) in &subs {
-        total.add(p);
-        grads.flat.iter_mut().zip(g).for_each(|(a, b)| *a += b);
-    }
-    Ok(total)
+    Ok(batched(model, rows, Some(grads), |r, g, t| {
+        pass::run(model, batch, r, weights, inv, g, t)
+    }))
 }
 
 /// The loss of `batch` without gradients (validation), in chunks of 1024 rows over the pool.
@@ -380,14 +438,7 @@ pub fn loss_only(
 ) -> Result<LossParts, ModelError> {
     let rows = check(model, batch)?;
     let inv = 1.0 / rows.max(1) as f32;
-    let parts: Vec<LossParts> = (0..rows.div_ceil(1024))
-        .into_par_iter()
-        .map(|i| {
-            let r = i * 1024..((i + 1) * 1024).min(rows);
-            TAPES.with(|t| pass::run(model, batch, r, weights, inv, None, &mut t.borrow_mut()))
-        })
-        .collect();
-    let mut total = LossParts::default();
-    parts.iter().for_each(|p| total.add(p));
-    Ok(total)
+    Ok(batched(model, rows, None, |r, g, t| {
+        pass::run(model, batch, r, weights, inv, g, t)
+    }))
 }

@@ -10,12 +10,15 @@
 //! * [`samplefile`]: the documented binary samples file with its header.
 //! * [`mlp_grad`]: backward pass of dense layers and MLPs on `gemm`.
 //! * [`cvae`]: the losses of model-spec §6 and their gradients for the whole model.
+//! * [`energy`]: the energy-score objective of the decoder (engression), a fine-tuning stage
+//!   that fits the decoder's exit distribution directly.
 //! * [`optim`]: Adam with staircase decay and global-norm clipping.
 //! * [`train`]: the training loop, validation, checkpoints and resume.
 //! * [`plot`]: loss curves.
 
 pub mod cvae;
 pub mod datagen;
+pub mod energy;
 pub mod mlp_grad;
 pub mod optim;
 pub mod plot;

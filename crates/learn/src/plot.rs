@@ -11,7 +11,8 @@ use crate::train::{HistoryRow, TrainError};
 ///
 /// Columns: step, learning rate, mean training loss since the previous row, validation total
 /// loss, its position / KL / absorption terms, the validation position MSE (units of σ_n²) and
-/// absorption RMSE, training seconds.
+/// absorption RMSE, training seconds, then the energy objective's weighted term and its
+/// unweighted energy score (units of σ_n; 0 under the CVAE objective).
 pub fn write_history(
     history: &[HistoryRow],
     dir: &Path,
@@ -19,12 +20,12 @@ pub fn write_history(
 ) -> Result<(), TrainError> {
     let mut csv = String::from(
         "step,lr,train_loss,val_loss,val_position_term,val_kl_term,val_absorption_term,\
-         val_position_mse,val_absorption_rmse,seconds\n",
+         val_position_mse,val_absorption_rmse,seconds,val_energy_term,val_energy_score\n",
     );
     for r in history {
         let _ = writeln!(
             csv,
-            "{},{:e},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.2}",
+            "{},{:e},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.2},{:.6},{:.6}",
             r.step,
             r.lr,
             r.train_loss.unwrap_or(f64::NAN),
@@ -34,7 +35,9 @@ pub fn write_history(
             r.val.absorption,
             r.val.position_mse,
             r.val.absorption_mse.sqrt(),
-            r.seconds
+            r.seconds,
+            r.val.energy,
+            r.val.energy_score
         );
     }
     scene::fsutil::atomic_write(&dir.join("history.csv"), csv.as_bytes(), overwrite)?;
@@ -66,6 +69,7 @@ pub fn write_history(
                     Series::new("position", pts(&|r| r.val.position)),
                     Series::new("KL", pts(&|r| r.val.kl)),
                     Series::new("absorption", pts(&|r| r.val.absorption)),
+                    Series::new("energy score", pts(&|r| r.val.energy)),
                 ],
                 reference_lines: vec![],
             },

@@ -30,6 +30,7 @@ use serde::{Deserialize, Serialize};
 use volpath::rng::{Sampler, hash_key};
 
 use crate::cvae::{self as vae, Batch, Gradients, LossParts, LossWeights, Widths};
+use crate::energy::{self, EnergyBatch, EnergyWeights};
 use crate::optim::{Adam, AdamConfig};
 use crate::sample::Sample;
 
@@ -91,6 +92,37 @@ pub struct TrainConfig {
     pub eval_every: u64,
     /// Write a checkpoint every this many steps.
     pub checkpoint_every: u64,
+    /// The objective (model-spec §6's CVAE, or the energy score of [`crate::energy`]).
+    #[serde(default)]
+    pub objective: Objective,
+}
+
+/// What a training run minimises.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum Objective {
+    /// The conditional VAE of model-spec §6 (weights: [`TrainConfig::weights`]).
+    #[default]
+    Cvae,
+    /// The energy score of the decoder's proposals against the exits plus the absorption term
+    /// of [`TrainConfig::weights`] ([`crate::energy`]).
+    EnergyScore {
+        /// Latent draws per row (m ≥ 2).
+        draws: usize,
+        /// Weight of the energy score.
+        weight: f32,
+    },
+}
+
+impl Objective {
+    /// Standard-normal values drawn per training row: the VAE's reparameterisation noise, or
+    /// the energy score's latent samples.
+    fn noise_per_row(&self) -> usize {
+        match self {
+            Objective::Cvae => LATENT_DIM,
+            Objective::EnergyScore { draws, .. } => draws * LATENT_DIM,
+        }
+    }
 }
 
 impl Default for TrainConfig {
@@ -104,6 +136,7 @@ impl Default for TrainConfig {
             seed: 0,
             eval_every: 1000,
             checkpoint_every: 5000,
+            objective: Objective::Cvae,
         }
     }
 }
@@ -232,9 +265,9 @@ fn box_muller(u1: f32, u2: f32) -> (f32, f32) {
     (r * phi.cos(), r * phi.sin())
 }
 
-/// Fills `eps` (`rows × 4`) with N(0, 1) values from `hash(seed, step, row)`.
-fn fill_noise(eps: &mut [f32], seed: u64, step: u64) {
-    for (row, e) in eps.chunks_exact_mut(LATENT_DIM).enumerate() {
+/// Fills `eps` (`rows × width`, `width` even) with N(0, 1) values from `hash(seed, step, row)`.
+fn fill_noise(eps: &mut [f32], width: usize, seed: u64, step: u64) {
+    for (row, e) in eps.chunks_exact_mut(width).enumerate() {
         let mut s = Sampler::new(seed, step, row as u64, 0x05EE_DE95);
         for pair in e.chunks_exact_mut(2) {
             let (a, b) = box_muller(s.next_f32(), s.next_f32());
@@ -253,6 +286,36 @@ impl Trainer {
         train: Prepared,
         val: Prepared,
     ) -> Result<Self, TrainError> {
+        let model = vae::init_model(&config.widths, norm, info, config.seed)?;
+        Self::with_model(config, model, train, val)
+    }
+
+    /// A fresh run that starts from `model` (fine-tuning, e.g. with
+    /// [`Objective::EnergyScore`] after the CVAE): its parameters, normalisation and metadata
+    /// are kept and `config.widths` is replaced by its widths. `train` and `val` must be prepared
+    /// with the model's normalisation ([`prepare`]).
+    pub fn from_model(
+        mut config: TrainConfig,
+        model: ShapeAdaptiveModel,
+        train: Prepared,
+        val: Prepared,
+    ) -> Result<Self, TrainError> {
+        config.widths = Widths::of(&model).ok_or_else(|| {
+            TrainError::Data(
+                "the initial model has no encoder (a render-only model, e.g. imported reference \
+                 weights); start from a model written by `translucent train fit`"
+                    .into(),
+            )
+        })?;
+        Self::with_model(config, model, train, val)
+    }
+
+    fn with_model(
+        config: TrainConfig,
+        model: ShapeAdaptiveModel,
+        train: Prepared,
+        val: Prepared,
+    ) -> Result<Self, TrainError> {
         if train.is_empty() {
             return Err(TrainError::Data("the training set is empty".into()));
         }
@@ -262,7 +325,14 @@ impl Trainer {
         if config.batch_size == 0 {
             return Err(TrainError::Data("the batch size must be at least 1".into()));
         }
-        let model = vae::init_model(&config.widths, norm, info, config.seed)?;
+        if let Objective::EnergyScore { draws, weight } = config.objective
+            && (draws < 2 || !(weight.is_finite() && weight > 0.0))
+        {
+            return Err(TrainError::Data(format!(
+                "the energy objective needs at least 2 draws and a positive weight, got {draws} \
+                 draws and weight {weight}"
+            )));
+        }
         let params = vae::params_to_flat(&model);
         let adam = Adam::new(params.len(), config.adam.clone());
         let grads = Gradients::zeros_like(&model);
@@ -342,7 +412,8 @@ impl Trainer {
         buf.inputs.clear();
         buf.targets.clear();
         buf.absorption.clear();
-        buf.eps.resize(b * LATENT_DIM, 0.0);
+        let width = self.config.objective.noise_per_row();
+        buf.eps.resize(b * width, 0.0);
         for i in 0..b {
             let r = self.row_of(self.step * b as u64 + i as u64);
             buf.inputs
@@ -351,20 +422,65 @@ impl Trainer {
                 .extend_from_slice(&self.train.targets[r * POSITION_DIM..(r + 1) * POSITION_DIM]);
             buf.absorption.push(self.train.absorption[r]);
         }
-        fill_noise(&mut buf.eps, self.config.seed, self.step);
+        fill_noise(&mut buf.eps, width, self.config.seed, self.step);
         self.batch = buf;
+    }
+
+    /// Loss parts of `data` (inputs, targets, absorption) under the run's objective with the
+    /// noise `eps`, and the gradient into `grads` when given.
+    fn objective(
+        &self,
+        data: (&[f32], &[f32], &[f32]),
+        eps: &[f32],
+        grads: Option<&mut Gradients>,
+    ) -> Result<LossParts, TrainError> {
+        let (inputs, targets, absorption) = data;
+        let parts = match self.config.objective {
+            Objective::Cvae => {
+                let batch = Batch {
+                    inputs,
+                    targets,
+                    absorption,
+                    eps,
+                };
+                match grads {
+                    Some(g) => vae::loss_and_grad(&self.model, &batch, &self.config.weights, g),
+                    None => vae::loss_only(&self.model, &batch, &self.config.weights),
+                }
+            }
+            Objective::EnergyScore { draws, weight } => {
+                let batch = EnergyBatch {
+                    inputs,
+                    targets,
+                    absorption,
+                    z: eps,
+                    draws,
+                };
+                let w = EnergyWeights {
+                    energy: weight,
+                    absorption: self.config.weights.absorption,
+                };
+                match grads {
+                    Some(g) => energy::loss_and_grad(&self.model, &batch, &w, g),
+                    None => energy::loss_only(&self.model, &batch, &w),
+                }
+            }
+        };
+        Ok(parts?)
     }
 
     /// One optimisation step; returns its loss.
     pub fn train_step(&mut self) -> Result<f64, TrainError> {
         self.gather_batch();
-        let batch = Batch {
-            inputs: &self.batch.inputs,
-            targets: &self.batch.targets,
-            absorption: &self.batch.absorption,
-            eps: &self.batch.eps,
-        };
-        let parts = vae::loss_and_grad(&self.model, &batch, &self.config.weights, &mut self.grads)?;
+        let mut grads = std::mem::replace(&mut self.grads, Gradients::empty());
+        let b = &self.batch;
+        let parts = self.objective(
+            (&b.inputs, &b.targets, &b.absorption),
+            &b.eps,
+            Some(&mut grads),
+        );
+        self.grads = grads;
+        let parts = parts?;
         if !parts.total.is_finite() {
             return Err(TrainError::Diverged { step: self.step });
         }
@@ -383,15 +499,10 @@ impl Trainer {
         } else {
             &self.val
         };
-        let mut eps = vec![0.0f32; data.len() * LATENT_DIM];
-        fill_noise(&mut eps, self.config.seed, u64::MAX);
-        let batch = Batch {
-            inputs: &data.inputs,
-            targets: &data.targets,
-            absorption: &data.absorption,
-            eps: &eps,
-        };
-        Ok(vae::loss_only(&self.model, &batch, &self.config.weights)?)
+        let width = self.config.objective.noise_per_row();
+        let mut eps = vec![0.0f32; data.len() * width];
+        fill_noise(&mut eps, width, self.config.seed, u64::MAX);
+        self.objective((&data.inputs, &data.targets, &data.absorption), &eps, None)
     }
 
     fn record_row(&mut self) -> Result<(), TrainError> {

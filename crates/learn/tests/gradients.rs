@@ -20,10 +20,11 @@
 //! throughput measurement: `cargo test --release -p translucent-learn --test gradients --
 //! --ignored --nocapture`.
 
+mod common;
+use common::*;
+
 use bssrdf::model::ModelInfo;
-use bssrdf::nn::{
-    Dense, INPUT_DIM, LATENT_DIM, Mlp, Normalisation, POSITION_DIM, ShapeAdaptiveModel, Workspace,
-};
+use bssrdf::nn::{Dense, INPUT_DIM, LATENT_DIM, Mlp, Normalisation, ShapeAdaptiveModel, Workspace};
 use learn::cvae::{
     Batch, Gradients, LossWeights, Widths, flat_to_params, init_model, loss_and_grad, loss_only,
     n_params, params_to_flat,
@@ -31,13 +32,6 @@ use learn::cvae::{
 use learn::mlp_grad::{MlpTape, dense_backward};
 use learn::optim::{Adam, AdamConfig, AdamState};
 use volpath::rng::Sampler;
-
-const H: f64 = 1e-6;
-const MARGIN: f64 = 1e-4;
-
-fn uniform(s: &mut Sampler, n: usize, a: f32) -> Vec<f32> {
-    (0..n).map(|_| a * (2.0 * s.next_f32() - 1.0)).collect()
-}
 
 fn assert_close(label: &str, analytic: &[f32], fd: &[f64]) {
     let gmax = analytic.iter().fold(0.0f32, |a, b| a.max(b.abs())) as f64;
@@ -52,39 +46,6 @@ fn assert_close(label: &str, analytic: &[f32], fd: &[f64]) {
 
 // ---------------------------------------------------------------------------------------------
 // f64 reference networks over a flat parameter vector
-
-/// One layer: (n_in, n_out, relu); parameters W (n_out × n_in) then b, consecutive.
-type Shape = (usize, usize, bool);
-
-fn mlp_shapes(mlp: &Mlp) -> Vec<Shape> {
-    let n = mlp.layers().len();
-    mlp.layers()
-        .iter()
-        .enumerate()
-        .map(|(i, l)| (l.n_in(), l.n_out(), i + 1 < n || mlp.relu_output()))
-        .collect()
-}
-
-/// `act(W x + b)` layer by layer from `p[off..]`; records min |pre-activation| of ReLU units.
-fn forward64(p: &[f64], mut off: usize, shapes: &[Shape], x: &[f64], margin: &mut f64) -> Vec<f64> {
-    let mut h = x.to_vec();
-    for &(n_in, n_out, relu) in shapes {
-        let (w, b) = (&p[off..off + n_in * n_out], &p[off + n_in * n_out..]);
-        h = (0..n_out)
-            .map(|o| {
-                let s: f64 = (0..n_in).map(|i| w[o * n_in + i] * h[i]).sum::<f64>() + b[o];
-                if relu {
-                    *margin = margin.min(s.abs());
-                    s.max(0.0)
-                } else {
-                    s
-                }
-            })
-            .collect();
-        off += n_in * n_out + n_out;
-    }
-    h
-}
 
 /// Central differences of ⟨c, MLP(x)⟩ (summed over `rows` rows) with respect to every parameter
 /// `p0` and every input `x0` of the f64 reference network `shapes`; asserts that no ReLU kink
@@ -126,49 +87,7 @@ fn fd_linear_functional(
     )
 }
 
-fn n_shape_params(shapes: &[Shape]) -> usize {
-    shapes.iter().map(|&(i, o, _)| i * o + o).sum()
-}
-
-/// The whole model in f64, blocks in the flat order of `learn::cvae`.
-struct Model64 {
-    blocks: [Vec<Shape>; 6],
-}
-
-const BLOCK_NAMES: [&str; 6] = [
-    "feature",
-    "absorption",
-    "decoder",
-    "encoder hidden",
-    "mean head",
-    "logvar head",
-];
-
 impl Model64 {
-    fn new(m: &ShapeAdaptiveModel) -> Self {
-        let e = m.encoder().unwrap();
-        let head = |d: &Dense| vec![(d.n_in(), d.n_out(), false)];
-        Self {
-            blocks: [
-                mlp_shapes(m.feature_mlp()),
-                mlp_shapes(m.absorption_mlp()),
-                mlp_shapes(m.decoder()),
-                mlp_shapes(e.hidden()),
-                head(e.mean()),
-                head(e.logvar()),
-            ],
-        }
-    }
-
-    fn offsets(&self) -> [std::ops::Range<usize>; 6] {
-        let mut o = 0;
-        std::array::from_fn(|k| {
-            let n = n_shape_params(&self.blocks[k]);
-            o += n;
-            o - n..o
-        })
-    }
-
     /// Batch mean of the §6 loss in f64 and the smallest ReLU margin.
     fn loss(&self, p: &[f64], d: &Data, w: &LossWeights) -> (f64, f64) {
         let off = self.offsets();
@@ -211,26 +130,6 @@ impl Model64 {
 // ---------------------------------------------------------------------------------------------
 // Fixtures
 
-struct Data {
-    inputs: Vec<f32>,
-    targets: Vec<f32>,
-    absorption: Vec<f32>,
-    eps: Vec<f32>,
-}
-
-fn data(rows: usize, seed: u64) -> Data {
-    let mut s = Sampler::new(seed, 7, 7, 7);
-    Data {
-        inputs: uniform(&mut s, rows * INPUT_DIM, 1.5),
-        targets: uniform(&mut s, rows * POSITION_DIM, 2.0),
-        absorption: uniform(&mut s, rows, 0.45)
-            .into_iter()
-            .map(|v| v + 0.5)
-            .collect(),
-        eps: uniform(&mut s, rows * LATENT_DIM, 1.7),
-    }
-}
-
 fn batch(d: &Data) -> Batch<'_> {
     Batch {
         inputs: &d.inputs,
@@ -238,23 +137,6 @@ fn batch(d: &Data) -> Batch<'_> {
         absorption: &d.absorption,
         eps: &d.eps,
     }
-}
-
-/// A small model with non-zero biases (so bias gradients are tested away from the init).
-fn small_model(seed: u64) -> ShapeAdaptiveModel {
-    let w = Widths {
-        feature: vec![10, 8],
-        absorption_hidden: vec![5],
-        decoder_hidden: vec![7, 6],
-        encoder_hidden: vec![6, 5],
-    };
-    let mut m = init_model(&w, Normalisation::identity(), ModelInfo::default(), seed).unwrap();
-    let mut p = params_to_flat(&m);
-    let mut s = Sampler::new(seed, 9, 9, 9);
-    p.iter_mut()
-        .for_each(|v| *v += 0.05 * (2.0 * s.next_f32() - 1.0));
-    flat_to_params(&mut m, &p);
-    m
 }
 
 fn random_dense(n_in: usize, n_out: usize, s: &mut Sampler) -> Dense {
@@ -372,34 +254,9 @@ fn check_objective(
     let parts = loss_and_grad(m, &batch(d), &weights, &mut g).unwrap();
     let r = Model64::new(m);
     let p0: Vec<f64> = params_to_flat(m).iter().map(|&v| v as f64).collect();
-    let (l0, margin) = r.loss(&p0, d, &weights);
-    assert!(margin > MARGIN, "{label}: ReLU kink too close ({margin:e})");
-    assert!(
-        (parts.total - l0).abs() <= 1e-5 * l0.abs().max(1.0),
-        "{label}: f32 loss {} vs f64 reference {l0}",
-        parts.total
-    );
-    let fd: Vec<f64> = idx
-        .iter()
-        .map(|&i| {
-            let (mut a, mut b) = (p0.clone(), p0.clone());
-            a[i] += H;
-            b[i] -= H;
-            (r.loss(&a, d, &weights).0 - r.loss(&b, d, &weights).0) / (2.0 * H)
-        })
-        .collect();
-    let analytic: Vec<f32> = idx.iter().map(|&i| g.as_flat()[i]).collect();
-    // Largest component over the whole gradient for the absolute part of the tolerance.
-    let gmax = g.as_flat().iter().fold(0.0f32, |a, b| a.max(b.abs())) as f64;
-    for ((&i, &a), &f) in idx.iter().zip(&analytic).zip(&fd) {
-        let tol = 1e-4 * (a as f64).abs() + 1e-5 * gmax + 1e-6;
-        let block = r.offsets().iter().position(|o| o.contains(&i)).unwrap();
-        assert!(
-            (a as f64 - f).abs() <= tol,
-            "{label}: {} parameter {i}: analytic {a} vs f64 FD {f} (tol {tol:.3e})",
-            BLOCK_NAMES[block]
-        );
-    }
+    check_gradient(label, &r, g.as_flat(), parts.total, &p0, idx, |p| {
+        r.loss(p, d, &weights)
+    });
 }
 
 /// 10 random parameters of every block (feature, absorption, decoder, encoder hidden, mean
@@ -409,18 +266,7 @@ fn check_objective(
 fn objective_gradient_matches_f64_reference_for_every_block_and_term() {
     let d = data(70, 1);
     let m = small_model(21);
-    let r = Model64::new(&m);
-    let mut s = Sampler::new(5, 5, 5, 5);
-    let idx: Vec<usize> = r
-        .offsets()
-        .iter()
-        .flat_map(|o| {
-            let o = o.clone();
-            (0..10)
-                .map(|_| o.start + s.next_below(o.len() as u32) as usize)
-                .collect::<Vec<_>>()
-        })
-        .collect();
+    let idx = indices_per_block(&Model64::new(&m), 10, 5);
     let term = |p: f32, k: f32, a: f32| LossWeights {
         position: p,
         kl: k,

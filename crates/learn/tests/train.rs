@@ -7,7 +7,7 @@ use learn::cvae::Widths;
 use learn::datagen::{DataConfig, generate};
 use learn::optim::AdamConfig;
 use learn::sample::Sample;
-use learn::train::{Prepared, TrainConfig, Trainer, normalisation_of, prepare};
+use learn::train::{Objective, Prepared, TrainConfig, Trainer, normalisation_of, prepare};
 
 fn data() -> (Vec<Sample>, Vec<Sample>) {
     let base = DataConfig {
@@ -49,6 +49,7 @@ fn config(steps: u64) -> TrainConfig {
         seed: 3,
         eval_every: 50,
         checkpoint_every: 100,
+        objective: Objective::Cvae,
     }
 }
 

@@ -12,12 +12,8 @@ use std::ops::Range;
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM};
 
-use super::{Batch, LossParts, LossWeights, Tapes, sized};
+use super::{Batch, LossParts, LossWeights, Tapes, sigmoid, sized};
 use crate::mlp_grad::dense_backward;
-
-fn sigmoid(x: f32) -> f32 {
-    1.0 / (1.0 + (-x).exp())
-}
 
 /// Loss parts of rows `r` (each divided by the batch size via `inv`); parameter gradients are
 /// added to `grad` (flat order) when given.
