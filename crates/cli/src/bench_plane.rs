@@ -13,7 +13,10 @@
 //! `--curvature κ` replaces the plane by a sphere of radius σ_n/|κ| touching the entry point,
 //! p(u) = u_z + κ/2·|u|² in units of σ_n (κ > 0: the medium is the ball, convex; κ < 0: the medium
 //! surrounds a spherical cavity, concave). The quadric is exact in the cubic descriptor, so this
-//! isolates how the networks respond to curvature from the fit and the mesh.
+//! isolates how the networks respond to curvature from the fit and the mesh. Curved training
+//! configurations are cylinder-like (the meshes are scaled per axis), so spheres probe the
+//! networks outside their training distribution; `bench spread` compares them with their own
+//! held-out data instead (BENCHMARKS.md, session 29).
 //!
 //! On a sphere the exit distance is measured along the surface (the great-circle distance
 //! R·θ from the entry point), for the walks' exits and for the model's proposals alike. The

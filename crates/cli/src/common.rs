@@ -368,8 +368,8 @@ impl LearnedArgs {
 }
 
 /// Name of the shipped model (also accepted as a `--model` value).
-pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v1.safetensors";
-static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v1.safetensors");
+pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v2.safetensors";
+static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v2.safetensors");
 
 /// Loads a `--model` value: a file, or `shipped` for the built-in model.
 pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {

@@ -193,6 +193,7 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
             "config": train_header.config,
         },
         "training": trainer.config(),
+        "init": a.init.as_ref().map(|p| p.display().to_string()),
         "steps": trainer.step(),
         "training_seconds": trainer.seconds(),
         "validation": last.as_ref().map(|r| &r.val),

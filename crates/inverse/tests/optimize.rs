@@ -12,7 +12,7 @@ use inverse::params::Params;
 use scene::{Camera, Image, Medium, PointLight};
 
 fn shipped() -> ShapeAdaptiveModel {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/translucent-v1.safetensors");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/translucent-v2.safetensors");
     bssrdf::model::load(&p).unwrap()
 }
 
