@@ -308,4 +308,29 @@ mod tests {
             learn::cvae::LossWeights::default().position
         );
     }
+
+    /// `train all`'s second stage is the configuration stored in the shipped model's
+    /// provenance, started from the first stage's model.
+    #[test]
+    fn train_all_fine_tunes_as_the_shipped_model_was() {
+        let cvae = FitArgs {
+            out: "o/cvae".into(),
+            ..arg_defaults(&["--data", "d", "--out", "o"])
+        };
+        let stage = energy_stage(&cvae, "o/model".into());
+        assert_eq!(stage.init, Some(PathBuf::from("o/cvae/model.safetensors")));
+        let want = crate::train_fit::train_config(&stage).unwrap();
+        let shipped = crate::common::LearnedArgs::shipped_model().unwrap();
+        let prov = &shipped.info().provenance;
+        let got: learn::train::TrainConfig =
+            serde_json::from_value(prov["training"].clone()).unwrap();
+        assert_eq!(got, want, "the shipped model was trained otherwise");
+        assert!(
+            prov["init"]
+                .as_str()
+                .is_some_and(|p| p.ends_with("cvae/model.safetensors")),
+            "{}",
+            prov["init"]
+        );
+    }
 }

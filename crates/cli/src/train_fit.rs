@@ -57,6 +57,37 @@ fn load_set(path: &Path) -> Result<(SampleFileHeader, Vec<learn::sample::Sample>
     Ok(read_samples(path)?)
 }
 
+/// The training configuration `a` asks for (without `--resume`).
+pub fn train_config(a: &FitArgs) -> Result<TrainConfig> {
+    Ok(TrainConfig {
+        widths: parse_widths(&a.widths)?,
+        batch_size: a.batch,
+        steps: a.steps,
+        adam: learn::optim::AdamConfig {
+            lr: a.lr,
+            decay: a.lr_decay,
+            decay_every: a.lr_decay_every,
+            floor_fraction: a.lr_floor,
+            clip_norm: a.clip,
+            ..Default::default()
+        },
+        weights: learn::cvae::LossWeights {
+            position: a.position_weight,
+            ..Default::default()
+        },
+        seed: a.seed,
+        eval_every: a.eval_every.max(1),
+        checkpoint_every: a.checkpoint_every.max(1),
+        objective: match a.objective.as_str() {
+            "energy" => Objective::EnergyScore {
+                draws: a.draws,
+                weight: a.energy_weight,
+            },
+            _ => Objective::Cvae,
+        },
+    })
+}
+
 pub fn run_fit(a: &FitArgs) -> Result<()> {
     let (train_header, train) = load_set(&a.data.join("train.tlsamples"))?;
     let val_path = a.data.join("val.tlsamples");
@@ -108,33 +139,7 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
                 a.out.display()
             );
         }
-        let config = TrainConfig {
-            widths: parse_widths(&a.widths)?,
-            batch_size: a.batch,
-            steps: a.steps,
-            adam: learn::optim::AdamConfig {
-                lr: a.lr,
-                decay: a.lr_decay,
-                decay_every: a.lr_decay_every,
-                floor_fraction: a.lr_floor,
-                clip_norm: a.clip,
-                ..Default::default()
-            },
-            weights: learn::cvae::LossWeights {
-                position: a.position_weight,
-                ..Default::default()
-            },
-            seed: a.seed,
-            eval_every: a.eval_every.max(1),
-            checkpoint_every: a.checkpoint_every.max(1),
-            objective: match a.objective.as_str() {
-                "energy" => Objective::EnergyScore {
-                    draws: a.draws,
-                    weight: a.energy_weight,
-                },
-                _ => Objective::Cvae,
-            },
-        };
+        let config = train_config(a)?;
         let info = bssrdf::model::ModelInfo {
             c19_quirk: quirk,
             frame_convention: bssrdf::model::FrameConvention::Vkj19,
