@@ -349,6 +349,41 @@ pub(crate) fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
 }
 
+/// The last part of every objective's backward pass: adds the absorption term's gradient
+/// δs = w_abs·2(A − p)·A(1 − A)/B (B = 1/`inv` rows) at the absorption logits, back through the
+/// absorption MLP into `g_abs` and into ∂L/∂f, which `t.d_f` (rows × F) already holds from the
+/// other terms; then back through the feature MLP into `g_feat`.
+pub(crate) fn absorption_and_feature_backward(
+    model: &ShapeAdaptiveModel,
+    t: &mut Tapes,
+    p_abs: &[f32],
+    w_abs: f32,
+    inv: f32,
+    g_feat: &mut [f32],
+    g_abs: &mut [f32],
+) {
+    let rows = p_abs.len();
+    let f_dim = model.feature_mlp().n_out();
+    let Tapes {
+        feat,
+        abs,
+        d_out,
+        d_in,
+        d_f,
+        ..
+    } = t;
+    let d_s = sized(d_out, rows);
+    for ((d, &s), &p) in d_s.iter_mut().zip(abs.output()).zip(p_abs) {
+        let a = sigmoid(s);
+        *d = w_abs * 2.0 * (a - p) * a * (1.0 - a) * inv;
+    }
+    let d_abs_in = sized(d_in, rows * f_dim);
+    abs.backward(model.absorption_mlp(), d_out, g_abs, Some(d_abs_in));
+    let d_f = &mut d_f[..rows * f_dim];
+    d_f.iter_mut().zip(d_in.iter()).for_each(|(a, b)| *a += b);
+    feat.backward(model.feature_mlp(), d_f, g_feat, None);
+}
+
 mod pass;
 
 /// Runs `pass` over the sub-batches of `rows` rows in parallel and sums their loss parts (and,

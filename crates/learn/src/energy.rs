@@ -37,7 +37,9 @@ use bssrdf::model::ModelError;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM, ShapeAdaptiveModel};
 use serde::{Deserialize, Serialize};
 
-use crate::cvae::{Gradients, LossParts, Tapes, batched, sigmoid, sized};
+use crate::cvae::{
+    Gradients, LossParts, Tapes, absorption_and_feature_backward, batched, sigmoid, sized,
+};
 
 /// Loss weights of the energy objective.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -214,18 +216,7 @@ fn run(
             .zip(&row[LATENT_DIM..])
             .for_each(|(a, b)| *a += b);
     }
-    // Absorption.
-    {
-        let d_out = sized(&mut t.d_out, rows);
-        for i in 0..rows {
-            let a = sigmoid(logits[i]);
-            d_out[i] = w.absorption * 2.0 * (a - p_abs[i]) * a * (1.0 - a) * inv;
-        }
-    }
-    let d_abs_in = sized(&mut t.d_in, rows * f_dim);
-    t.abs.backward(abs_mlp, &t.d_out, g_abs, Some(d_abs_in));
-    d_f.iter_mut().zip(t.d_in.iter()).for_each(|(a, b)| *a += b);
-    // Feature MLP.
-    t.feat.backward(feat_mlp, d_f, g_feat, None);
+    // Absorption and feature MLP.
+    absorption_and_feature_backward(model, t, p_abs, w.absorption, inv, g_feat, g_abs);
     parts
 }

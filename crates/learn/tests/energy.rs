@@ -41,16 +41,7 @@ fn loss64(r: &Model64, p: &[f64], d: &Data, z: &[f32], w: &EnergyWeights) -> (f6
     let mut total = 0.0;
     let dist = |a: &[f64], b: &[f64]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
     for i in 0..rows {
-        let u: Vec<f64> = d.inputs[i * INPUT_DIM..(i + 1) * INPUT_DIM]
-            .iter()
-            .map(|&v| v as f64)
-            .collect();
-        let x: Vec<f64> = d.targets[i * 3..i * 3 + 3]
-            .iter()
-            .map(|&v| v as f64)
-            .collect();
-        let f = forward64(p, off[0].start, &r.blocks[0], &u, &mut margin);
-        let s = forward64(p, off[1].start, &r.blocks[1], &f, &mut margin)[0];
+        let (x, f, s) = r.row(p, d, i, &mut margin);
         let y: Vec<Vec<f64>> = (0..DRAWS)
             .map(|j| {
                 let q = (i * DRAWS + j) * LATENT_DIM;
@@ -122,11 +113,7 @@ fn energy_parts_are_consistent_and_deterministic() {
         absorption: 5000.0,
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut g = Gradients::zeros_like(&m);
             let p = loss_and_grad(&m, &batch(&d, &z), &w, &mut g).unwrap();
             (p, g.as_flat().to_vec())

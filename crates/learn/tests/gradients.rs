@@ -95,16 +95,7 @@ impl Model64 {
         let mut margin = f64::INFINITY;
         let mut total = 0.0;
         for r in 0..rows {
-            let u: Vec<f64> = d.inputs[r * INPUT_DIM..(r + 1) * INPUT_DIM]
-                .iter()
-                .map(|&v| v as f64)
-                .collect();
-            let x: Vec<f64> = d.targets[r * 3..r * 3 + 3]
-                .iter()
-                .map(|&v| v as f64)
-                .collect();
-            let f = forward64(p, off[0].start, &self.blocks[0], &u, &mut margin);
-            let s = forward64(p, off[1].start, &self.blocks[1], &f, &mut margin)[0];
+            let (x, f, s) = self.row(p, d, r, &mut margin);
             let enc_in: Vec<f64> = x.iter().chain(&f).copied().collect();
             let h = forward64(p, off[3].start, &self.blocks[3], &enc_in, &mut margin);
             let mu = forward64(p, off[4].start, &self.blocks[4], &h, &mut margin);
@@ -507,11 +498,7 @@ fn gradient_is_bit_identical_for_any_thread_count() {
     let m = small_model(1);
     let w = LossWeights::default();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut g = Gradients::zeros_like(&m);
             let p = loss_and_grad(&m, &batch(&d), &w, &mut g).unwrap();
             (p.total, g.as_flat().to_vec())

@@ -12,7 +12,9 @@ use std::ops::Range;
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM};
 
-use super::{Batch, LossParts, LossWeights, Tapes, sigmoid, sized};
+use super::{
+    Batch, LossParts, LossWeights, Tapes, absorption_and_feature_backward, sigmoid, sized,
+};
 use crate::mlp_grad::dense_backward;
 
 /// Loss parts of rows `r` (each divided by the batch size via `inv`); parameter gradients are
@@ -148,18 +150,7 @@ pub(super) fn run(
             d_f[i * f_dim + k] += t.d_in[i * e_in + POSITION_DIM + k];
         }
     }
-    // Absorption.
-    {
-        let d_out = sized(&mut t.d_out, rows);
-        for i in 0..rows {
-            let a = sigmoid(logits[i]);
-            d_out[i] = w.absorption * 2.0 * (a - p_abs[i]) * a * (1.0 - a) * inv;
-        }
-    }
-    let d_abs_in = sized(&mut t.d_in, rows * f_dim);
-    t.abs.backward(abs_mlp, &t.d_out, g_abs, Some(d_abs_in));
-    d_f.iter_mut().zip(t.d_in.iter()).for_each(|(a, b)| *a += b);
-    // Feature MLP.
-    t.feat.backward(feat_mlp, d_f, g_feat, None);
+    // Absorption and feature MLP.
+    absorption_and_feature_backward(model, t, p_abs, w.absorption, inv, g_feat, g_abs);
     parts
 }

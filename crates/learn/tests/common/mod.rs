@@ -92,6 +92,24 @@ impl Model64 {
         }
     }
 
+    /// Row `i` of `d` through the f64 networks at parameters `p`: the target x, the features f
+    /// and the absorption logit s (ReLU margins into `margin`).
+    pub fn row(
+        &self,
+        p: &[f64],
+        d: &Data,
+        i: usize,
+        margin: &mut f64,
+    ) -> (Vec<f64>, Vec<f64>, f64) {
+        let off = self.offsets();
+        let to64 = |v: &[f32]| v.iter().map(|&v| v as f64).collect::<Vec<f64>>();
+        let u = to64(&d.inputs[i * INPUT_DIM..(i + 1) * INPUT_DIM]);
+        let x = to64(&d.targets[i * POSITION_DIM..(i + 1) * POSITION_DIM]);
+        let f = forward64(p, off[0].start, &self.blocks[0], &u, margin);
+        let s = forward64(p, off[1].start, &self.blocks[1], &f, margin)[0];
+        (x, f, s)
+    }
+
     pub fn offsets(&self) -> [std::ops::Range<usize>; 6] {
         let mut o = 0;
         std::array::from_fn(|k| {
@@ -187,4 +205,13 @@ pub fn indices_per_block(r: &Model64, n: usize, seed: u64) -> Vec<usize> {
                 .collect::<Vec<_>>()
         })
         .collect()
+}
+
+/// `f` run on a fresh rayon pool of `threads` threads.
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
 }
