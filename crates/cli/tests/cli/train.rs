@@ -85,6 +85,62 @@ fn train_data_fit_resume_and_use_the_model() {
     assert_stdout_has(&r, &["trained 60 steps (20 this run)"]);
     let info = ok(d, &["model", "info", "m/model.safetensors"]);
     assert_stdout_has(&info, &["translucent train fit"]);
+
+    // Fine-tuning with the energy score from that model (the second stage of `train all`).
+    let energy = [
+        "train",
+        "fit",
+        "--data",
+        "data",
+        "--out",
+        "e",
+        "--init",
+        "m/model.safetensors",
+        "--objective",
+        "energy",
+        "--draws",
+        "4",
+        "--steps",
+        "20",
+        "--batch",
+        "16",
+        "--eval-every",
+        "10",
+    ];
+    let r = ok(d, &energy);
+    assert_stdout_has(&r, &["trained 20 steps", "energy_score"]);
+    let info = ok(d, &["model", "info", "e/model.safetensors"]);
+    assert_stdout_has(
+        &info,
+        &["energy-score", "m/model.safetensors", "8 -> 4 -> 1"],
+    );
+    let history = String::from_utf8(read(&d.join("e/history.csv"))).unwrap();
+    assert!(
+        history
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with("val_energy_score")
+    );
+    // A model that cannot start a fine-tuning, and data made with the other c_19 convention.
+    write(&d.join("bad.safetensors"), b"not a model");
+    let mut bad = energy.to_vec();
+    bad[5] = "e2";
+    bad[7] = "bad.safetensors";
+    let r = fails(d, &bad);
+    assert_stderr_has(&r, &["--init bad.safetensors"]);
+    let mut other = data_args.to_vec();
+    other[3] = "data-noquirk";
+    other.push("--no-c19-quirk");
+    ok(d, &other);
+    let mut mismatch = energy.to_vec();
+    mismatch[3] = "data-noquirk";
+    mismatch[5] = "e3";
+    let r = fails(d, &mismatch);
+    assert_stderr_has(
+        &r,
+        &["--init m/model.safetensors", "c_19", "--no-c19-quirk"],
+    );
 }
 
 #[test]
