@@ -15,6 +15,19 @@
 //! replaces the decoder by the walks it imitates ([`bssrdf::render::EntrySampler`]), so the two
 //! scans separate the decoder's share of the error from the rest of the model (session 29).
 //! Writes `OUT/loss-scan.csv`.
+//!
+//! **Where the error lives.** `--grazing-cos C` sorts every pixel by the surface point its
+//! camera ray meets first (at the pixel centre; [`pixel_classes`]): `rim` (the camera looks
+//! along the surface, |cos| < C), `lit` (the light shines on it, unoccluded, at cos ≥ C),
+//! `terminator` (the light grazes it) and `unlit` (facing away from the light or in the object's
+//! own shadow: all its light crossed the medium); pixels whose ray misses the mesh count in none.
+//! The scan then reports the decorrelated loss of each class, so a minimum away from the truth
+//! can be traced to where on the object it comes from.
+//!
+//! `OUT/loss-scan-views.csv` holds the loss and brightness of every view at every scale with its
+//! phase angle (light–object–camera, at the bounding-box centre), and the scan prints the
+//! brightness ratio Σ render / Σ target per phase-angle bin: a model whose error depends on the
+//! lighting direction shows a trend across the bins that no albedo can remove.
 
 use std::path::PathBuf;
 
@@ -46,6 +59,10 @@ pub struct LossScanArgs {
     /// Seed of the first render (the second uses seed + 1).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Also report the loss of rim pixels (|cos| between camera ray and surface normal below
+    /// this) and of the other pixels separately.
+    #[arg(long)]
+    pub grazing_cos: Option<f32>,
     /// Replace existing outputs.
     #[arg(long)]
     pub overwrite: bool,
@@ -67,12 +84,156 @@ pub fn decorrelated_loss(a: &[Image], b: &[Image], t: &[Image]) -> ([f64; 3], [f
     (l, std::array::from_fn(|c| s[c] / st[c]))
 }
 
+/// The phase angle of a view in degrees: the angle at `centre` (the object's bounding-box
+/// centre) between the directions to the camera and to the light. 0° lights the object from the
+/// camera, 180° from behind it.
+pub fn phase_angle_deg(centre: glam::Vec3, camera: glam::Vec3, light: glam::Vec3) -> f32 {
+    let (c, l) = ((camera - centre).normalize(), (light - centre).normalize());
+    c.dot(l).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Phase-angle bins of the brightness summary (degrees, upper bounds).
+const PHASE_BINS: [f32; 4] = [45.0, 90.0, 135.0, 180.01];
+
+fn phase_bin(p: f32) -> usize {
+    PHASE_BINS
+        .iter()
+        .position(|&b| p < b)
+        .unwrap_or(PHASE_BINS.len() - 1)
+}
+
+/// Σ render and Σ target per phase-angle bin and channel, at one σ_t scale.
+#[derive(Default)]
+struct PhaseBrightness {
+    render: [[f64; 3]; PHASE_BINS.len()],
+    target: [[f64; 3]; PHASE_BINS.len()],
+}
+
+impl PhaseBrightness {
+    /// Adds a view of phase angle `phase` with target sums `target` and brightness ratios `ratio`.
+    fn add(&mut self, phase: f32, target: [f64; 3], ratio: [f64; 3]) {
+        let k = phase_bin(phase);
+        for c in 0..3 {
+            self.target[k][c] += target[c];
+            self.render[k][c] += ratio[c] * target[c];
+        }
+    }
+
+    /// The bin's brightness ratios as text ("-" for a bin without light).
+    fn row(&self, k: usize) -> String {
+        let r: Vec<String> = (0..3)
+            .map(|c| match self.target[k][c] {
+                t if t > 0.0 => format!("{:.3}", self.render[k][c] / t),
+                _ => "  -  ".into(),
+            })
+            .collect();
+        r.join(" ")
+    }
+}
+
+/// Prints the brightness ratio per phase-angle bin (rows: σ_t scales).
+fn print_phase_table(phase: &[f32], rows: &[(f32, PhaseBrightness)]) {
+    println!("brightness (render / target, R G B) by phase angle (light–object–camera):");
+    print!("{:>7} |", "σ_t ×");
+    let mut lo = 0.0;
+    for (k, hi) in PHASE_BINS.iter().enumerate() {
+        let count = phase.iter().filter(|&&p| phase_bin(p) == k).count();
+        print!(" {lo:>4.0}–{:<3.0}° ({count:>2} views) |", hi.floor());
+        lo = *hi;
+    }
+    println!();
+    for (s, b) in rows {
+        print!("{s:>7.3} |");
+        for k in 0..PHASE_BINS.len() {
+            print!(" {} |", b.row(k));
+        }
+        println!();
+    }
+}
+
+/// Names of the pixel classes of [`pixel_classes`] (class k + 1 is `CLASS_NAMES[k]`).
+pub const CLASS_NAMES: [&str; 4] = ["lit", "terminator", "unlit", "rim"];
+
+/// Pixel classes of one view, from the first surface point x of the ray through the pixel
+/// centre, its shading normal n, the camera direction d and the light direction l (c =
+/// `grazing_cos`): 0 = the ray misses the mesh; 4 `rim` = |n·d| < c; otherwise 1 `lit` = n·l ≥ c
+/// and the light visible from x, 2 `terminator` = |n·l| < c, 3 `unlit` = facing away from the
+/// light or shadowed by the object.
+pub fn pixel_classes(
+    accel: &geometry::Accel,
+    camera: &scene::Camera,
+    light: glam::Vec3,
+    grazing_cos: f32,
+) -> Vec<u8> {
+    let rays = camera.ray_gen();
+    let (w, h) = (camera.width, camera.height);
+    let mut out = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let (o, d) = rays.ray(x as f32 + 0.5, y as f32 + 0.5);
+            let Some(hit) = accel.closest(o, d, 0.0, f32::INFINITY) else {
+                out.push(0);
+                continue;
+            };
+            if hit.ns.dot(d).abs() < grazing_cos {
+                out.push(4);
+                continue;
+            }
+            let to_l = light - hit.p;
+            let dist = to_l.length();
+            let l = to_l / dist;
+            let cos_l = hit.ns.dot(l);
+            out.push(if cos_l.abs() < grazing_cos {
+                2
+            } else if cos_l < 0.0 {
+                3
+            } else {
+                let origin = geometry::bvh::offset_origin(hit.p, hit.ng, l);
+                if accel.occluded(origin, l, 0.0, dist * (1.0 - 1e-4)) {
+                    3
+                } else {
+                    1
+                }
+            });
+        }
+    }
+    out
+}
+
+/// Per pixel class and channel (`classes[i]` of pixel i; 0 is skipped, class k counts in
+/// row k − 1): Σ (a − t)(b − t).
+pub fn decorrelated_loss_by_class(
+    a: &Image,
+    b: &Image,
+    t: &Image,
+    classes: &[u8],
+) -> [[f64; 3]; CLASS_NAMES.len()] {
+    let mut l = [[0.0f64; 3]; CLASS_NAMES.len()];
+    for (((pa, pb), pt), &k) in a.data.iter().zip(&b.data).zip(&t.data).zip(classes) {
+        if k == 0 {
+            continue;
+        }
+        for c in 0..3 {
+            let (x, y, z) = (pa[c] as f64, pb[c] as f64, pt[c] as f64);
+            l[k as usize - 1][c] += (x - z) * (y - z);
+        }
+    }
+    l
+}
+
 pub fn run(a: &LossScanArgs) -> Result<()> {
     anyhow::ensure!(a.spp > 0, "--spp must be at least 1");
     anyhow::ensure!(
         a.scales.iter().all(|s| s.is_finite() && *s > 0.0),
         "--scales must be positive factors of the true σ_t"
     );
+    let (path, vpath) = (
+        a.out.join("loss-scan.csv"),
+        a.out.join("loss-scan-views.csv"),
+    );
+    for p in [&path, &vpath] {
+        scene::fsutil::check_overwrite(p, a.overwrite)?;
+    }
     let ds = Dataset::load(&a.dataset)?;
     let Some(truth) = ds.truth else {
         bail!(
@@ -95,13 +256,52 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         .with_context(|| format!("loading the mesh of {}", a.dataset.display()))?;
     let accel = build_accel(mesh, &warnings, &ds.mesh.describe());
     let model = a.learned.load_model()?;
+    if let Some(c) = a.grazing_cos {
+        anyhow::ensure!(
+            c > 0.0 && c < 1.0,
+            "--grazing-cos must lie in (0, 1) (a cosine); got {c}"
+        );
+    }
+    let classes: Option<Vec<Vec<u8>>> = a.grazing_cos.map(|c| {
+        views
+            .iter()
+            .map(|v| pixel_classes(&accel, &v.camera, v.light.position, c))
+            .collect()
+    });
+    if let Some(cl) = &classes {
+        let count = |k: u8| cl.iter().flatten().filter(|&&x| x == k).count();
+        let counts: Vec<String> = (1..=CLASS_NAMES.len() as u8)
+            .map(|k| format!("{} {}", count(k), CLASS_NAMES[k as usize - 1]))
+            .collect();
+        println!(
+            "pixels (grazing below |cos| {}): {}, {} background",
+            a.grazing_cos.unwrap_or_default(),
+            counts.join(", "),
+            count(0)
+        );
+    }
     println!("{}; {n} views, 2 × {} spp", a.learned.describe(), a.spp);
     println!(
         "{:>7} | {:>30} | {:>24}",
         "σ_t ×", "decorrelated loss (R, G, B)", "brightness (R, G, B)"
     );
-    let mut csv =
-        String::from("scale,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b\n");
+    let mut csv = String::from("scale,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b");
+    if classes.is_some() {
+        for name in CLASS_NAMES {
+            csv.push_str(&format!(",{name}_r,{name}_g,{name}_b"));
+        }
+    }
+    csv.push('\n');
+    let mut views_csv = String::from(
+        "scale,view,phase_deg,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b\n",
+    );
+    let (lo, hi) = accel.mesh().bounds();
+    let centre = 0.5 * (lo + hi);
+    let phase: Vec<f32> = views
+        .iter()
+        .map(|v| phase_angle_deg(centre, v.camera.origin, v.light.position))
+        .collect();
+    let mut by_phase: Vec<(f32, PhaseBrightness)> = Vec::new();
     for &s in &a.scales {
         let mut m = truth;
         m.sigma_t = m.sigma_t.map(|v| v * s);
@@ -123,15 +323,50 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
             l[0], l[1], l[2], b[0], b[1], b[2]
         );
         csv.push_str(&format!(
-            "{s},{},{},{},{},{},{}\n",
+            "{s},{},{},{},{},{},{}",
             l[0], l[1], l[2], b[0], b[1], b[2]
         ));
+        if let Some(cl) = &classes {
+            let mut by = [[0.0f64; 3]; CLASS_NAMES.len()];
+            for (i, k) in cl.iter().enumerate() {
+                let v = decorrelated_loss_by_class(&r1.images[i], &r2.images[i], &targets[i], k);
+                for (acc, x) in by.iter_mut().zip(v) {
+                    (0..3).for_each(|c| acc[c] += x[c]);
+                }
+            }
+            for (name, v) in CLASS_NAMES.iter().zip(&by) {
+                println!(
+                    "        | {name:>10} {:>9.2} {:>9.2} {:>9.2}",
+                    v[0], v[1], v[2]
+                );
+            }
+            for v in by {
+                csv.push_str(&format!(",{},{},{}", v[0], v[1], v[2]));
+            }
+        }
+        csv.push('\n');
+        let mut bright = PhaseBrightness::default();
+        for i in 0..n {
+            let (l, b) = decorrelated_loss(
+                std::slice::from_ref(&r1.images[i]),
+                std::slice::from_ref(&r2.images[i]),
+                std::slice::from_ref(&targets[i]),
+            );
+            views_csv.push_str(&format!(
+                "{s},{i},{:.2},{},{},{},{},{},{}\n",
+                phase[i], l[0], l[1], l[2], b[0], b[1], b[2]
+            ));
+            let t = std::array::from_fn(|c| targets[i].data.iter().map(|p| p[c] as f64).sum());
+            bright.add(phase[i], t, b);
+        }
+        by_phase.push((s, bright));
     }
+    print_phase_table(&phase, &by_phase);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    let path = a.out.join("loss-scan.csv");
     scene::fsutil::atomic_write(&path, csv.as_bytes(), a.overwrite)?;
-    println!("wrote {}", path.display());
+    scene::fsutil::atomic_write(&vpath, views_csv.as_bytes(), a.overwrite)?;
+    println!("wrote {} and {}", path.display(), vpath.display());
     Ok(())
 }
 
@@ -158,5 +393,75 @@ mod tests {
         assert!((bright[0] - 1.3).abs() < 1e-6 && (bright[2] - 1.0).abs() < 1e-6);
         let (l2, _) = decorrelated_loss(&a, &a, &t);
         assert!((l2[0] - 0.5).abs() < 1e-6);
+    }
+
+    /// A sphere seen head-on from +z: with the light at the camera the centre is `lit`, a ring at
+    /// the silhouette is `rim` and the corners miss; with the light behind the sphere the centre
+    /// is `unlit`; with the light to the side (+x) the centre column is `terminator`, the +x side
+    /// `lit` and the −x side `unlit`.
+    #[test]
+    fn pixel_classes_follow_camera_and_light() {
+        use glam::Vec3;
+        let mesh = geometry::shapes::Shape::Sphere {
+            radius: 0.5,
+            subdivisions: 4,
+        }
+        .build()
+        .unwrap();
+        let accel = geometry::Accel::new(mesh);
+        let eye = Vec3::new(0.0, 0.0, 3.0);
+        let cam = scene::Camera::look_at(eye, Vec3::ZERO, Vec3::Y, 25.0, 33, 33);
+        let at = |cl: &[u8], x: u32, y: u32| cl[(y * 33 + x) as usize];
+        let front = pixel_classes(&accel, &cam, eye, 0.3);
+        assert_eq!(at(&front, 16, 16), 1);
+        assert_eq!(at(&front, 0, 0), 0);
+        let rim = front.iter().filter(|&&k| k == 4).count();
+        let lit = front.iter().filter(|&&k| k == 1).count();
+        assert!(rim > 0 && lit > 4 * rim, "lit {lit}, rim {rim}");
+        assert!(!front.contains(&2) && !front.contains(&3));
+        let back = pixel_classes(&accel, &cam, Vec3::new(0.0, 0.0, -3.0), 0.3);
+        assert_eq!(at(&back, 16, 16), 3);
+        assert!(!back.contains(&1));
+        let side = pixel_classes(&accel, &cam, Vec3::new(30.0, 0.0, 0.0), 0.3);
+        assert_eq!(at(&side, 16, 16), 2);
+        // Camera x points to image left (Mitsuba), so world +x is the image's left half.
+        let (left, right) = (at(&side, 11, 16), at(&side, 21, 16));
+        assert_eq!((left.min(right), left.max(right)), (1, 3), "{left} {right}");
+    }
+
+    /// The classes' losses add up to the loss of all pixels that hit the mesh.
+    #[test]
+    fn class_losses_partition_the_loss() {
+        let mut t = Image::new(5, 1);
+        let (mut a, mut b) = (t.clone(), t.clone());
+        for i in 0..5 {
+            t.data[i] = [1.0, 2.0, 3.0];
+            a.data[i] = [1.0 + i as f32, 2.5, 3.0];
+            b.data[i] = [2.0, 2.0 + i as f32, 1.0];
+        }
+        let classes = [0u8, 1, 2, 3, 4];
+        let by = decorrelated_loss_by_class(&a, &b, &t, &classes);
+        let (all, _) = decorrelated_loss(
+            std::slice::from_ref(&a),
+            std::slice::from_ref(&b),
+            std::slice::from_ref(&t),
+        );
+        for c in 0..3 {
+            let pixel0 =
+                (a.data[0][c] - t.data[0][c]) as f64 * (b.data[0][c] - t.data[0][c]) as f64;
+            let sum: f64 = by.iter().map(|r| r[c]).sum();
+            assert!((sum + pixel0 - all[c]).abs() < 1e-9, "channel {c}");
+        }
+        // Pixel 2 (class 2) alone: R (3 − 1)(2 − 1) = 2.
+        assert!((by[1][0] - 2.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn phase_angle_of_front_side_and_back_light() {
+        use glam::Vec3;
+        let (o, cam) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 5.0));
+        assert!(phase_angle_deg(o, cam, Vec3::new(1.0, 0.0, 9.0)).abs() < 1e-3);
+        assert!((phase_angle_deg(o, cam, Vec3::new(4.0, 0.0, 0.0)) - 90.0).abs() < 1e-3);
+        assert!((phase_angle_deg(o, cam, Vec3::new(1.0, 0.0, -2.0)) - 180.0).abs() < 1e-3);
     }
 }

@@ -49,7 +49,14 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The Markdown table and the per-method summary.
-pub(super) fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> String {
+/// The Markdown report: every row, then the per-group summary (each method of `rows`, the random
+/// initialisations `init_rows` and, when bias-corrected, their corrections `init_bc_rows`).
+pub(super) fn report(
+    a: &AccuracyArgs,
+    rows: &[Row],
+    init_rows: &[Row],
+    init_bc_rows: &[Row],
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -84,7 +91,7 @@ pub(super) fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> Strin
             .collect::<Vec<_>>()
             .join(", ")
     };
-    for r in rows.iter().chain(init_rows) {
+    for r in rows.iter().chain(init_rows).chain(init_bc_rows) {
         let rel = r.sigma_rel().map(|x| 100.0 * x);
         let _ = writeln!(
             s,
@@ -121,6 +128,9 @@ pub(super) fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row]) -> Strin
     }
     if !init_rows.is_empty() {
         groups.push(("random inits", init_rows.iter().collect()));
+    }
+    if !init_bc_rows.is_empty() {
+        groups.push(("random inits+bc", init_bc_rows.iter().collect()));
     }
     for (name, g) in groups {
         if g.is_empty() {

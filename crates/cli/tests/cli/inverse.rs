@@ -101,6 +101,21 @@ fn num(v: &Value, key: &str, c: usize) -> f64 {
     v[key][c].as_f64().unwrap()
 }
 
+/// The estimate (σ_t[3], α[3]) of the row of `case` and `method` in an experiment's
+/// `results.csv`, as a medium in JSON.
+fn csv_estimate(csv: &str, case: &str, method: &str) -> Value {
+    let v: Vec<f64> = csv
+        .lines()
+        .find(|l| l.starts_with(&format!("{case},{method},")))
+        .unwrap_or_else(|| panic!("no row {case},{method} in {csv}"))
+        .split(',')
+        .skip(14)
+        .take(6)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    serde_json::json!({ "sigma_t": v[..3], "albedo": v[3..] })
+}
+
 /// Bootstrap step `step` from its files: its dataset was simulated at `current` (θ_{k−1}, the
 /// dataset's `truth`: f32 precision), and `got` is θ_k = θ_{k−1} + θ̂ − θ̂_k in (ln σ_t, α) with
 /// θ̂ = `est` and θ̂_k = `refit`, to the relative σ_t and absolute α tolerances `tol`.
@@ -257,19 +272,7 @@ fn experiment_bias_correction_refits_at_the_estimate() {
     let estimate =
         |run: &str| read_json(&exp.join("runs").join(run).join("result.json"))["estimate"].clone();
     let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
-    // σ_t[3], α[3] of a method's row in results.csv.
-    let row = |method: &str| -> Value {
-        let v: Vec<f64> = csv
-            .lines()
-            .find(|l| l.starts_with(&format!("sphere-m0,{method},")))
-            .unwrap_or_else(|| panic!("{csv}"))
-            .split(',')
-            .skip(14)
-            .take(6)
-            .map(|v| v.parse().unwrap())
-            .collect();
-        serde_json::json!({ "sigma_t": v[..3], "albedo": v[3..] })
-    };
+    let row = |method: &str| csv_estimate(&csv, "sphere-m0", method);
     let est = estimate("sphere-m0-ours");
     let mut current = est.clone();
     for (step, (data, run, method)) in [
@@ -293,6 +296,46 @@ fn experiment_bias_correction_refits_at_the_estimate() {
         );
         current = got;
     }
+}
+
+/// `--inits N --bias-correction`: every random start is corrected too, by a bootstrap recovery
+/// that starts where the start's own run started (the same estimator), and the summary has a
+/// `random inits+bc` group.
+#[test]
+fn experiment_corrects_the_random_starts() {
+    let d = tmp();
+    let args = tiny_accuracy_args(&["--inits", "1", "--methods", "ours", "--bias-correction"]);
+    let run = ok(d.path(), &args);
+    assert_stdout_has(
+        &run,
+        &[
+            "| sphere-m0 init 0 | ours+bc |",
+            "| random inits | 1 |",
+            "| random inits+bc | 1 |",
+            "bias of ours on sphere-m0-init0",
+        ],
+    );
+    let exp = d.path().join("exp");
+    let result = |run: &str| read_json(&exp.join("runs").join(run).join("result.json"));
+    let (start, boot) = (
+        result("sphere-m0-init0"),
+        result("sphere-m0-init0-ours-boot"),
+    );
+    assert_eq!(boot["initial"], start["initial"]);
+    assert_ne!(start["initial"]["sigma_t"][0], 50.0);
+    let csv = String::from_utf8(read(&exp.join("results.csv"))).unwrap();
+    let got = csv_estimate(&csv, "sphere-m0 init 0", "ours+bc");
+    let data = read_json(&exp.join("data/sphere-m0-init0-boot-ours/dataset.json"));
+    let est = start["estimate"].clone();
+    assert_bootstrap_step(
+        0,
+        &data["truth"],
+        &est,
+        &est,
+        &boot["estimate"],
+        &got,
+        (1e-4, 1e-5),
+    );
 }
 
 #[test]
@@ -360,4 +403,46 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
         &["experiment", "accuracy", "--out", "x", "--methods", "magic"],
     );
     assert_stderr_has(&bad, &["magic"]);
+}
+
+/// `bench loss-scan --grazing-cos`: the loss per pixel class and per view, the brightness per
+/// phase-angle bin; existing outputs are refused before any rendering.
+#[test]
+fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let args = [
+        "-q",
+        "bench",
+        "loss-scan",
+        "--dataset",
+        "ds",
+        "--views",
+        "2",
+        "--spp",
+        "2",
+        "--scales",
+        "0.9,1",
+        "--grazing-cos",
+        "0.3",
+        "--out",
+        "scan",
+    ];
+    let r = ok(d, &args);
+    assert_stdout_has(&r, &["lit", "terminator", "unlit", "rim", "phase angle"]);
+    let csv = String::from_utf8(read(&d.join("scan/loss-scan.csv"))).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.ends_with(",rim_r,rim_g,rim_b"), "{header}");
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    let views = String::from_utf8(read(&d.join("scan/loss-scan-views.csv"))).unwrap();
+    assert_eq!(views.lines().count(), 1 + 2 * 2, "{views}");
+    for line in views.lines().skip(1) {
+        let phase: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+        assert!((0.0..=180.0).contains(&phase), "{line}");
+    }
+    let again = fails(d, &args);
+    assert_stderr_has(&again, &["loss-scan.csv", "--overwrite"]);
+    let bad = fails(d, &[&args[..12], &["1.5", "--out", "scan2"]].concat());
+    assert_stderr_has(&bad, &["--grazing-cos", "(0, 1)"]);
 }
