@@ -103,6 +103,10 @@ pub struct OptimizeArgs {
     /// a third less work) or `sample` (an unperturbed sample of its own).
     #[arg(long, default_value = "offset-mean")]
     pub primal: Primal,
+    /// Fit only these views of the dataset (indices, e.g. `0,3,5`; default: all). The
+    /// re-renders and the bias correction use the same views; `--resume` keeps the run's own.
+    #[arg(long, value_delimiter = ',', value_name = "I,J,…")]
+    pub view_subset: Option<Vec<usize>>,
     /// Checkpoint every N iterations.
     #[arg(long, default_value_t = 10)]
     pub checkpoint_every: u32,
@@ -163,6 +167,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.iterations = a.budget.iterations;
     c.spp = a.budget.spp;
     c.views_per_iter = a.budget.views_per_iter;
+    c.view_subset = a.view_subset.clone();
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
     c.two_renders = a.two_renders;
     anyhow::ensure!(
@@ -197,8 +202,60 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     Ok(c)
 }
 
+/// The views of `ds` named by `subset` (indices into the dataset), in that order: a clear error
+/// for an empty list, an index past the last view or an index given twice.
+pub(crate) fn select_views(ds: &mut Dataset, subset: &[usize], what: &Path) -> Result<()> {
+    let n = ds.views.len();
+    anyhow::ensure!(
+        !subset.is_empty(),
+        "--view-subset: give at least one view index"
+    );
+    for (k, &i) in subset.iter().enumerate() {
+        anyhow::ensure!(
+            i < n,
+            "--view-subset: {} has {n} views (0 … {}); there is no view {i}",
+            what.display(),
+            n.saturating_sub(1)
+        );
+        anyhow::ensure!(
+            !subset[..k].contains(&i),
+            "--view-subset: view {i} is named twice"
+        );
+    }
+    ds.views = subset.iter().map(|&i| ds.views[i].clone()).collect();
+    Ok(())
+}
+
 pub fn run(a: &OptimizeArgs) -> Result<()> {
-    let ds = Dataset::load(&a.dataset)?;
+    let mut ds = Dataset::load(&a.dataset)?;
+    let ckpt = a.out.join("checkpoint.json");
+    let checkpoint = if a.resume {
+        Some(Checkpoint::read(&ckpt)?)
+    } else {
+        None
+    };
+    // A resumed run fits the views it started with.
+    let subset = match &checkpoint {
+        Some(c) => {
+            if a.view_subset.is_some() && a.view_subset != c.config.view_subset {
+                bail!(
+                    "--view-subset {:?} differs from the views of the run in {} ({:?}); resume \
+                     without --view-subset or start a new run",
+                    a.view_subset.as_deref().unwrap_or_default(),
+                    a.out.display(),
+                    c.config
+                        .view_subset
+                        .as_deref()
+                        .map_or("all".into(), |v| format!("{v:?}"))
+                );
+            }
+            c.config.view_subset.clone()
+        }
+        None => a.view_subset.clone(),
+    };
+    if let Some(s) = &subset {
+        select_views(&mut ds, s, &a.dataset)?;
+    }
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
     let model = a.learned.load_model()?;
@@ -234,9 +291,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     let truth = ds.truth.as_ref().map(Params::of);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    let ckpt = a.out.join("checkpoint.json");
-    let mut opt = if a.resume {
-        let c = Checkpoint::read(&ckpt)?;
+    let mut opt = if let Some(c) = checkpoint {
         Optimizer::resume(c, Some(a.budget.iterations), &accel, &model, base, targets)?
     } else {
         if ckpt.exists() && !a.overwrite {
@@ -373,7 +428,9 @@ fn rerender(
         .collect();
     let exposure = scene::image::auto_exposure(&targets);
     for (i, (img, t)) in imgs.iter().zip(&targets).enumerate() {
-        write_view(&dir, &format!("view_{i:03}"), img, t, exposure)?;
+        // Named by the view's index in the dataset (the same as i without --view-subset).
+        let index = opt.config().view_subset.as_ref().map_or(i, |s| s[i]);
+        write_view(&dir, &format!("view_{index:03}"), img, t, exposure)?;
     }
     Ok(())
 }

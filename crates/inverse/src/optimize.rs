@@ -127,6 +127,11 @@ pub struct OptimizeConfig {
         skip_serializing_if = "is_default_view_weight_floor"
     )]
     pub view_weight_floor: f64,
+    /// The dataset views that are the targets, by their index in the dataset (`None`: all).
+    /// The optimiser sees only the selected targets (renumbered from 0); the selection is kept
+    /// here so that a resumed run uses the same views. (Left out of the JSON when `None`.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub view_subset: Option<Vec<usize>>,
 }
 
 fn default_view_weight_floor() -> f64 {
@@ -232,6 +237,7 @@ impl OptimizeConfig {
             albedo_warmup: 0,
             normalize_views: false,
             view_weight_floor: default_view_weight_floor(),
+            view_subset: None,
         }
     }
 }

@@ -101,6 +101,8 @@ pub fn correct(
         o.dataset = data;
         o.out = dir.join("run");
         o.bc = BiasCorrectionArgs::default();
+        // The simulation holds only the fitted views already (renumbered).
+        o.view_subset = None;
         let refit = run_or_reuse(&o, &format!("bootstrap step {k}"))?;
         let corrected = inverse::bootstrap::bootstrap_step(&current, estimate, &refit.estimate)
             .with_context(|| {

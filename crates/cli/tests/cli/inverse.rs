@@ -446,3 +446,43 @@ fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
     let bad = fails(d, &[&args[..12], &["1.5", "--out", "scan2"]].concat());
     assert_stderr_has(&bad, &["--grazing-cos", "(0, 1)"]);
 }
+
+/// `optimize --view-subset`: only the named views are fitted (renumbered for the optimiser,
+/// named by their dataset index in `final/`), a resume keeps them, and bad lists are clear
+/// errors.
+#[test]
+fn optimize_fits_a_subset_of_the_views() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "3", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let opt = [&TINY_OPTIMIZE[..], &["--view-subset", "2,0"]].concat();
+    ok(d, &opt);
+    let res = read_json(&d.join("o/result.json"));
+    assert_eq!(
+        res["config"]["view_subset"],
+        serde_json::json!([2, 0]),
+        "{res}"
+    );
+    assert!(d.join("o/final/view_002.png").exists());
+    assert!(d.join("o/final/view_000.png").exists());
+    assert!(!d.join("o/final/view_001.png").exists());
+    let ckpt = read_json(&d.join("o/checkpoint.json"));
+    for h in ckpt["history"].as_array().unwrap() {
+        assert!(h["views"][0].as_u64().unwrap() < 2, "{h}");
+    }
+    let mut resume: Vec<&str> = TINY_OPTIMIZE.to_vec();
+    resume[6] = "4"; // --iterations 4
+    resume.push("--resume");
+    ok(d, &resume);
+    let res = read_json(&d.join("o/result.json"));
+    assert_eq!(res["iterations"], 4);
+    assert_eq!(res["config"]["view_subset"], serde_json::json!([2, 0]));
+    let other = fails(d, &[&resume[..], &["--view-subset", "1"]].concat());
+    assert_stderr_has(&other, &["--view-subset", "[2, 0]"]);
+    for (list, msg) in [("3", "there is no view 3"), ("0,0", "named twice")] {
+        let mut bad: Vec<&str> = TINY_OPTIMIZE.to_vec();
+        bad[4] = "o2";
+        bad.extend(["--view-subset", list]);
+        assert_stderr_has(&fails(d, &bad), &[msg]);
+    }
+}
