@@ -5,7 +5,7 @@ use serde_json::Value;
 
 use super::helpers::*;
 
-/// `optimize` of the dataset `ds` (2 views of 12², [`make_dataset`]) into `o`: 3 iterations at
+/// `optimize` of the dataset `ds` ([`tiny_optimize_dataset`]) into `o`: 3 iterations at
 /// 2 spp.
 const TINY_OPTIMIZE: [&str; 11] = [
     "optimize",
@@ -24,11 +24,24 @@ const TINY_OPTIMIZE: [&str; 11] = [
 // ---------------------------------------------------------------------------------------------
 // Inverse rendering (issue #5): optimize, resume, gradcheck.
 
+/// A temporary folder holding the dataset `ds` of [`TINY_OPTIMIZE`]: `views` views of 12² of
+/// a sphere at σ_t = 60, α = 0.9.
+fn tiny_optimize_dataset(views: &str) -> tempfile::TempDir {
+    let t = tmp();
+    make_dataset(
+        t.path(),
+        "ds",
+        views,
+        "12",
+        &["--sigma-t", "60", "--albedo", "0.9"],
+    );
+    t
+}
+
 #[test]
 fn optimize_writes_results_resumes_and_gradcheck_runs() {
-    let t = tmp();
+    let t = tiny_optimize_dataset("2");
     let d = t.path();
-    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
     let opt = [&TINY_OPTIMIZE[..], &["--checkpoint-every", "2"]].concat();
     let r = ok(d, &opt);
     assert_stdout_has(&r, &["truth"]);
@@ -452,9 +465,8 @@ fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
 /// errors.
 #[test]
 fn optimize_fits_a_subset_of_the_views() {
-    let t = tmp();
+    let t = tiny_optimize_dataset("3");
     let d = t.path();
-    make_dataset(d, "ds", "3", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
     let opt = [&TINY_OPTIMIZE[..], &["--view-subset", "2,0"]].concat();
     ok(d, &opt);
     let res = read_json(&d.join("o/result.json"));
