@@ -8,11 +8,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use geometry::Shape;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
 use scene::scene_file::RenderInfo;
-use scene::{Dataset, Medium, MeshSource, SceneDesc};
+use scene::{Dataset, Medium, MeshSource, SceneDesc, ShapeSpec};
 use volpath::rng::Sampler;
 use volpath::{ShadowTransmittance, VolpathSettings};
 
@@ -24,7 +23,9 @@ pub struct RigArgs {
     /// Mesh file (OBJ or PLY). Mutually exclusive with --shape.
     #[arg(long, conflicts_with = "shape")]
     pub mesh: Option<PathBuf>,
-    /// Built-in shape: sphere, cone, torus, rounded-box, blob (default blob).
+    /// Built-in shape: sphere, cone, torus, rounded-box, blob (default blob), with optional
+    /// parameters as NAME[:KEY=VALUE]… (the keys of a scene file's `shape` table, e.g.
+    /// `blob:amplitude=0.05:bumps=6`).
     #[arg(long)]
     pub shape: Option<String>,
     /// Uniform scale of the built-in shape (default objects are about 1 unit across).
@@ -64,7 +65,9 @@ impl RigArgs {
         Ok(match &self.mesh {
             Some(p) => MeshSource::File(p.clone()),
             None => MeshSource::Shape(
-                Shape::from_name(self.shape.as_deref().unwrap_or("blob"))?.scaled(self.scale),
+                ShapeSpec::parse_compact(self.shape.as_deref().unwrap_or("blob"), "--shape")?
+                    .to_shape("--shape")?
+                    .scaled(self.scale),
             ),
         })
     }

@@ -26,7 +26,7 @@ use clap::{Args, Subcommand};
 use geometry::Shape;
 use inverse::params::Params;
 use scene::rig::Rig;
-use scene::{Dataset, Medium, MeshSource};
+use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
 mod report;
@@ -48,7 +48,9 @@ pub struct AccuracyArgs {
     /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
     #[arg(long, default_value = "out/experiment-accuracy")]
     pub out: PathBuf,
-    /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob).
+    /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob), each with
+    /// optional parameters as NAME[:KEY=VALUE]… (the keys of a scene file's `shape` table, e.g.
+    /// `blob:amplitude=0.05`; its cases are named `blob-amplitude-0.05-m0`, …).
     #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
     pub shapes: Vec<String>,
     /// Hidden media per shape, drawn from the paper's ranges.
@@ -109,9 +111,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
     let shapes: Vec<Shape> = a
         .shapes
         .iter()
-        .map(|s| {
-            Shape::from_name(s).with_context(|| format!("--shapes: {s:?} is not a built-in shape"))
-        })
+        .map(|s| Ok(ShapeSpec::parse_compact(s, "--shapes")?.to_shape("--shapes")?))
         .collect::<Result<_>>()?;
     std::fs::create_dir_all(a.out.join("data"))?;
     std::fs::create_dir_all(a.out.join("runs"))?;
@@ -123,7 +123,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
     for (shape, built) in a.shapes.iter().zip(&shapes) {
         for k in 0..a.media {
             let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
-            let name = format!("{shape}-m{k}");
+            let name = format!("{}-m{k}", shape.replace([':', '='], "-"));
             let dir = a.out.join("data").join(&name);
             ensure_dataset(a, &rig, built.clone(), medium, a.target_spp, &dir, &name)?;
             cases.push((name, dir, medium));

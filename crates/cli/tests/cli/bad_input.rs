@@ -305,4 +305,27 @@ fn bad_unknown_shape_name() {
             "blob",
         ],
     );
+    // A parameter the shape does not have, in the compact NAME:KEY=VALUE form.
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "dataset",
+            "--shape",
+            "sphere:major=1",
+            "--views",
+            "1",
+            "--res",
+            "8",
+            "--spp",
+            "1",
+            "--out",
+            "ds",
+        ],
+    );
+    assert_stderr_has(
+        &r,
+        &["--shape", "no parameter 'major'", "radius, subdivisions"],
+    );
+    assert!(!t.path().join("ds").exists());
 }

@@ -416,6 +416,35 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
         &["experiment", "accuracy", "--out", "x", "--methods", "magic"],
     );
     assert_stderr_has(&bad, &["magic"]);
+    let bad = fails(
+        d.path(),
+        &[
+            "experiment",
+            "accuracy",
+            "--out",
+            "x",
+            "--shapes",
+            "blob:colour=1",
+        ],
+    );
+    assert_stderr_has(&bad, &["--shapes", "colour", "amplitude"]);
+    assert!(!d.path().join("x").exists(), "refused before any work");
+}
+
+/// `--shapes NAME:KEY=VALUE`: the case is named after the parameters and its dataset is
+/// rendered with them.
+#[test]
+fn experiment_takes_shape_parameters() {
+    let d = tmp();
+    let mut args = tiny_accuracy_args(&["--inits", "0", "--methods", "ours"]);
+    let at = args.iter().position(|a| *a == "sphere").unwrap();
+    args[at] = "sphere:radius=0.3:subdivisions=3";
+    let out = ok(d.path(), &args);
+    let case = "sphere-radius-0.3-subdivisions-3-m0";
+    assert_stdout_has(&out, &[&format!("| {case} | ours |")]);
+    let data = read_json(&d.path().join("exp/data").join(case).join("dataset.json"));
+    assert_eq!(data["shape"]["radius"], 0.3, "{}", data["shape"]);
+    assert_eq!(data["shape"]["subdivisions"], 3, "{}", data["shape"]);
 }
 
 /// `bench loss-scan --grazing-cos`: the loss per pixel class and per view, the brightness per

@@ -270,6 +270,38 @@ impl ShapeSpec {
         Ok(shape)
     }
 
+    /// Parse the compact command-line form `NAME[:KEY=VALUE]…`, e.g. `blob:amplitude=0.05:bumps=6`
+    /// (the keys and meanings of the scene file's `shape` table; `size` takes one number here).
+    /// `context` names the option in errors, e.g. "--shapes". [`Self::to_shape`] then checks the
+    /// parameters against the shape.
+    pub fn parse_compact(text: &str, context: &str) -> Result<ShapeSpec, SceneError> {
+        let invalid = |reason: String| SceneError::Invalid {
+            location: format!("{context} \"{text}\""),
+            reason,
+        };
+        let mut parts = text.split(':');
+        let name = parts.next().unwrap_or_default().trim();
+        if name.is_empty() {
+            return Err(invalid(
+                "names no shape; fix: write NAME[:KEY=VALUE]…, e.g. blob:amplitude=0.05".into(),
+            ));
+        }
+        let mut toml_text = format!("name = {name:?}\n");
+        for part in parts {
+            let Some((key, value)) = part.split_once('=') else {
+                return Err(invalid(format!(
+                    "'{part}' is not KEY=VALUE; fix: e.g. {name}:radius=0.4"
+                )));
+            };
+            let (key, value) = (key.trim(), value.trim());
+            if key.is_empty() || !key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(invalid(format!("'{key}' is not a parameter name")));
+            }
+            toml_text.push_str(&format!("{key} = {value}\n"));
+        }
+        toml::from_str(&toml_text).map_err(|e| invalid(e.message().to_string()))
+    }
+
     /// The spec that reproduces `shape` exactly (every parameter written, no scale).
     pub fn from_shape(shape: &geometry::Shape) -> ShapeSpec {
         use geometry::Shape;

@@ -199,6 +199,43 @@ fn shape_parameters_override_defaults_then_scale() {
 }
 
 /// A valid scene with one view, with `replace` substituted into it.
+#[test]
+fn compact_shape_specs_parse_and_errors_name_the_option() {
+    let spec = ShapeSpec::parse_compact("blob:amplitude=0.05:bumps=6", "--shapes").unwrap();
+    let geometry::Shape::Blob {
+        amplitude, bumps, ..
+    } = spec.to_shape("--shapes").unwrap()
+    else {
+        panic!("not a blob: {spec:?}");
+    };
+    assert_eq!((amplitude, bumps), (0.05, 6));
+    // The bare name is the built-in default shape.
+    let plain = ShapeSpec::parse_compact("torus", "--shapes").unwrap();
+    assert_eq!(
+        plain.to_shape("--shapes").unwrap(),
+        geometry::Shape::from_name("torus").unwrap()
+    );
+    for (text, wanted) in [
+        ("", "names no shape"),
+        ("blob:amplitude", "not KEY=VALUE"),
+        ("blob:ampl itude=1", "not a parameter name"),
+        ("blob:colour=1", "colour"),
+        ("blob:amplitude=x", "--shapes \"blob:amplitude=x\""),
+    ] {
+        let msg = ShapeSpec::parse_compact(text, "--shapes")
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains(wanted), "{text:?}: {msg}");
+    }
+    // A parameter the shape does not have is caught when the shape is built.
+    let msg = ShapeSpec::parse_compact("sphere:major=1", "--shapes")
+        .unwrap()
+        .to_shape("--shapes")
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("no parameter 'major'"), "{msg}");
+}
+
 fn one_view(replace: &[(&str, &str)]) -> String {
     let mut s = r#"
 mesh = "meshes/object.ply"
