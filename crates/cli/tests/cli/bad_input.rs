@@ -269,16 +269,21 @@ fn bad_threads_zero() {
     assert!(!t.path().join("ds").exists());
 }
 
+/// `dataset --shape SHAPE` (one 8² view into `ds`), which must fail.
+fn dataset_of_shape_fails(dir: &std::path::Path, shape: &str) -> Run {
+    fails(
+        dir,
+        &[
+            "-q", "dataset", "--shape", shape, "--views", "1", "--res", "8", "--spp", "1", "--out",
+            "ds",
+        ],
+    )
+}
+
 #[test]
 fn bad_unknown_shape_name() {
     let t = tmp();
-    let r = fails(
-        t.path(),
-        &[
-            "-q", "dataset", "--shape", "spheer", "--views", "1", "--res", "8", "--spp", "1",
-            "--out", "ds",
-        ],
-    );
+    let r = dataset_of_shape_fails(t.path(), "spheer");
     assert_stderr_has(
         &r,
         &["spheer", "sphere", "cone", "torus", "rounded-box", "blob"],
@@ -306,23 +311,7 @@ fn bad_unknown_shape_name() {
         ],
     );
     // A parameter the shape does not have, in the compact NAME:KEY=VALUE form.
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "dataset",
-            "--shape",
-            "sphere:major=1",
-            "--views",
-            "1",
-            "--res",
-            "8",
-            "--spp",
-            "1",
-            "--out",
-            "ds",
-        ],
-    );
+    let r = dataset_of_shape_fails(t.path(), "sphere:major=1");
     assert_stderr_has(
         &r,
         &["--shape", "no parameter 'major'", "radius, subdivisions"],
