@@ -28,6 +28,9 @@
 //! phase angle (light–object–camera, at the bounding-box centre), and the scan prints the
 //! brightness ratio Σ render / Σ target per phase-angle bin: a model whose error depends on the
 //! lighting direction shows a trend across the bins that no albedo can remove.
+//!
+//! `--cosine-table` bins the pixels by the camera and light cosines at the visible point instead
+//! and prints the brightness ratio per bin ([`cosines`]; `OUT/loss-scan-cosines.csv`).
 
 use std::path::PathBuf;
 
@@ -36,6 +39,9 @@ use clap::Args;
 use scene::{Dataset, Image};
 
 use crate::common::{LearnedArgs, build_accel, render_views_learned};
+
+mod cosines;
+use cosines::{CosineBrightness, pixel_geometry};
 
 #[derive(Args)]
 pub struct LossScanArgs {
@@ -63,6 +69,10 @@ pub struct LossScanArgs {
     /// this) and of the other pixels separately.
     #[arg(long)]
     pub grazing_cos: Option<f32>,
+    /// Also print the brightness ratio by the camera and light cosines at the visible point
+    /// (`bench_scan::cosines`) and write it to `OUT/loss-scan-cosines.csv`.
+    #[arg(long)]
+    pub cosine_table: bool,
     /// Replace existing outputs.
     #[arg(long)]
     pub overwrite: bool,
@@ -165,39 +175,16 @@ pub fn pixel_classes(
     light: glam::Vec3,
     grazing_cos: f32,
 ) -> Vec<u8> {
-    let rays = camera.ray_gen();
-    let (w, h) = (camera.width, camera.height);
-    let mut out = Vec::with_capacity((w * h) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            let (o, d) = rays.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let Some(hit) = accel.closest(o, d, 0.0, f32::INFINITY) else {
-                out.push(0);
-                continue;
-            };
-            if hit.ns.dot(d).abs() < grazing_cos {
-                out.push(4);
-                continue;
-            }
-            let to_l = light - hit.p;
-            let dist = to_l.length();
-            let l = to_l / dist;
-            let cos_l = hit.ns.dot(l);
-            out.push(if cos_l.abs() < grazing_cos {
-                2
-            } else if cos_l < 0.0 {
-                3
-            } else {
-                let origin = geometry::bvh::offset_origin(hit.p, hit.ng, l);
-                if accel.occluded(origin, l, 0.0, dist * (1.0 - 1e-4)) {
-                    3
-                } else {
-                    1
-                }
-            });
-        }
-    }
-    out
+    pixel_geometry(accel, camera, light)
+        .into_iter()
+        .map(|g| match g {
+            None => 0,
+            Some(g) if g.cos_cam < grazing_cos => 4,
+            Some(g) if g.cos_light.abs() < grazing_cos => 2,
+            Some(g) if !g.visible => 3,
+            Some(_) => 1,
+        })
+        .collect()
 }
 
 /// Per pixel class and channel (`classes[i]` of pixel i; 0 is skipped, class k counts in
@@ -227,11 +214,12 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         a.scales.iter().all(|s| s.is_finite() && *s > 0.0),
         "--scales must be positive factors of the true σ_t"
     );
-    let (path, vpath) = (
+    let (path, vpath, cpath) = (
         a.out.join("loss-scan.csv"),
         a.out.join("loss-scan-views.csv"),
+        a.out.join("loss-scan-cosines.csv"),
     );
-    for p in [&path, &vpath] {
+    for p in [&path, &vpath, &cpath] {
         scene::fsutil::check_overwrite(p, a.overwrite)?;
     }
     let ds = Dataset::load(&a.dataset)?;
@@ -268,6 +256,15 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
             .map(|v| pixel_classes(&accel, &v.camera, v.light.position, c))
             .collect()
     });
+    let geometry: Option<Vec<_>> = a.cosine_table.then(|| {
+        views
+            .iter()
+            .map(|v| pixel_geometry(&accel, &v.camera, v.light.position))
+            .collect()
+    });
+    let mut cosines_csv = String::from(
+        "scale,light_bin,camera_bin,share_r,share_g,share_b,brightness_r,brightness_g,brightness_b\n",
+    );
     if let Some(cl) = &classes {
         let count = |k: u8| cl.iter().flatten().filter(|&&x| x == k).count();
         let counts: Vec<String> = (1..=CLASS_NAMES.len() as u8)
@@ -360,12 +357,24 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
             bright.add(phase[i], t, b);
         }
         by_phase.push((s, bright));
+        if let Some(g) = &geometry {
+            let mut cb = CosineBrightness::default();
+            for i in 0..n {
+                cb.add(&r1.images[i], &r2.images[i], &targets[i], &g[i]);
+            }
+            cb.print(s, s == a.scales[0]);
+            cosines_csv.push_str(&cb.csv_rows(s));
+        }
     }
     print_phase_table(&phase, &by_phase);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     scene::fsutil::atomic_write(&path, csv.as_bytes(), a.overwrite)?;
     scene::fsutil::atomic_write(&vpath, views_csv.as_bytes(), a.overwrite)?;
+    if geometry.is_some() {
+        scene::fsutil::atomic_write(&cpath, cosines_csv.as_bytes(), a.overwrite)?;
+        println!("wrote {}", cpath.display());
+    }
     println!("wrote {} and {}", path.display(), vpath.display());
     Ok(())
 }

@@ -1,11 +1,17 @@
 //! `translucent render SCENE`: render every view of a scene file with the volumetric path tracer
 //! into `OUT/view_XXX.exr` + `.png`.
+//!
+//! With `--as-dataset` the output is a dataset folder instead (`dataset.json` beside the images,
+//! the rendered medium as its truth, the renderer in its `render` block; DATASET.md). Rendering a
+//! dataset's truth with `--method learned --as-dataset` gives targets that the learned model
+//! explains exactly: an optimisation on them measures the estimator and the optimiser alone,
+//! without the model's error against the volumetric path tracer (BENCHMARKS.md, session 34).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use scene::{Dataset, SceneDesc};
+use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
@@ -50,6 +56,10 @@ pub struct RenderArgs {
     /// 10⁻⁴ spawn offset, for like-for-like comparisons with its renders).
     #[arg(long, value_enum, default_value_t)]
     pub spawn_offset: SpawnOffsetArg,
+    /// Write a dataset folder (`dataset.json` + images; the rendered medium is its truth) that
+    /// `optimize --dataset`, `compare` and `bench loss-scan` read.
+    #[arg(long)]
+    pub as_dataset: bool,
     /// Replace existing images in the output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -66,6 +76,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .map(|i| format!("view_{i:03}"))
         .collect();
     check_output_free(&a.out, &names, a.overwrite)?;
+    if a.as_dataset && !a.overwrite && a.out.join("dataset.json").exists() {
+        bail!(
+            "{} already holds a dataset; pass --overwrite to replace it",
+            a.out.display()
+        );
+    }
     let (mesh, warnings) = desc
         .load_mesh()
         .with_context(|| format!("loading the mesh of {}", a.scene.display()))?;
@@ -83,11 +99,14 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         spawn_offset: a.spawn_offset.into(),
         ..Default::default()
     };
-    let rep = match a.method {
-        Method::Volpath => render_views(&accel, &desc.medium, views, spp, seed, &settings),
+    let (rep, renderer) = match a.method {
+        Method::Volpath => (
+            render_views(&accel, &desc.medium, views, spp, seed, &settings),
+            "volpath".to_string(),
+        ),
         Method::Learned => {
             let model = a.learned.load_model()?;
-            render_views_learned(
+            let rep = render_views_learned(
                 &accel,
                 &desc.medium,
                 views,
@@ -95,10 +114,29 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 seed,
                 &model,
                 a.learned.settings(),
-            )?
+            )?;
+            (rep, format!("learned BSSRDF ({})", a.learned.describe()))
         }
     };
-    write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
+    if a.as_dataset {
+        let mut ds = Dataset::from_scene(&desc);
+        ds.render = RenderInfo {
+            spp: Some(spp),
+            max_depth: Some(max_depth),
+            seed: Some(seed),
+            renderer: Some(format!(
+                "translucent {} {renderer}",
+                env!("CARGO_PKG_VERSION")
+            )),
+        };
+        for (v, img) in ds.views.iter_mut().zip(&rep.images) {
+            v.image = Some(img.clone());
+        }
+        ds.save(&a.out, a.overwrite)
+            .with_context(|| format!("writing the dataset {}", a.out.display()))?;
+    } else {
+        write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
+    }
     let total: f64 = rep.seconds_per_view.iter().sum();
     println!(
         "rendered {} view(s) at {spp} spp in {total:.2} s ({:.3} s/view) -> {}",

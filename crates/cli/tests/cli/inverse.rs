@@ -489,6 +489,82 @@ fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
     assert_stderr_has(&bad, &["--grazing-cos", "(0, 1)"]);
 }
 
+/// `render --method learned --as-dataset` makes a dataset of the learned model's own images (its
+/// truth the rendered medium); `bench loss-scan` at the truth with the targets' seed renders the
+/// very same images, so the decorrelated loss is exactly 0, and `--cosine-table` writes one row per
+/// (light, camera) cosine bin.
+#[test]
+fn learned_targets_as_a_dataset_and_the_cosine_table() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let render = [
+        "-q",
+        "render",
+        "ds",
+        "--method",
+        "learned",
+        "--spp",
+        "2",
+        "--seed",
+        "3",
+        "--out",
+        "lt",
+        "--as-dataset",
+    ];
+    ok(d, &render);
+    let j = read_json(&d.join("lt/dataset.json"));
+    assert_eq!(j["truth"], read_json(&d.join("ds/dataset.json"))["truth"]);
+    assert!(
+        j["render"]["renderer"]
+            .as_str()
+            .unwrap()
+            .contains("learned BSSRDF"),
+        "{}",
+        j["render"]
+    );
+    assert_eq!(j["views"].as_array().unwrap().len(), 2);
+    let again = fails(d, &render);
+    assert_stderr_has(&again, &["lt", "--overwrite"]);
+    let scan = [
+        "-q",
+        "bench",
+        "loss-scan",
+        "--dataset",
+        "lt",
+        "--views",
+        "2",
+        "--spp",
+        "2",
+        "--scales",
+        "1",
+        "--seed",
+        "3",
+        "--cosine-table",
+        "--out",
+        "scan",
+    ];
+    let r = ok(d, &scan);
+    assert_stdout_has(&r, &["through medium", "μ_l 0.75–1.00", "share of T"]);
+    let csv = String::from_utf8(read(&d.join("scan/loss-scan.csv"))).unwrap();
+    let row: Vec<f64> = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(&row[1..4], &[0.0, 0.0, 0.0], "{csv}");
+    let cos = String::from_utf8(read(&d.join("scan/loss-scan-cosines.csv"))).unwrap();
+    assert_eq!(cos.lines().count(), 1 + 6 * 4, "{cos}");
+    let shares: f64 = cos
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap().parse::<f64>().unwrap())
+        .sum();
+    assert!((shares - 1.0).abs() < 1e-9, "{shares}");
+}
+
 /// `optimize --view-subset`: only the named views are fitted (renumbered for the optimiser,
 /// named by their dataset index in `final/`), a resume keeps them, and bad lists are clear
 /// errors.
