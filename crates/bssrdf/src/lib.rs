@@ -25,6 +25,7 @@
 //!   dependency).
 
 pub mod boundary;
+pub mod curvature;
 pub mod diff;
 pub mod exit;
 pub mod fit;

@@ -313,6 +313,32 @@ impl Poly3 {
         &self.0
     }
 
+    /// Mean curvature of the surface p = 0 at the origin, (|∇p|²·tr H − ∇pᵀH∇p)/(2|∇p|³) with
+    /// ∇p and the Hessian H at the origin: positive where the surface bends away from ∇p (convex
+    /// for an outward gradient), in the inverse units of the polynomial's argument; 0 without a
+    /// gradient.
+    pub fn mean_curvature(&self) -> f64 {
+        let c: [f64; N_COEFFS] = self.0.map(|v| v as f64);
+        let g = [c[1], c[2], c[3]];
+        let h = [
+            [2.0 * c[4], c[5], c[6]],
+            [c[5], 2.0 * c[7], c[8]],
+            [c[6], c[8], 2.0 * c[9]],
+        ];
+        let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if g2 <= 0.0 {
+            return 0.0;
+        }
+        let tr = h[0][0] + h[1][1] + h[2][2];
+        let mut ghg = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                ghg += g[i] * h[i][j] * g[j];
+            }
+        }
+        (g2 * tr - ghg) / (2.0 * g2.powf(1.5))
+    }
+
     /// `p(u) = Σ_k c_k m_k(u)`.
     #[inline]
     pub fn eval(&self, u: Vec3) -> f32 {

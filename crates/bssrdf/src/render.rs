@@ -45,6 +45,7 @@ use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
 
 use crate::boundary::transmittance;
+use crate::curvature::{CurvatureSlice, CurvatureTable};
 use crate::exit::{ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{FitError, interpolate};
 use crate::gaussian::probit;
@@ -58,7 +59,7 @@ use crate::projection::ProjectionRule;
 mod entry;
 mod features;
 mod walks;
-pub use entry::Incidence;
+pub use entry::{Incidence, LightCurvature};
 pub(crate) use entry::{
     light_contribution, place_and_project, projection_gradient, proposed_point,
 };
@@ -105,6 +106,8 @@ pub struct LearnedSettings {
     /// Where the entry points come from: the decoder (default) or the random walks it imitates
     /// (a diagnostic of the decoder, [`EntrySampler`]).
     pub entry: EntrySampler,
+    /// The light side's curvature correction ([`crate::curvature`]; none by default).
+    pub light_curvature: LightCurvature,
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
@@ -180,6 +183,9 @@ pub struct LearnedScene<'a> {
     pub(crate) exit: Option<Box<[ExitSlice; 3]>>,
     /// The incidence factor at each channel's albedo ([`Incidence::Directional`]).
     pub(crate) incidence: Option<Box<[IncidenceSlice; 3]>>,
+    /// The curvature correction at each channel's albedo ([`LightCurvature::Ball`] for a medium
+    /// with g = 0, η = 1).
+    pub(crate) curvature: Option<Box<[CurvatureSlice; 3]>>,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -225,6 +231,7 @@ impl<'a> LearnedScene<'a> {
             grey,
             exit: None,
             incidence: None,
+            curvature: None,
         };
         if settings.exit == ExitLaw::HalfSpace {
             let table = ExitTable::for_medium(medium.g, medium.eta);
@@ -235,6 +242,13 @@ impl<'a> LearnedScene<'a> {
         if settings.incidence == Incidence::Directional {
             let table = IncidenceTable::for_medium(medium.g, medium.eta);
             scene.incidence = Some(Box::new(std::array::from_fn(|c| {
+                table.slice(medium.albedo[c])
+            })));
+        }
+        if settings.light_curvature == LightCurvature::Ball && medium.g == 0.0 && medium.eta == 1.0
+        {
+            let table = CurvatureTable::index_matched_isotropic();
+            scene.curvature = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
         }

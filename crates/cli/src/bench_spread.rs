@@ -29,6 +29,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use bssrdf::medium::ReducedMedium;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, N_POLY, POSITION_DIM, ShapeAdaptiveModel};
+use bssrdf::polynomial::Poly3;
 use clap::Args;
 use learn::sample::Sample;
 use rayon::prelude::*;
@@ -70,24 +71,10 @@ pub struct SpreadBenchArgs {
     pub overwrite: bool,
 }
 
-/// Mean curvature at the origin of the implicit cubic with coefficients `c` (module doc).
+/// Mean curvature at the origin of the implicit cubic with coefficients `c` (module doc;
+/// [`Poly3::mean_curvature`]).
 pub fn mean_curvature(c: &[f32; N_POLY]) -> f64 {
-    let c: Vec<f64> = c.iter().map(|&v| v as f64).collect();
-    let g = [c[1], c[2], c[3]];
-    let h = [
-        [2.0 * c[4], c[5], c[6]],
-        [c[5], 2.0 * c[7], c[8]],
-        [c[6], c[8], 2.0 * c[9]],
-    ];
-    let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-    let tr = h[0][0] + h[1][1] + h[2][2];
-    let mut ghg = 0.0;
-    for i in 0..3 {
-        for j in 0..3 {
-            ghg += g[i] * h[i][j] * g[j];
-        }
-    }
-    (g2 * tr - ghg) / (2.0 * g2.powf(1.5))
+    Poly3(*c).mean_curvature()
 }
 
 /// One configuration of a samples file: its first sample's inputs and all its exits.

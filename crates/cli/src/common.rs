@@ -260,6 +260,11 @@ pub struct LearnedArgs {
     /// low albedo, not available with `--method naive`).
     #[arg(long, default_value = "decoder", value_parser = ["decoder", "walks"])]
     pub entry_sampler: String,
+    /// Light side's curvature correction: `none` (default) or `ball` (the light term times
+    /// exact/model of balls at the camera point's curvature, bssrdf::curvature; for media with
+    /// g = 0 and η = 1, otherwise none).
+    #[arg(long, default_value = "none", value_parser = ["none", "ball"])]
+    pub light_curvature: String,
 }
 
 /// `--max-dist-scale`: a finite, positive multiple of σ_n.
@@ -306,7 +311,7 @@ impl LearnedArgs {
             _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
         };
         format!(
-            "model {model}, {} exit law, {} incidence, {projection}{}{}{}",
+            "model {model}, {} exit law, {} incidence, {projection}{}{}{}{}",
             self.exit_law,
             self.incidence,
             if self.planar_features {
@@ -321,6 +326,11 @@ impl LearnedArgs {
             },
             if self.entry_sampler == "walks" {
                 ", entry points from walks (no decoder)"
+            } else {
+                ""
+            },
+            if self.light_curvature == "ball" {
+                ", curvature-corrected light side"
             } else {
                 ""
             }
@@ -347,6 +357,10 @@ impl LearnedArgs {
                 _ => bssrdf::render::Incidence::Directional,
             },
             entry: bssrdf::render::EntrySampler::from_name(&self.entry_sampler).unwrap_or_default(),
+            light_curvature: match self.light_curvature.as_str() {
+                "ball" => bssrdf::render::LightCurvature::Ball,
+                _ => bssrdf::render::LightCurvature::None,
+            },
         }
     }
 

@@ -8,6 +8,8 @@
 //!   provenance, and the plane-case outputs.
 //! * `exit-table OUT`: simulate the light-side exit law of a medium ([`bssrdf::exit`]); with
 //!   the defaults it writes the table shipped in `crates/bssrdf/data/exit-g0-eta1.json`.
+//! * `curvature-table OUT`: simulate the light side's curvature correction on balls
+//!   ([`bssrdf::curvature`]).
 //! * `incidence-table OUT`: simulate the light-side incidence factor of a medium
 //!   ([`bssrdf::incidence`]); with the defaults it writes the table shipped in
 //!   `crates/bssrdf/data/incidence-g0-eta1.json`.
@@ -51,6 +53,23 @@ pub enum ModelCommand {
     /// for g = 0, η = 1 (crates/bssrdf/data/incidence-g0-eta1.json).
     #[command(name = "incidence-table")]
     IncidenceTable(WalkTableArgs),
+    /// Simulate the light side's curvature correction C = exact/model on balls of the paper's
+    /// media (g = 0, η = 1; bssrdf::curvature) and write it as JSON. The defaults reproduce the
+    /// table built into the binary (crates/bssrdf/data/curvature-g0-eta1.json).
+    #[command(name = "curvature-table")]
+    CurvatureTable {
+        /// Output file (.json).
+        out: PathBuf,
+        /// Collisions per batch (albedo, camera cosine, curvature).
+        #[arg(long, default_value_t = 1_000_000)]
+        collisions: u64,
+        /// Seed of the walks.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Replace OUT if it exists.
+        #[arg(long)]
+        overwrite: bool,
+    },
 }
 
 /// Options of `model exit-table` and `model incidence-table`.
@@ -92,7 +111,38 @@ pub fn run(cmd: &ModelCommand) -> Result<()> {
         ModelCommand::Info { file } => info(file),
         ModelCommand::ExitTable(args) => walk_table(WalkTable::Exit, args),
         ModelCommand::IncidenceTable(args) => walk_table(WalkTable::Incidence, args),
+        ModelCommand::CurvatureTable {
+            out,
+            collisions,
+            seed,
+            overwrite,
+        } => curvature_table(out, *collisions, *seed, *overwrite),
     }
+}
+
+fn curvature_table(
+    out: &std::path::Path,
+    collisions: u64,
+    seed: u64,
+    overwrite: bool,
+) -> Result<()> {
+    if collisions == 0 {
+        bail!("--collisions must be at least 1");
+    }
+    let t0 = std::time::Instant::now();
+    let table = bssrdf::curvature::CurvatureTable::generate(bssrdf::curvature::CurvatureSettings {
+        collisions,
+        seed,
+    })
+    .rounded(4);
+    scene::fsutil::atomic_write(out, serde_json::to_string(&table)?.as_bytes(), overwrite)
+        .with_context(|| format!("writing {}", out.display()))?;
+    eprintln!(
+        "curvature table ({collisions} collisions per batch) in {:.1} s -> {}",
+        t0.elapsed().as_secs_f64(),
+        out.display()
+    );
+    Ok(())
 }
 
 fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {

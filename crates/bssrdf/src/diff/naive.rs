@@ -44,8 +44,9 @@ pub(super) fn naive_light_derivative(
     let l = |x: Vec3, st: f32| smooth_light(scene, p, (hit.tri, hit.ng), x, light.position, st);
     let motion =
         len * (l(hit.p + NAIVE_STEP * u, st) - l(hit.p - NAIVE_STEP * u, st)) / (2.0 * NAIVE_STEP);
-    // The incidence factor also depends on σ_t itself (ρ = |x_o − x_i|·σ_t).
-    let explicit = if scene.incidence.is_some() {
+    // The incidence factor also depends on σ_t itself (ρ = |x_o − x_i|·σ_t), and so does the
+    // curvature correction (κ/σ_t).
+    let explicit = if scene.incidence.is_some() || scene.curvature.is_some() {
         let h = 1e-3 * st;
         (l(hit.p, st + h) - l(hit.p, st - h)) / (2.0 * h)
     } else {
@@ -54,8 +55,8 @@ pub(super) fn naive_light_derivative(
     motion + explicit
 }
 
-/// L̃(x) = D(w_l)·A·(n·w_l)/r² (D the exit law of the sample, A the incidence factor at
-/// extinction `sigma_t`) on the plane of triangle `tri` (no visibility, no clamping of the
+/// L̃(x) = D(w_l)·A·(n·w_l)·C/r² (D the exit law of the sample, A the incidence factor and C the
+/// curvature correction at extinction `sigma_t`) on the plane of triangle `tri` (no visibility, no clamping of the
 /// cosine: a smooth extension), with the shading normal n interpolated at x.
 fn smooth_light(
     scene: &LearnedScene,
@@ -76,7 +77,8 @@ fn smooth_light(
     } else {
         1.0
     };
-    scene.exit_law(c, p.mu_cam, cos).0 * a * cos / r2
+    let k = scene.curvature_factor(p, light, sigma_t).0;
+    scene.exit_law(c, p.mu_cam, cos).0 * a * k * cos / r2
 }
 
 /// The interpolated vertex normal of triangle `tri` at the point x of its plane (barycentrics

@@ -5,7 +5,9 @@
 //!   L = D(w_l) · (A/N) · max(0, n_i·w_l) · V / r²,
 //!
 //! D the light-side exit law ([`crate::exit`]), A/N the light-side incidence factor
-//! ([`crate::incidence`]), V the visibility of the point light. The offset samples of
+//! ([`crate::incidence`]), V the visibility of the point light; with
+//! [`LightCurvature::Ball`] times the curvature correction C at the camera point
+//! ([`crate::curvature`]). The offset samples of
 //! [`crate::diff`] call the same functions with σ_n(θ ± Δ) and σ_t ± Δ.
 
 use geometry::bvh::offset_origin;
@@ -33,6 +35,18 @@ impl Incidence {
     pub(super) fn absent() -> Self {
         Incidence::Isotropic
     }
+}
+
+/// Whether the light term is corrected for the curvature at the camera point
+/// ([`crate::curvature`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightCurvature {
+    /// No correction: the half-space light side.
+    #[default]
+    None,
+    /// C = exact/model of balls ([`crate::curvature::CurvatureTable`]; g = 0, η = 1 only).
+    Ball,
 }
 
 impl LearnedScene<'_> {
@@ -70,6 +84,23 @@ impl LearnedScene<'_> {
                 (p.x_o, p.mu_cam, p.cam_fwd),
                 sigma_t,
             ),
+            None => (1.0, 0.0),
+        }
+    }
+}
+
+impl LearnedScene<'_> {
+    /// The curvature correction C and ∂C/∂α ([`crate::curvature`]) of sample `p` for the light
+    /// at `light` and extinction `sigma_t`: the mean curvature of the sample's fitted cubic at
+    /// x_o in units of 1/σ_t; (1, 0) without [`LightCurvature::Ball`].
+    #[inline]
+    pub(crate) fn curvature_factor(&self, p: &Pending, light: Vec3, sigma_t: f32) -> (f32, f32) {
+        match &self.curvature {
+            Some(slices) => {
+                let c = p.channel as usize;
+                let kappa = p.poly.mean_curvature() as f32 / self.features.sigma_n[c];
+                slices[c].at_point((p.x_o, p.n_o, p.mu_cam, p.cam_fwd), light, kappa, sigma_t)
+            }
             None => (1.0, 0.0),
         }
     }
@@ -158,7 +189,9 @@ pub(crate) fn light_contribution(
     let (d, dd) = scene.exit_law(p.channel as usize, p.mu_cam, cos_l);
     let (a, da) = scene.incidence_factor(p, (x_i, n_i, dir, cos_l), sigma_t);
     let g = cos_l / r2;
-    ((d * a) * g, (dd * a + d * da) * g)
+    let (v, dv) = ((d * a) * g, (dd * a + d * da) * g);
+    let (k, dk) = scene.curvature_factor(p, view.light.position, sigma_t);
+    (v * k, dv * k + v * dk)
 }
 
 #[cfg(test)]

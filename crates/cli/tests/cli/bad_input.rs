@@ -318,3 +318,22 @@ fn bad_unknown_shape_name() {
     );
     assert!(!t.path().join("ds").exists());
 }
+
+/// `model curvature-table` refuses an empty simulation budget before any work, naming the option.
+#[test]
+fn bad_curvature_table_budget() {
+    let t = tmp();
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "model",
+            "curvature-table",
+            "c.json",
+            "--collisions",
+            "0",
+        ],
+    );
+    assert_stderr_has(&r, &["--collisions"]);
+    assert!(!t.path().join("c.json").exists());
+}
