@@ -106,7 +106,9 @@ pub struct LearnedSettings {
     /// Where the entry points come from: the decoder (default) or the random walks it imitates
     /// (a diagnostic of the decoder, [`EntrySampler`]).
     pub entry: EntrySampler,
-    /// The light side's curvature correction ([`crate::curvature`]; none by default).
+    /// The light side's curvature correction ([`crate::curvature`]; default). Files written
+    /// before it existed lack the field and read as uncorrected.
+    #[serde(default = "LightCurvature::absent")]
     pub light_curvature: LightCurvature,
 }
 

@@ -432,6 +432,7 @@ fn walk_sampler_offsets_equal_finite_differences() {
 #[test]
 fn curvature_correction_keeps_the_estimators_exact() {
     let mut s = sphere_setup(rgb_medium());
+    s.settings.light_curvature = bssrdf::render::LightCurvature::None;
     let plain = replicate(&s, &s.scene(), &ds(DiffMethod::Ours), 16, 0..4);
     s.settings.light_curvature = bssrdf::render::LightCurvature::Ball;
     let scene = s.scene();

@@ -67,10 +67,12 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             }
         };
         let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
+        // The closed form is the half-space model's: no curvature correction.
         let settings = LearnedSettings {
             planar_features: true,
             exit: law,
             entry,
+            light_curvature: bssrdf::render::LightCurvature::None,
             ..Default::default()
         };
         let scene = LearnedScene::new(&accel, &model, &features, medium, settings).unwrap();

@@ -260,10 +260,10 @@ pub struct LearnedArgs {
     /// low albedo, not available with `--method naive`).
     #[arg(long, default_value = "decoder", value_parser = ["decoder", "walks"])]
     pub entry_sampler: String,
-    /// Light side's curvature correction: `none` (default) or `ball` (the light term times
-    /// exact/model of balls at the camera point's curvature, bssrdf::curvature; for media with
-    /// g = 0 and η = 1, otherwise none).
-    #[arg(long, default_value = "none", value_parser = ["none", "ball"])]
+    /// Light side's curvature correction: `ball` (the light term times exact/model of walks in
+    /// balls at the camera point's curvature, bssrdf::curvature; default; for media with g = 0
+    /// and η = 1, otherwise none) or `none` (the half-space light side of sessions 13–33).
+    #[arg(long, default_value = "ball", value_parser = ["none", "ball"])]
     pub light_curvature: String,
 }
 
@@ -329,8 +329,8 @@ impl LearnedArgs {
             } else {
                 ""
             },
-            if self.light_curvature == "ball" {
-                ", curvature-corrected light side"
+            if self.light_curvature == "none" {
+                ", light side without curvature correction"
             } else {
                 ""
             }

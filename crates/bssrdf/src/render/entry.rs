@@ -43,10 +43,17 @@ impl Incidence {
 #[serde(rename_all = "kebab-case")]
 pub enum LightCurvature {
     /// No correction: the half-space light side.
-    #[default]
     None,
     /// C = exact/model of balls ([`crate::curvature::CurvatureTable`]; g = 0, η = 1 only).
+    #[default]
     Ball,
+}
+
+impl LightCurvature {
+    /// The value of a settings file without the field (written before the correction existed).
+    pub(super) fn absent() -> Self {
+        LightCurvature::None
+    }
 }
 
 impl LearnedScene<'_> {
@@ -212,5 +219,22 @@ mod tests {
             serde_json::from_str(&serde_json::to_string(&LearnedSettings::default()).unwrap())
                 .unwrap();
         assert_eq!(new.incidence, Incidence::Directional);
+    }
+
+    /// The same for the curvature correction: on by default, off in files written before it.
+    #[test]
+    fn settings_without_the_curvature_field_are_uncorrected() {
+        use super::LightCurvature;
+        assert_eq!(
+            LearnedSettings::default().light_curvature,
+            LightCurvature::Ball
+        );
+        let old: LearnedSettings =
+            serde_json::from_str(r#"{"exit": "half-space", "incidence": "directional"}"#).unwrap();
+        assert_eq!(old.light_curvature, LightCurvature::None);
+        let new: LearnedSettings =
+            serde_json::from_str(&serde_json::to_string(&LearnedSettings::default()).unwrap())
+                .unwrap();
+        assert_eq!(new.light_curvature, LightCurvature::Ball);
     }
 }
