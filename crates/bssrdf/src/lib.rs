@@ -17,6 +17,8 @@
 //!   (replaces the cosine law of Sw by default).
 //! * [`incidence`]: the light-side incidence factor: where obliquely entering light leaves,
 //!   relative to its direction, from half-space walks.
+//! * [`curvature`]: the light side's curvature correction: exact walks with next-event estimation
+//!   in balls against the half-space light factors, tabulated and applied at the camera point.
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
