@@ -425,6 +425,16 @@ fn walk_sampler_offsets_equal_finite_differences() {
     assert!(err.contains("--entry-sampler decoder"), "{err}");
 }
 
+/// FD through S_abs and the light side only: σ_n held fixed, Δα small enough for the tangent.
+fn fd_sabs() -> DiffSettings {
+    DiffSettings {
+        method: DiffMethod::Fd,
+        fd_fixed_sigma_n: true,
+        delta_albedo: 2e-4,
+        ..Default::default()
+    }
+}
+
 /// With the light side's curvature correction (`LightCurvature::Ball`) the image changes, and
 /// the estimators keep their properties: `ours` equals the same-seed FD for σ_t (C depends on σ_t
 /// through κ/σ_t, and the offsets evaluate it at σ_t ± Δ), and its ∂I/∂α (through S_abs, the exit
@@ -449,18 +459,7 @@ fn curvature_correction_keeps_the_estimators_exact() {
     }
     let fd_same = replicate(&s, &scene, &ds(DiffMethod::Fd), spp, 0..r);
     assert_same_seed_fd("curvature", &ours, &fd_same);
-    let fd_sabs = replicate(
-        &s,
-        &scene,
-        &DiffSettings {
-            method: DiffMethod::Fd,
-            fd_fixed_sigma_n: true,
-            delta_albedo: 2e-4,
-            ..Default::default()
-        },
-        spp,
-        0..r,
-    );
+    let fd_sabs = replicate(&s, &scene, &fd_sabs(), spp, 0..r);
     for c in 0..3 {
         let rel = (ours.mean[D_A][c] - fd_sabs.mean[D_A][c]).abs() / ours.mean[ABS_D_A][c];
         eprintln!("curvature channel {c}: ours vs S_abs-only FD dα, difference / Σ|D| = {rel:.2e}");
@@ -490,18 +489,7 @@ fn alpha_derivatives() {
     // (a) Ours = FD through S_abs only (σ_n held fixed), same random numbers: the per-sample
     // estimates differ by the O(Δα²) error of the central difference and rounding only.
     let ours = replicate(&s, &scene, &ds(DiffMethod::Ours), spp, 0..r);
-    let fd_sabs = replicate(
-        &s,
-        &scene,
-        &DiffSettings {
-            method: DiffMethod::Fd,
-            fd_fixed_sigma_n: true,
-            delta_albedo: 2e-4,
-            ..Default::default()
-        },
-        spp,
-        0..r,
-    );
+    let fd_sabs = replicate(&s, &scene, &fd_sabs(), spp, 0..r);
     report("sphere ours dα", &ours, D_A);
     report("sphere fd(σ_n fixed, same seeds) dα", &fd_sabs, D_A);
     for c in 0..3 {
