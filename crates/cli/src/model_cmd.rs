@@ -135,10 +135,28 @@ fn curvature_table(
         seed,
     })
     .rounded(4);
-    scene::fsutil::atomic_write(out, serde_json::to_string(&table)?.as_bytes(), overwrite)
+    write_table(
+        out,
+        &serde_json::to_string(&table)?,
+        overwrite,
+        &format!("curvature table ({collisions} collisions per batch)"),
+        t0,
+    )
+}
+
+/// Writes a simulated table's JSON to `out` (atomically) and reports `what` and the time since
+/// `t0`.
+fn write_table(
+    out: &std::path::Path,
+    json: &str,
+    overwrite: bool,
+    what: &str,
+    t0: std::time::Instant,
+) -> Result<()> {
+    scene::fsutil::atomic_write(out, json.as_bytes(), overwrite)
         .with_context(|| format!("writing {}", out.display()))?;
     eprintln!(
-        "curvature table ({collisions} collisions per batch) in {:.1} s -> {}",
+        "{what} in {:.1} s -> {}",
         t0.elapsed().as_secs_f64(),
         out.display()
     );
@@ -191,14 +209,13 @@ fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
             "incidence",
         ),
     };
-    scene::fsutil::atomic_write(out, json.as_bytes(), overwrite)
-        .with_context(|| format!("writing {}", out.display()))?;
-    eprintln!(
-        "{name} table (g = {g}, η = {eta}, {walks} walks per row) in {:.1} s -> {}",
-        t0.elapsed().as_secs_f64(),
-        out.display()
-    );
-    Ok(())
+    write_table(
+        out,
+        &json,
+        overwrite,
+        &format!("{name} table (g = {g}, η = {eta}, {walks} walks per row)"),
+        t0,
+    )
 }
 
 /// Golden values of the reference README (plane p = u_z, α = 0.9, g = 0, η = 1, z = 0).
