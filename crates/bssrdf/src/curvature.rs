@@ -300,18 +300,31 @@ pub struct CurvatureSlice {
     dc: Vec<f32>,
 }
 
-/// The node interval of `x` in `nodes` and the weight of its upper end (clamped at the ends).
+/// The node interval of `x` in `nodes` (ascending) and the weight of its upper end (clamped at
+/// the ends). The interval is the number of interior nodes at or below `x` (a branch-free count;
+/// 0 for NaN).
 #[inline]
 fn locate(nodes: &[f32], x: f32) -> (usize, f32) {
     let last = nodes.len() - 2;
-    let i = nodes[1..=last].iter().take_while(|&&n| x >= n).count();
+    let i = nodes[1..=last].iter().filter(|&&n| x >= n).count();
     let t = (x - nodes[i]) / (nodes[i + 1] - nodes[i]);
     (i, t.clamp(0.0, 1.0))
 }
 
+/// Node counts of the four table axes (μ_c, κ, μ_l, φ) and the index strides of a slice.
+const SIZES: [usize; 4] = [MU_C.len(), KAPPA.len(), MU_L.len(), PHI.len()];
+const STRIDES: [usize; 4] = [
+    SIZES[1] * SIZES[2] * SIZES[3],
+    SIZES[2] * SIZES[3],
+    SIZES[3],
+    1,
+];
+
 impl CurvatureSlice {
     /// (C, ∂C/∂α) at camera cosine `mu_c`, curvature `kappa` (1/mean free paths; concave values
-    /// use the half-space row), light cosine `mu_l` at the camera point and cos φ.
+    /// use the half-space row), light cosine `mu_l` at the camera point and cos φ:
+    /// quadrilinear between the nodes (16 corners, the first axis varying fastest).
+    #[inline]
     pub fn eval(&self, mu_c: f32, kappa: f32, mu_l: f32, cos_phi: f32) -> (f32, f32) {
         let dims = [
             locate(&MU_C, mu_c),
@@ -319,21 +332,23 @@ impl CurvatureSlice {
             locate(&MU_L, mu_l),
             locate(&PHI, fast_acos(cos_phi.clamp(-1.0, 1.0))),
         ];
-        let sizes = [MU_C.len(), KAPPA.len(), MU_L.len(), PHI.len()];
-        let (mut c, mut dc) = (0.0, 0.0);
-        for corner in 0..16 {
-            let (mut index, mut w) = (0, 1.0);
-            for (d, &(i, t)) in dims.iter().enumerate() {
-                let up = (corner >> d) & 1;
-                index = index * sizes[d] + i + up;
-                w *= if up == 1 { t } else { 1.0 - t };
-            }
-            if w != 0.0 {
-                c += w * self.c[index];
-                dc += w * self.dc[index];
+        let w = dims.map(|(_, t)| [1.0 - t, t]);
+        let base: usize = (0..4).map(|d| dims[d].0 * STRIDES[d]).sum();
+        let (c, dc) = (&self.c[base..], &self.dc[base..]);
+        let (mut acc, mut dacc) = (0.0, 0.0);
+        for u3 in 0..2 {
+            for u2 in 0..2 {
+                for u1 in 0..2 {
+                    for u0 in 0..2 {
+                        let wc = w[0][u0] * w[1][u1] * w[2][u2] * w[3][u3];
+                        let k = u0 * STRIDES[0] + u1 * STRIDES[1] + u2 * STRIDES[2] + u3;
+                        acc += wc * c[k];
+                        dacc += wc * dc[k];
+                    }
+                }
             }
         }
-        (c, dc)
+        (acc, dacc)
     }
 
     /// (C, ∂C/∂α) for the camera point `x_o` (shading normal `n_o`, camera cosine `mu_c`,

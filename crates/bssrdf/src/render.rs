@@ -331,6 +331,9 @@ pub(crate) struct Pending {
     pub(crate) cam_fwd: Vec3,
     /// Random stream of the sample's walks ([`EntrySampler::Walks`]), shared by its offsets.
     pub(crate) key: u64,
+    /// Mean curvature of `poly` at x_o in inverse scene units ([`Poly3::mean_curvature`] over
+    /// the fit scale σ_n,fit), for the curvature correction; 0 without it.
+    pub(crate) kappa: f32,
 }
 
 /// Reused per worker thread.
@@ -545,6 +548,11 @@ pub(crate) fn prepare_row(
                 mu_cam: cos_cam,
                 cam_fwd: (d - n_o * d.dot(n_o)).normalize_or_zero(),
                 key: hash_key(&[rs.seed, rs.view, pixel, 2, i as u64]),
+                kappa: if scene.curvature.is_some() {
+                    poly.mean_curvature() as f32 / scene.features.sigma_n[channel]
+                } else {
+                    0.0
+                },
             });
         }
     }

@@ -258,6 +258,15 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     }
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
+    // Every iteration's light term asks for them; decide them once, in parallel, before the
+    // first iteration rather than lazily in the first iterations.
+    let t0 = std::time::Instant::now();
+    let supporting = accel.decide_all_supporting();
+    tracing::debug!(
+        "supporting planes: {supporting} of {} triangles in {:.0} ms",
+        accel.mesh().triangle_count(),
+        t0.elapsed().as_secs_f64() * 1e3
+    );
     let model = a.learned.load_model()?;
     let images: Vec<&Image> = ds
         .views

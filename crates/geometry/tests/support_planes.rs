@@ -70,6 +70,13 @@ fn flags_match_a_scan_of_all_vertices() {
     for name in ["torus", "blob"] {
         let mesh = shape(name);
         let accel = Accel::new(mesh.clone());
+        // Half the meshes decided up front in parallel, half lazily: the same flags.
+        let eager = name == "blob";
+        let decided = if eager {
+            accel.decide_all_supporting()
+        } else {
+            0
+        };
         let mut count = [0usize; 2];
         for i in 0..mesh.triangle_count() {
             let want = brute_force(&mesh, i);
@@ -78,6 +85,9 @@ fn flags_match_a_scan_of_all_vertices() {
         }
         // Both kinds occur, so the comparison is not vacuous.
         assert!(count[0] > 100 && count[1] > 100, "{name}: {count:?}");
+        if eager {
+            assert_eq!(decided, count[1], "{name}");
+        }
     }
 }
 

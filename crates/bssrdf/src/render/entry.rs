@@ -99,15 +99,17 @@ impl LearnedScene<'_> {
 impl LearnedScene<'_> {
     /// The curvature correction C and ∂C/∂α ([`crate::curvature`]) of sample `p` for the light
     /// at `light` and extinction `sigma_t`: the mean curvature of the sample's fitted cubic at
-    /// x_o in units of 1/σ_t; (1, 0) without [`LightCurvature::Ball`].
+    /// x_o (`Pending::kappa`, taken once per camera sample) in units of 1/σ_t; (1, 0) without
+    /// [`LightCurvature::Ball`].
     #[inline]
     pub(crate) fn curvature_factor(&self, p: &Pending, light: Vec3, sigma_t: f32) -> (f32, f32) {
         match &self.curvature {
-            Some(slices) => {
-                let c = p.channel as usize;
-                let kappa = p.poly.mean_curvature() as f32 / self.features.sigma_n[c];
-                slices[c].at_point((p.x_o, p.n_o, p.mu_cam, p.cam_fwd), light, kappa, sigma_t)
-            }
+            Some(slices) => slices[p.channel as usize].at_point(
+                (p.x_o, p.n_o, p.mu_cam, p.cam_fwd),
+                light,
+                p.kappa,
+                sigma_t,
+            ),
             None => (1.0, 0.0),
         }
     }

@@ -58,6 +58,21 @@ impl Accel {
         }
     }
 
+    /// Decide [`Accel::exit_is_final`] for every triangle now, in parallel (rayon), instead of
+    /// on first use; returns how many are supporting. The flags are the same either way. For
+    /// long runs that will meet most triangles anyway (an optimisation), this moves the
+    /// decisions (about 10 µs per supporting triangle of a smooth mesh) out of the first
+    /// iterations, where lazily they run on whichever thread meets the triangle first and may
+    /// be made twice.
+    pub fn decide_all_supporting(&self) -> usize {
+        use rayon::prelude::*;
+        (0..self.supporting.len() as u32)
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&t| self.exit_is_final(t))
+            .count()
+    }
+
     #[cold]
     fn decide_supporting(&self, tri: usize) -> bool {
         let yes = self.behind_plane(self.mesh.triangle(tri));
