@@ -320,17 +320,60 @@ const STRIDES: [usize; 4] = [
     1,
 ];
 
+/// The coordinates of a lookup other than the curvature: camera cosine μ_c, light cosine μ_l
+/// and azimuth φ, each located on its nodes (interval, upper weight). They depend only on the
+/// camera point and the light, so one camera sample computes them once for all its light
+/// evaluations (the σ_t offset pair included; only κ/σ_t differs between those).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CurvatureCoords {
+    mu_c: (u32, f32),
+    mu_l: (u32, f32),
+    phi: (u32, f32),
+}
+
+impl CurvatureCoords {
+    /// At camera cosine `mu_c`, light cosine `mu_l` at the camera point and cos φ.
+    #[inline]
+    pub fn from_cosines(mu_c: f32, mu_l: f32, cos_phi: f32) -> Self {
+        let at = |(i, t): (usize, f32)| (i as u32, t);
+        CurvatureCoords {
+            mu_c: at(locate(&MU_C, mu_c)),
+            mu_l: at(locate(&MU_L, mu_l)),
+            phi: at(locate(&PHI, fast_acos(cos_phi.clamp(-1.0, 1.0)))),
+        }
+    }
+
+    /// For the camera point `x_o` (shading normal `n_o`, camera cosine `mu_c`, camera forward
+    /// direction `cam_fwd`) and the light at `light`.
+    #[inline]
+    pub fn at_point((x_o, n_o, mu_c, cam_fwd): (Vec3, Vec3, f32, Vec3), light: Vec3) -> Self {
+        let w = (light - x_o).normalize_or_zero();
+        let mu_l = n_o.dot(w);
+        let fwd = (n_o * mu_l - w).normalize_or_zero();
+        // Without a forward direction on either side the azimuth does not matter: φ = π/2.
+        let cos_phi = cam_fwd.dot(fwd);
+        Self::from_cosines(mu_c, mu_l, cos_phi)
+    }
+}
+
 impl CurvatureSlice {
     /// (C, ∂C/∂α) at camera cosine `mu_c`, curvature `kappa` (1/mean free paths; concave values
-    /// use the half-space row), light cosine `mu_l` at the camera point and cos φ:
-    /// quadrilinear between the nodes (16 corners, the first axis varying fastest).
+    /// use the half-space row), light cosine `mu_l` at the camera point and cos φ.
     #[inline]
     pub fn eval(&self, mu_c: f32, kappa: f32, mu_l: f32, cos_phi: f32) -> (f32, f32) {
+        self.eval_coords(&CurvatureCoords::from_cosines(mu_c, mu_l, cos_phi), kappa)
+    }
+
+    /// (C, ∂C/∂α) at the located coordinates `at` and curvature `kappa` (1/mean free paths):
+    /// quadrilinear between the nodes (16 corners, the μ_c axis varying fastest).
+    #[inline]
+    pub fn eval_coords(&self, at: &CurvatureCoords, kappa: f32) -> (f32, f32) {
+        let kappa = locate(&KAPPA, kappa.max(0.0));
         let dims = [
-            locate(&MU_C, mu_c),
-            locate(&KAPPA, kappa.max(0.0)),
-            locate(&MU_L, mu_l),
-            locate(&PHI, fast_acos(cos_phi.clamp(-1.0, 1.0))),
+            (at.mu_c.0 as usize, at.mu_c.1),
+            kappa,
+            (at.mu_l.0 as usize, at.mu_l.1),
+            (at.phi.0 as usize, at.phi.1),
         ];
         let w = dims.map(|(_, t)| [1.0 - t, t]);
         let base: usize = (0..4).map(|d| dims[d].0 * STRIDES[d]).sum();
@@ -357,17 +400,12 @@ impl CurvatureSlice {
     #[inline]
     pub fn at_point(
         &self,
-        (x_o, n_o, mu_c, cam_fwd): (Vec3, Vec3, f32, Vec3),
+        point: (Vec3, Vec3, f32, Vec3),
         light: Vec3,
         kappa: f32,
         sigma_t: f32,
     ) -> (f32, f32) {
-        let w = (light - x_o).normalize_or_zero();
-        let mu_l = n_o.dot(w);
-        let fwd = (n_o * mu_l - w).normalize_or_zero();
-        // Without a forward direction on either side the azimuth does not matter: φ = π/2.
-        let cos_phi = cam_fwd.dot(fwd);
-        self.eval(mu_c, kappa / sigma_t, mu_l, cos_phi)
+        self.eval_coords(&CurvatureCoords::at_point(point, light), kappa / sigma_t)
     }
 }
 

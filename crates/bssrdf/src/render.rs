@@ -45,7 +45,7 @@ use volpath::render::pixel_jitter;
 use volpath::rng::{Sampler, hash_key};
 
 use crate::boundary::transmittance;
-use crate::curvature::{CurvatureSlice, CurvatureTable};
+use crate::curvature::{CurvatureCoords, CurvatureSlice, CurvatureTable};
 use crate::exit::{ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{FitError, interpolate};
 use crate::gaussian::probit;
@@ -334,6 +334,9 @@ pub(crate) struct Pending {
     /// Mean curvature of `poly` at x_o in inverse scene units ([`Poly3::mean_curvature`] over
     /// the fit scale σ_n,fit), for the curvature correction; 0 without it.
     pub(crate) kappa: f32,
+    /// The curvature table's camera-point coordinates for this view's light (default without
+    /// the correction).
+    pub(crate) curv: CurvatureCoords,
 }
 
 /// Reused per worker thread.
@@ -537,6 +540,15 @@ pub(crate) fn prepare_row(
                 buf.dcoeffs.push(dc);
             }
             buf.z.push(z);
+            let cam_fwd = (d - n_o * d.dot(n_o)).normalize_or_zero();
+            let (kappa, curv) = if scene.curvature.is_some() {
+                (
+                    poly.mean_curvature() as f32 / scene.features.sigma_n[channel],
+                    CurvatureCoords::at_point((hit.p, n_o, cos_cam, cam_fwd), view.light.position),
+                )
+            } else {
+                (0.0, CurvatureCoords::default())
+            };
             buf.pending.push(Pending {
                 pixel: x,
                 channel: channel as u8,
@@ -546,13 +558,10 @@ pub(crate) fn prepare_row(
                 n_o,
                 t_cam,
                 mu_cam: cos_cam,
-                cam_fwd: (d - n_o * d.dot(n_o)).normalize_or_zero(),
+                cam_fwd,
                 key: hash_key(&[rs.seed, rs.view, pixel, 2, i as u64]),
-                kappa: if scene.curvature.is_some() {
-                    poly.mean_curvature() as f32 / scene.features.sigma_n[channel]
-                } else {
-                    0.0
-                },
+                kappa,
+                curv,
             });
         }
     }

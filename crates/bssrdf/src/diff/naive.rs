@@ -77,7 +77,7 @@ fn smooth_light(
     } else {
         1.0
     };
-    let k = scene.curvature_factor(p, light, sigma_t).0;
+    let k = scene.curvature_factor(p, sigma_t).0;
     scene.exit_law(c, p.mu_cam, cos).0 * a * k * cos / r2
 }
 

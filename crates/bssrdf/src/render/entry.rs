@@ -97,19 +97,15 @@ impl LearnedScene<'_> {
 }
 
 impl LearnedScene<'_> {
-    /// The curvature correction C and ∂C/∂α ([`crate::curvature`]) of sample `p` for the light
-    /// at `light` and extinction `sigma_t`: the mean curvature of the sample's fitted cubic at
-    /// x_o (`Pending::kappa`, taken once per camera sample) in units of 1/σ_t; (1, 0) without
+    /// The curvature correction C and ∂C/∂α ([`crate::curvature`]) of sample `p` for its view's
+    /// light at extinction `sigma_t`: the table at the camera point's coordinates
+    /// (`Pending::curv`) and the mean curvature of the sample's fitted cubic at x_o
+    /// (`Pending::kappa`), both taken once per camera sample, in units of 1/σ_t; (1, 0) without
     /// [`LightCurvature::Ball`].
     #[inline]
-    pub(crate) fn curvature_factor(&self, p: &Pending, light: Vec3, sigma_t: f32) -> (f32, f32) {
+    pub(crate) fn curvature_factor(&self, p: &Pending, sigma_t: f32) -> (f32, f32) {
         match &self.curvature {
-            Some(slices) => slices[p.channel as usize].at_point(
-                (p.x_o, p.n_o, p.mu_cam, p.cam_fwd),
-                light,
-                p.kappa,
-                sigma_t,
-            ),
+            Some(slices) => slices[p.channel as usize].eval_coords(&p.curv, p.kappa / sigma_t),
             None => (1.0, 0.0),
         }
     }
@@ -199,7 +195,7 @@ pub(crate) fn light_contribution(
     let (a, da) = scene.incidence_factor(p, (x_i, n_i, dir, cos_l), sigma_t);
     let g = cos_l / r2;
     let (v, dv) = ((d * a) * g, (dd * a + d * da) * g);
-    let (k, dk) = scene.curvature_factor(p, view.light.position, sigma_t);
+    let (k, dk) = scene.curvature_factor(p, sigma_t);
     (v * k, dv * k + v * dk)
 }
 
