@@ -332,7 +332,7 @@ impl LearnedArgs {
             if self.light_curvature == "none" {
                 ", light side without curvature correction"
             } else {
-                ""
+                ", curvature-corrected light side"
             }
         )
     }
