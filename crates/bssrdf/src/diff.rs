@@ -9,8 +9,9 @@
 //!   I_c ≈ (1/spp) Σ_s w_c · S_abs · (1 − F(cos θ_cam)) · L(x_i),
 //!   L(x) = Sw(w_l) · max(0, n·w_l) · V · I / r²  (without I in the code: w_c carries it),
 //!
-//! with w_c = 3·I_c·[c = channel of the sample] (one-hot, model-spec A13) or w_c = I_c for a grey
-//! medium (one sample serves every channel), S_abs = 1 − Absorb(features(α)), x_i = Π(x̃),
+//! with w_c = w·I_c·[c = channel of the sample] (w the channel weight of the pixel-sampling
+//! scheme, [`crate::render::PixelSampling`]: spp/n_c stratified, 3 one-hot as model-spec A13) or
+//! w_c = I_c for a grey medium (one sample serves every channel), S_abs = 1 − Absorb(features(α)), x_i = Π(x̃),
 //! x̃ = x_o + σ_n(σ_t, α)·R·y and y = decoder(z, features). The vertex polynomials are those of
 //! the [`VertexFeatures`](crate::render::VertexFeatures) fit, kept fixed (model-spec A10); the
 //! projection direction is the detached gradient of that fixed polynomial at x̃ (A5).
@@ -442,7 +443,7 @@ fn diff_row(
                     *acc += (base * light.intensity[ch]) as f64;
                 }
             } else {
-                sum[c] += (3.0 * base * light.intensity[c]) as f64;
+                sum[c] += (p.weight * base * light.intensity[c]) as f64;
             }
         }
 
@@ -500,8 +501,8 @@ fn diff_row(
                 acc_a[ch] += (d_a * light.intensity[ch]) as f64;
             }
         } else {
-            acc_t[c] += (3.0 * d_t * light.intensity[c]) as f64;
-            acc_a[c] += (3.0 * d_a * light.intensity[c]) as f64;
+            acc_t[c] += (p.weight * d_t * light.intensity[c]) as f64;
+            acc_a[c] += (p.weight * d_a * light.intensity[c]) as f64;
         }
     }
     // The S_abs term of ∂C/∂α, one tangent pass over the lit samples.
@@ -525,7 +526,7 @@ fn diff_row(
                 acc_a[ch] += (d_a * light.intensity[ch]) as f64;
             }
         } else {
-            acc_a[c] += (3.0 * d_a * light.intensity[c]) as f64;
+            acc_a[c] += (p.weight * d_a * light.intensity[c]) as f64;
         }
     }
     for d in buf.dsum_t.iter_mut().chain(buf.dsum_a.iter_mut()) {

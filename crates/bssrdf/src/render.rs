@@ -1,16 +1,17 @@
 //! Forward rendering with the learned shape-adaptive BSSRDF (model-spec §7.3; Son et al. 2024
 //! eq. 3–5).
 //!
-//! Per pixel sample: camera ray → x_o (front-facing hit, else 0); colour channel c uniform (the
-//! sample's value goes to channel c only, ×3, model-spec A13; for a grey medium, whose channels
-//! share σ_t and α, the sample serves all three channels instead); refracted incident direction d_in
+//! Per pixel sample: camera ray → x_o (front-facing hit, else 0); colour channel c and its weight
+//! w (the sample's value goes to channel c only, times w: the channels in turn with w = spp/n_c,
+//! or the paper's uniform channel with w = 3, model-spec A13, [`PixelSampling`]; for a grey
+//! medium, whose channels share σ_t and α, the sample serves all three channels instead); refracted incident direction d_in
 //! (η); the vertex polynomials of channel c interpolated at x_o (world axes, scaled by 1/σ_n,c);
 //! d_in aligned to the polynomial normal (§3.5); light-space frame e3 = −d_in; the 23 normalised
 //! inputs → feature MLP → S_abs = 1 − Absorb (a scale factor, never roulette, A8); z ~ N(0, I₄)
-//! by inversion of the sample's uniforms; decoder → y; x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃);
+//! by inversion of the sample's uniforms (a scrambled Sobol point by default, [`PixelSampling`]); decoder → y; x̃ = x_o + σ_n·(y₁e₁ + y₂e₂ + y₃e₃);
 //! x_i = Π(x̃) ([`crate::projection`]); shadow ray to the point light;
 //!
-//!   C = 3·e_c · S_abs · (1 − F(cos θ_cam)) · D(w_l) · (A/N) · max(0, n_i·w_l) · V · I / r²
+//!   C = w·e_c · S_abs · (1 − F(cos θ_cam)) · D(w_l) · (A/N) · max(0, n_i·w_l) · V · I / r²
 //!
 //! (§1, eq. 5), with D the light-side exit law ([`crate::exit`]; Sw(w_l) of the paper with
 //! `ExitLaw::Cosine`) and A/N the light-side incidence factor ([`crate::incidence`]; 1 with
@@ -41,8 +42,7 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
 use volpath::fresnel::refract;
-use volpath::render::pixel_jitter;
-use volpath::rng::{Sampler, hash_key};
+use volpath::rng::hash_key;
 
 use crate::boundary::transmittance;
 use crate::curvature::{CurvatureCoords, CurvatureSlice, CurvatureTable};
@@ -58,12 +58,15 @@ use crate::projection::ProjectionRule;
 
 mod entry;
 mod features;
+mod sampling;
 mod walks;
 pub use entry::{Incidence, LightCurvature};
 pub(crate) use entry::{
     light_contribution, place_and_project, projection_gradient, proposed_point,
 };
 pub use features::{DFIT_STEP, VertexFeatures};
+use sampling::PixelPlan;
+pub use sampling::PixelSampling;
 pub use walks::{EntrySampler, MAX_TRIES as WALK_MAX_TRIES, walk_exit};
 pub(crate) use walks::{walk_entries, walk_media, walk_medium};
 
@@ -110,6 +113,11 @@ pub struct LearnedSettings {
     /// before it existed lack the field and read as uncorrected.
     #[serde(default = "LightCurvature::absent")]
     pub light_curvature: LightCurvature,
+    /// How a pixel's samples are spread over the channels, the film and the latent space
+    /// ([`PixelSampling`]; default stratified). Files written before the choice existed lack
+    /// the field and read as one-hot.
+    #[serde(default = "PixelSampling::absent")]
+    pub sampling: PixelSampling,
 }
 
 /// A view's camera rays and its light: the camera, the point light and, unless disabled or
@@ -315,6 +323,8 @@ pub(crate) struct NetOutputs {
 pub(crate) struct Pending {
     pub(crate) pixel: u32,
     pub(crate) channel: u8,
+    /// The channel's weight w_s ([`PixelSampling`]; unused for a grey medium).
+    pub(crate) weight: f32,
     pub(crate) x_o: Vec3,
     /// Output frame (e1, e2, e3) in world axes.
     pub(crate) out_frame: Frame,
@@ -431,7 +441,7 @@ pub(crate) fn render_row(
                 *acc += (base * light.intensity[ch]) as f64;
             }
         } else {
-            sum[c] += (3.0 * base * light.intensity[c]) as f64;
+            sum[c] += (p.weight * base * light.intensity[c]) as f64;
         }
     }
     Ok(())
@@ -465,14 +475,15 @@ pub(crate) fn prepare_row(
     // Stage 1: camera rays, channel choice, shape descriptor, network inputs, latent samples.
     for x in 0..w {
         let pixel = y as u64 * w as u64 + x as u64;
-        let mut s = Sampler::new(rs.seed, rs.view, pixel, 0);
-        let key = hash_key(&[rs.seed, rs.view, pixel, 1]);
+        let mut plan = PixelPlan::new(
+            scene.settings.sampling,
+            scene.grey,
+            rs.spp,
+            [rs.seed, rs.view, pixel],
+        );
         for i in 0..rs.spp {
-            let (jx, jy) = pixel_jitter(i, key, &mut s);
-            let channel = s.next_below(3) as usize;
-            // The latent's uniforms are drawn for every sample (same streams), inverted only
-            // for the samples that hit.
-            let u: [f32; LATENT_DIM] = std::array::from_fn(|_| s.next_f32());
+            let draw = plan.draw(i);
+            let ((jx, jy), channel, u) = (draw.jitter, draw.channel, draw.u);
             let (d, hit) = view.trace(scene.accel, x, y, jx, jy);
             let Some(hit) = hit else {
                 continue;
@@ -552,6 +563,7 @@ pub(crate) fn prepare_row(
             buf.pending.push(Pending {
                 pixel: x,
                 channel: channel as u8,
+                weight: draw.weight,
                 x_o: hit.p,
                 out_frame,
                 poly,

@@ -87,6 +87,7 @@ const PLANAR: LearnedSettings = LearnedSettings {
     incidence: bssrdf::render::Incidence::Directional,
     entry: EntrySampler::Decoder,
     light_curvature: bssrdf::render::LightCurvature::None,
+    sampling: bssrdf::render::PixelSampling::Stratified,
 };
 
 fn rgb_medium() -> Medium {

@@ -38,6 +38,9 @@ pub enum BenchCommand {
     /// where its minimum lies, without an optimiser.
     #[command(name = "loss-scan")]
     LossScan(crate::bench_scan::LossScanArgs),
+    /// Per-pixel and loss-gradient variance of the learned renderer (each pixel-sampling scheme)
+    /// against the volumetric path tracer at equal time, on coloured media.
+    Noise(crate::bench_noise::NoiseBenchArgs),
 }
 
 #[derive(Args)]
@@ -95,6 +98,7 @@ pub fn run(cmd: &BenchCommand) -> Result<()> {
         BenchCommand::Plane(a) => crate::bench_plane::run(a),
         BenchCommand::Spread(a) => crate::bench_spread::run(a),
         BenchCommand::LossScan(a) => crate::bench_scan::run(a),
+        BenchCommand::Noise(a) => crate::bench_noise::run(a),
     }
 }
 

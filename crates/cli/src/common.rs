@@ -265,6 +265,12 @@ pub struct LearnedArgs {
     /// and η = 1, otherwise none) or `none` (the half-space light side of sessions 13–33).
     #[arg(long, default_value = "ball", value_parser = ["none", "ball"])]
     pub light_curvature: String,
+    /// How a pixel's samples are spread over the colour channels: `stratified` (the channels
+    /// take turns, each gets spp/3 samples placed by a scrambled Sobol sequence over film
+    /// jitter and latent; default) or `one-hot` (a random channel per sample, weight 3: the
+    /// paper's scheme, noisier on coloured media).
+    #[arg(long, default_value = "stratified", value_parser = ["stratified", "one-hot"])]
+    pub pixel_sampling: String,
 }
 
 /// `--max-dist-scale`: a finite, positive multiple of σ_n.
@@ -311,7 +317,7 @@ impl LearnedArgs {
             _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
         };
         format!(
-            "model {model}, {} exit law, {} incidence, {projection}{}{}{}{}",
+            "model {model}, {} exit law, {} incidence, {projection}{}{}{}{}{}",
             self.exit_law,
             self.incidence,
             if self.planar_features {
@@ -333,6 +339,11 @@ impl LearnedArgs {
                 ", light side without curvature correction"
             } else {
                 ", curvature-corrected light side"
+            },
+            if self.pixel_sampling == "one-hot" {
+                ", one-hot channels"
+            } else {
+                ""
             }
         )
     }
@@ -361,6 +372,8 @@ impl LearnedArgs {
                 "ball" => bssrdf::render::LightCurvature::Ball,
                 _ => bssrdf::render::LightCurvature::None,
             },
+            sampling: bssrdf::render::PixelSampling::from_name(&self.pixel_sampling)
+                .unwrap_or_default(),
         }
     }
 

@@ -125,23 +125,28 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         "recovering the medium from the images: learned BSSRDF (shipped model), estimator `ours`, \
          {} iterations from σ_t = 50, α = 0.5 (Adam on ln σ_t and α, α alone for the first {}){}",
         a.iterations,
-        30.min(a.iterations / 3),
+        inverse::optimize::OptimizeConfig {
+            iterations: a.iterations,
+            ..Default::default()
+        }
+        .effective_albedo_warmup(),
         match a.bias_correction_steps {
             0 => String::new(),
             k => format!(", then {k} bias-correction step(s) of the same size"),
         }
     );
+    crate::optimize_cmd::run(&recovery_args(a))
+}
+
+/// The demo's recovery: `optimize`'s defaults with the demo's iterations, seed and bias
+/// correction, into `OUT/optimize`.
+pub(crate) fn recovery_args(a: &DemoArgs) -> crate::optimize_cmd::OptimizeArgs {
     let mut o =
         crate::optimize_cmd::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
-    o.two_renders = true;
-    // ln σ_t converged better than σ_t/100 on this scene, and α first keeps σ_t from
-    // collapsing while the images are too dark (BENCHMARKS.md, "demo", "Albedo first").
-    o.log_sigma_t = true;
-    o.albedo_warmup = 30.min(a.iterations / 3);
     o.overwrite = true;
     o.bc.bias_correction = a.bias_correction_steps > 0;
     o.bc.bias_correction_steps = a.bias_correction_steps.max(1);
-    crate::optimize_cmd::run(&o)
+    o
 }

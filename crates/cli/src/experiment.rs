@@ -70,12 +70,12 @@ pub struct AccuracyArgs {
     pub methods: Vec<String>,
     #[command(flatten)]
     pub budget: IterationArgs,
-    /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t (the default here: it
-    /// converged better, BENCHMARKS.md).
+    /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t (as `optimize`).
     #[arg(long)]
     pub scaled_sigma_t: bool,
-    /// Albedo first: σ_t stays at its initial value for this many initial iterations.
-    #[arg(long, default_value_t = 30)]
+    /// Albedo first: σ_t stays at its initial value for this many initial iterations (as
+    /// `optimize`).
+    #[arg(long, default_value_t = inverse::optimize::OptimizeConfig::default().albedo_warmup)]
     pub albedo_warmup: u32,
     /// Random initialisations on one case (`--inits-case`) with the first method (0: none).
     #[arg(long, default_value_t = 8)]
@@ -345,6 +345,28 @@ fn ensure_dataset(
     Ok(())
 }
 
+/// The `optimize` settings of one run: its defaults with the experiment's budget, method, start
+/// and learned-renderer options.
+pub(crate) fn run_args(
+    a: &AccuracyArgs,
+    dataset: &Path,
+    run_dir: &Path,
+    method: &str,
+    init: Params,
+) -> OptimizeArgs {
+    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
+    o.method = method.to_string();
+    o.budget = a.budget;
+    o.scaled_sigma_t = a.scaled_sigma_t;
+    o.albedo_warmup = a.albedo_warmup;
+    o.init_sigma_t = init.sigma_t.map(|v| v as f32);
+    o.init_albedo = init.albedo.map(|v| v as f32);
+    o.seed = a.seed;
+    o.final_spp = 16;
+    o.learned = a.learned.clone();
+    o
+}
+
 /// Run (or resume, or reuse) one optimisation and read its result.
 fn optimize(
     a: &AccuracyArgs,
@@ -355,17 +377,7 @@ fn optimize(
     truth: &Medium,
     label: &str,
 ) -> Result<Row> {
-    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    o.method = method.to_string();
-    o.budget = a.budget;
-    o.two_renders = true;
-    o.log_sigma_t = !a.scaled_sigma_t;
-    o.albedo_warmup = a.albedo_warmup;
-    o.init_sigma_t = init.sigma_t.map(|v| v as f32);
-    o.init_albedo = init.albedo.map(|v| v as f32);
-    o.seed = a.seed;
-    o.final_spp = 16;
-    o.learned = a.learned.clone();
+    let o = run_args(a, dataset, run_dir, method, init);
     let done = run_or_reuse(&o, label)?;
     Ok(Row {
         case: label.to_string(),

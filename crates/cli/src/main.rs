@@ -4,6 +4,7 @@
 
 mod bench;
 mod bench_learned;
+mod bench_noise;
 mod bench_plane;
 mod bench_scan;
 mod bench_spread;

@@ -43,9 +43,12 @@ pub struct OptimizeArgs {
     /// Image loss: l2 or l1.
     #[arg(long, default_value = "l2", value_parser = ["l2", "l1"])]
     pub loss: String,
-    /// Unbiased gradient from two independent renders per view (∂ℓ/∂I from one, ∂I/∂θ from the
-    /// other) instead of the single-render product (biased by their covariance).
+    /// The single-render gradient 2(I − T)·∂I/∂θ (the paper's; biased by the covariance of I and
+    /// ∂I/∂θ) instead of the default: ∂ℓ/∂I from one render and ∂I/∂θ from an independent one.
     #[arg(long)]
+    pub single_render: bool,
+    /// (The default; accepted for older scripts.)
+    #[arg(long, hide = true, conflicts_with = "single_render")]
     pub two_renders: bool,
     /// Normalise each view's loss, per channel, by the loss of a black image against its target,
     /// so that dim views (light that crossed the object) count as much as bright ones.
@@ -60,24 +63,27 @@ pub struct OptimizeArgs {
     /// Initial albedo (one value or R,G,B).
     #[arg(long, default_value = "0.5", value_parser = parse_rgb)]
     pub init_albedo: [f32; 3],
-    /// Learning rate on σ_t/100 (or on ln σ_t with --log-sigma-t).
-    #[arg(long, default_value_t = 0.015)]
+    /// Learning rate on ln σ_t (or on σ_t/100 with --scaled-sigma-t).
+    #[arg(long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
     pub lr_sigma_t: f32,
     /// Learning rate on α.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = OptimizeConfig::default().lr_albedo)]
     pub lr_albedo: f32,
     /// Learning-rate decay factor.
-    #[arg(long, default_value_t = 0.85)]
+    #[arg(long, default_value_t = OptimizeConfig::default().decay)]
     pub decay: f32,
     /// Iterations between decays.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = OptimizeConfig::default().decay_every)]
     pub decay_every: u32,
-    /// Optimise ln σ_t instead of σ_t/100.
+    /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t.
     #[arg(long)]
+    pub scaled_sigma_t: bool,
+    /// (The default; accepted for older scripts.)
+    #[arg(long, hide = true, conflicts_with = "scaled_sigma_t")]
     pub log_sigma_t: bool,
-    /// Albedo first: keep σ_t at its initial value for this many initial iterations (part of
-    /// the iteration budget) while α converges.
-    #[arg(long, default_value_t = 0)]
+    /// Albedo first: keep σ_t at its initial value for this many initial iterations (at most a
+    /// third of the run) while α converges.
+    #[arg(long, default_value_t = OptimizeConfig::default().albedo_warmup)]
     pub albedo_warmup: u32,
     /// One σ_t and one α for all channels.
     #[arg(long)]
@@ -97,7 +103,7 @@ pub struct OptimizeArgs {
     #[arg(long)]
     pub fit_derivative: bool,
     /// Relative offset Δ/σ_t of the correlated offset samples.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = OptimizeConfig::default().delta_rel)]
     pub delta_rel: f32,
     /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples, O(Δ²) bias,
     /// a third less work) or `sample` (an unperturbed sample of its own).
@@ -113,6 +119,13 @@ pub struct OptimizeArgs {
     /// Samples per pixel of the final re-renders.
     #[arg(long, default_value_t = 64)]
     pub final_spp: u32,
+    /// Views for the 95 % intervals at the end (two derivative renders each, spread evenly
+    /// over the dataset; 0: no intervals).
+    #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
+    pub uncertainty_views: usize,
+    /// Samples per pixel of the interval renders.
+    #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
+    pub uncertainty_spp: u32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -132,13 +145,13 @@ pub struct OptimizeArgs {
 #[derive(Args, Clone, Copy, Debug)]
 pub struct IterationArgs {
     /// Iterations (per run).
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = OptimizeConfig::default().iterations)]
     pub iterations: u32,
     /// Samples per pixel per iteration.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = OptimizeConfig::default().spp)]
     pub spp: u32,
     /// Views rendered per iteration (drawn at random).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = OptimizeConfig::default().views_per_iter)]
     pub views_per_iter: usize,
     /// Render a random N×N crop of each chosen view per iteration instead of the whole image
     /// (the paper's released optimiser; clamped to the image size).
@@ -169,7 +182,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.views_per_iter = a.budget.views_per_iter;
     c.view_subset = a.view_subset.clone();
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
-    c.two_renders = a.two_renders;
+    c.two_renders = !a.single_render;
     anyhow::ensure!(
         a.view_weight_floor > 0.0 && a.view_weight_floor <= 1.0,
         "--view-weight-floor must be in (0, 1], got {}",
@@ -190,10 +203,10 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.seed = a.seed;
     c.albedo_warmup = a.albedo_warmup;
     c.params = ParamSpec {
-        parameterisation: if a.log_sigma_t {
-            Parameterisation::Log
-        } else {
+        parameterisation: if a.scaled_sigma_t {
             Parameterisation::Scaled
+        } else {
+            Parameterisation::Log
         },
         monochrome: a.monochrome,
         fix_sigma_t: a.fix_sigma_t,
@@ -322,24 +335,64 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     let pb = progress(opt.config().iterations as u64, "optimize");
     pb.set_position(opt.iteration() as u64);
     let csv = a.out.join("iterations.csv");
-    opt.run(Some((&ckpt, a.checkpoint_every)), |r, p| {
+    let ran = opt.run(Some((&ckpt, a.checkpoint_every)), |r, p| {
         pb.set_position(r.iteration as u64 + 1);
         pb.set_message(format!(
             "loss {:.3e} σ_t ({:.1}, {:.1}, {:.1}) α ({:.3}, {:.3}, {:.3})",
             r.loss, p.sigma_t[0], p.sigma_t[1], p.sigma_t[2], p.albedo[0], p.albedo[1], p.albedo[2]
         ));
-    })?;
+    });
     pb.finish_and_clear();
+    if let Err(e) = ran {
+        // A run that broke down still leaves its record: the history so far and a failed status.
+        report::write_csv(opt.history(), &csv)?;
+        let failed = serde_json::json!({
+            "status": "failed",
+            "problems": [inverse::health::Problem::NonFinite { detail: e.to_string() }],
+            "iterations": opt.history().len(),
+            "config": opt.config(),
+        });
+        scene::fsutil::atomic_write(
+            &a.out.join("result.json"),
+            serde_json::to_string_pretty(&failed)?.as_bytes(),
+            true,
+        )?;
+        return Err(e).context(format!(
+            "the optimisation failed after {} iterations (status in {})",
+            opt.history().len(),
+            a.out.join("result.json").display()
+        ));
+    }
     let seconds_total = t0.elapsed().as_secs_f64();
     report::write_csv(opt.history(), &csv)?;
     let estimate = opt.params();
-    let result = report::result_json(
+    let uncertainty = if a.uncertainty_views > 0 {
+        let settings = inverse::uncertainty::UncertaintySettings {
+            views: a.uncertainty_views,
+            spp: a.uncertainty_spp,
+            ..Default::default()
+        };
+        let pb = progress(0, "95 % intervals");
+        let u = opt.uncertainty(&settings)?;
+        pb.finish_and_clear();
+        Some(u)
+    } else {
+        None
+    };
+    let problems = inverse::health::assess(
+        opt.history(),
+        &estimate,
+        &opt.config().params,
+        base.g as f64,
+    );
+    let mut result = report::result_json(
         opt.config(),
         opt.history(),
         &estimate,
         truth.as_ref(),
         seconds_total,
     );
+    report::add_assessment(&mut result, &problems, uncertainty.as_ref());
     scene::fsutil::atomic_write(
         &a.out.join("result.json"),
         serde_json::to_string_pretty(&result)?.as_bytes(),
@@ -354,6 +407,14 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     rerender(a, &opt, &ds, &estimate, &base)?;
     let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
+    if let Some(u) = &uncertainty {
+        for line in report::interval_lines(&estimate, u) {
+            println!("  {line}");
+        }
+    }
+    for p in &problems {
+        println!("  FAILED: {}", p.message());
+    }
     if a.bc.bias_correction {
         // The model's own fit stays in convergence.png and final/; result.json reports the
         // corrected medium.
@@ -454,4 +515,38 @@ fn write_view(dir: &Path, name: &str, img: &Image, target: &Image, exposure: f32
         true,
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `optimize --dataset D` runs the library's defaults ([`OptimizeConfig::default`]), and so
+    /// do `demo` and `experiment accuracy`: every number they publish comes from the settings a
+    /// user gets.
+    #[test]
+    fn optimize_demo_and_experiment_share_the_library_defaults() {
+        let d = PathBuf::from("d");
+        let o = OptimizeArgs::with_defaults(d.clone(), PathBuf::from("o"));
+        assert_eq!(config_of(&o).unwrap(), OptimizeConfig::default());
+        let demo =
+            crate::demo::recovery_args(&crate::common::arg_defaults::<crate::demo::DemoArgs>(&[]));
+        let expected = OptimizeConfig {
+            iterations: demo.budget.iterations,
+            seed: demo.seed,
+            ..OptimizeConfig::default()
+        };
+        assert_eq!(config_of(&demo).unwrap(), expected);
+        let exp = crate::common::arg_defaults::<crate::experiment::AccuracyArgs>(&[]);
+        let init = Params {
+            sigma_t: [50.0; 3],
+            albedo: [0.5; 3],
+        };
+        let run = crate::experiment::run_args(&exp, &d, &d, "ours", init);
+        let expected = OptimizeConfig {
+            seed: exp.seed,
+            ..OptimizeConfig::default()
+        };
+        assert_eq!(config_of(&run).unwrap(), expected);
+    }
 }

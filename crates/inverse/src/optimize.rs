@@ -31,6 +31,9 @@ use serde::{Deserialize, Serialize};
 use volpath::rng::{Sampler, hash_key};
 
 use crate::params::{ParamSpec, Params};
+use crate::uncertainty::{
+    Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances, iterate_covariance,
+};
 
 /// Errors of the inverse loop.
 #[derive(Debug, thiserror::Error)]
@@ -210,9 +213,27 @@ mod loss_name {
     }
 }
 
+impl Default for OptimizeConfig {
+    /// [`OptimizeConfig::new`] from the paper's initialisation σ_t = 50, α = 0.5.
+    fn default() -> Self {
+        Self::new(Params {
+            sigma_t: [50.0; 3],
+            albedo: [0.5; 3],
+        })
+    }
+}
+
 impl OptimizeConfig {
-    /// The defaults of model-spec A12 from `init`: `ours`, 300 iterations, 32 spp, 1 view, L2,
-    /// lr 0.015 (σ_t/100) and 0.02 (α), ×0.85 every 50 iterations.
+    /// The α-first iterations actually used: `albedo_warmup`, but at most a third of the run.
+    pub fn effective_albedo_warmup(&self) -> u32 {
+        self.albedo_warmup.min(self.iterations / 3)
+    }
+
+    /// The recovery's defaults from `init`, shared by `optimize`, `demo` and `experiment`: the
+    /// budget of model-spec A12 (`ours`, 300 iterations, 32 spp, 1 view, L2, lr 0.015 and 0.02,
+    /// ×0.85 every 50 iterations) with the settings that measured best (BENCHMARKS.md,
+    /// "Recovery defaults"): Adam on ln σ_t, the decorrelated two-render gradient, and α alone
+    /// for the first 30 iterations.
     pub fn new(init: Params) -> Self {
         Self {
             method: DiffMethod::Ours,
@@ -221,7 +242,7 @@ impl OptimizeConfig {
             views_per_iter: 1,
             crop: None,
             loss: Loss::L2,
-            two_renders: false,
+            two_renders: true,
             lr_sigma_t: 0.015,
             lr_albedo: 0.02,
             decay: 0.85,
@@ -231,10 +252,13 @@ impl OptimizeConfig {
             delta_rel: 0.02,
             primal: Primal::default(),
             learned: LearnedSettings::default(),
-            params: ParamSpec::default(),
+            params: ParamSpec {
+                parameterisation: crate::params::Parameterisation::Log,
+                ..ParamSpec::default()
+            },
             init,
             seed: 0,
-            albedo_warmup: 0,
+            albedo_warmup: 30,
             normalize_views: false,
             view_weight_floor: default_view_weight_floor(),
             view_subset: None,
@@ -272,6 +296,21 @@ pub struct IterationRecord {
     pub crop_origins: Vec<[u32; 2]>,
     /// Seconds of this iteration.
     pub seconds: f64,
+}
+
+/// The loss gradient of one iteration ([`Optimizer::gradient`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IterationGradient {
+    /// Mean (weighted) loss over the iteration's views.
+    pub loss: f64,
+    /// ∂ℓ/∂σ_t per channel.
+    pub d_sigma_t: [f64; 3],
+    /// ∂ℓ/∂α per channel.
+    pub d_albedo: [f64; 3],
+    /// Views used.
+    pub views: Vec<usize>,
+    /// Crop origins (empty without crops).
+    pub crop_origins: Vec<[u32; 2]>,
 }
 
 /// A run in progress.
@@ -388,15 +427,82 @@ impl<'a> Optimizer<'a> {
         &self.features
     }
 
-    /// One iteration.
-    pub fn step(&mut self) -> Result<&IterationRecord, InverseError> {
-        let t0 = Instant::now();
-        let k = self.iteration();
+    /// The uncertainty of the current parameters from the target images
+    /// ([`crate::uncertainty`]): two independent derivative renders of `s.views` views spread
+    /// evenly over the targets, at `s.spp`, plus the spread of the last iterates. Parameters the
+    /// run keeps fixed get no interval.
+    pub fn uncertainty(&self, s: &UncertaintySettings) -> Result<Uncertainty, InverseError> {
         let c = &self.config;
         let p = self.params();
-        if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
-            self.features = fit_features(self.accel, &p.medium(&self.base), self.model, c)?;
+        let scene = LearnedScene::new(
+            self.accel,
+            self.model,
+            &self.features,
+            p.medium(&self.base),
+            c.learned,
+        )?;
+        let ds = DiffSettings {
+            method: c.method,
+            delta_rel: c.delta_rel,
+            primal: c.primal,
+            ..DiffSettings::default()
+        };
+        let n = self.targets.len();
+        let k = s.views.clamp(1, n);
+        let mut acc = Accumulator::default();
+        for i in 0..k {
+            let v = i * n / k;
+            let t = &self.targets[v];
+            let view = ViewRays::new(&scene, t.camera, t.light);
+            let render = |stream: u64| {
+                let rs = RenderSettings {
+                    spp: s.spp.max(1),
+                    seed: hash_key(&[c.seed, 0x5A4D_0000, stream]),
+                    view: v as u64,
+                };
+                render_diff_view(&scene, &view, &rs, &ds, None)
+            };
+            let (a, b) = (render(1)?, render(2)?);
+            acc.add_view(
+                &ViewRenders {
+                    value: [&a.value, &b.value],
+                    d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
+                    d_albedo: [&a.d_albedo, &b.d_albedo],
+                    target: t.image,
+                },
+                p.sigma_t,
+            );
         }
+        let tail = ((self.history.len() as f64 * s.tail_fraction).ceil() as usize)
+            .clamp(2.min(self.history.len()), self.history.len());
+        let iterates: Vec<([f64; 3], [f64; 3])> = self.history[self.history.len() - tail..]
+            .iter()
+            .map(|r| (r.params.sigma_t, r.params.albedo))
+            .chain(std::iter::once((p.sigma_t, p.albedo)))
+            .collect();
+        let cov = add_covariances(
+            acc.covariance(s.model_brightness_sd),
+            iterate_covariance(&iterates),
+        );
+        let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, k);
+        if c.params.fix_sigma_t {
+            u.sigma_t = [None; 3];
+            u.sd_ln_sigma_t = [None; 3];
+            u.determined_sigma_t = [false; 3];
+        }
+        if c.params.fix_albedo {
+            u.albedo = [None; 3];
+            u.sd_albedo = [None; 3];
+            u.determined_albedo = [false; 3];
+        }
+        Ok(u)
+    }
+
+    /// The loss and its gradient of iteration `k` at the parameters `p` (the views, crops and
+    /// random numbers of that iteration; no step). [`Optimizer::step`] at iteration k is this
+    /// at the current parameters followed by the Adam step.
+    pub fn gradient(&self, k: u32, p: &Params) -> Result<IterationGradient, InverseError> {
+        let c = &self.config;
         let medium = p.medium(&self.base);
         let scene = LearnedScene::new(self.accel, self.model, &self.features, medium, c.learned)?;
         let ds = DiffSettings {
@@ -474,8 +580,34 @@ impl<'a> Optimizer<'a> {
                  target images for NaN/Inf pixels and the learning rates"
             )));
         }
+        Ok(IterationGradient {
+            loss,
+            d_sigma_t: ds_t,
+            d_albedo: da,
+            views,
+            crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
+        })
+    }
+
+    /// One iteration.
+    pub fn step(&mut self) -> Result<&IterationRecord, InverseError> {
+        let t0 = Instant::now();
+        let k = self.iteration();
+        let p = self.params();
+        let c = &self.config;
+        if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
+            self.features = fit_features(self.accel, &p.medium(&self.base), self.model, c)?;
+        }
+        let IterationGradient {
+            loss,
+            d_sigma_t: ds_t,
+            d_albedo: da,
+            views,
+            crop_origins,
+        } = self.gradient(k, &p)?;
+        let c = &self.config;
         let mut g = c.params.chain(&p, ds_t, da);
-        let lr_t = if k < c.albedo_warmup {
+        let lr_t = if k < c.effective_albedo_warmup() {
             g[..3].fill(0.0);
             0.0
         } else {
@@ -491,7 +623,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             views,
-            crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
+            crop_origins,
             seconds: t0.elapsed().as_secs_f64(),
         });
         Ok(self.history.last().expect("just pushed"))

@@ -91,6 +91,69 @@ pub fn result_json(
     })
 }
 
+/// Adds `status` ("ok" or "failed"), `problems` and, when computed, `interval95`,
+/// `determined` and `uncertainty` to a `result.json` value.
+pub fn add_assessment(
+    result: &mut serde_json::Value,
+    problems: &[crate::health::Problem],
+    uncertainty: Option<&crate::uncertainty::Uncertainty>,
+) {
+    let obj = result.as_object_mut().expect("result.json is an object");
+    obj.insert(
+        "status".into(),
+        json!(if problems.is_empty() { "ok" } else { "failed" }),
+    );
+    obj.insert("problems".into(), json!(problems));
+    if let Some(serde_json::Value::Object(m)) = uncertainty.map(|u| u.to_json()) {
+        obj.extend(m);
+    }
+}
+
+/// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel, and in plain words what the
+/// images leave open and which capture would settle it.
+pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<String> {
+    const CH: [&str; 3] = ["R", "G", "B"];
+    let fmt = |v: f64, i: Option<[f64; 2]>, p: usize| match i {
+        Some([lo, hi]) => format!("{v:.p$} [{lo:.p$}, {hi:.p$}]"),
+        None => format!("{v:.p$} [no finite interval]"),
+    };
+    let mut out = vec!["95 % intervals (from the images):".to_string()];
+    for c in 0..3 {
+        out.push(format!(
+            "  {}: σ_t = {}  α = {}",
+            CH[c],
+            fmt(est.sigma_t[c], u.sigma_t[c], 1),
+            fmt(est.albedo[c], u.albedo[c], 4)
+        ));
+    }
+    let open_t: Vec<&str> = (0..3)
+        .filter(|&c| !u.determined_sigma_t[c])
+        .map(|c| CH[c])
+        .collect();
+    let open_a: Vec<&str> = (0..3)
+        .filter(|&c| !u.determined_albedo[c])
+        .map(|c| CH[c])
+        .collect();
+    if !open_t.is_empty() {
+        out.push(format!(
+            "σ_t is NOT determined by these images in {} (its interval spans more than ±{:.0} %): \
+             brightness alone trades σ_t against α. Views with the light beside or behind the \
+             object (light that crossed it, a turntable with a fixed lamp) determine σ_t; more \
+             views or samples of the same capture do not.",
+            open_t.join(", "),
+            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
+        ));
+    }
+    if !open_a.is_empty() {
+        out.push(format!(
+            "α is NOT determined by these images in {} (its interval is wider than ±{}).",
+            open_a.join(", "),
+            crate::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
+        ));
+    }
+    out
+}
+
 /// `convergence.png`: σ_t and α per channel against the iteration (truth dashed) and the loss.
 pub fn write_plots(
     history: &[IterationRecord],

@@ -158,11 +158,11 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
 }
 
 /// Albedo first: σ_t keeps its initial value exactly for the warm-up iterations while α moves,
-/// and moves afterwards.
+/// and moves afterwards (16 iterations: the warm-up is at most a third of the run).
 #[test]
 fn albedo_warmup_holds_sigma_t_then_releases_it() {
     let s = setup();
-    let mut c = config(8);
+    let mut c = config(16);
     c.params.fix_sigma_t = false;
     c.lr_sigma_t = 0.05;
     c.albedo_warmup = 5;

@@ -1,0 +1,354 @@
+//! `translucent bench noise`: per-pixel variance and loss-gradient variance of the learned
+//! renderer against the volumetric path tracer, at equal time, on coloured media.
+//!
+//! Scenes: the built-in blob at two sizes (`--scales`, in scene units; the medium fixes the size in
+//! mean free paths) under a light attached to each camera and under one fixed light, in a
+//! coloured medium (`--sigma-t`, `--albedo`), plus the same small flash scene in a grey medium
+//! (σ_t and α of the green channel) to see what the sampling scheme does where no channel
+//! choice is needed.
+//!
+//! Per scene and renderer (volpath at `--volpath-spp`; the learned renderer at `--spp` with each
+//! `--schemes` pixel sampling), two renders with different seeds: the per-pixel variance of one
+//! render is Var ≈ (a − b)²/2, and per channel the relative variance is
+//!
+//!   v = mean_p (a_p − b_p)²/2 / mean_p m_p²,  m = (a + b)/2,
+//!
+//! over the pixels where the volpath mean is positive. At equal time the efficiency is
+//! 1/(v·t) with t the render time of one render; the table gives volpath's v·t over each
+//! learned scheme's (> 1: the learned renderer is less noisy per second).
+//!
+//! Gradient variance: the L2 loss gradient (the default estimator `ours`, offset-mean primal)
+//! of view 0 against the volpath render at the truth, with the vertex polynomials fitted at the
+//! truth, `--grad-seeds` times with different seeds; per parameter the variance over seeds
+//! times the time of one evaluation, relative to the first scheme.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use geometry::Shape;
+use scene::rig::RigLight;
+use scene::{Image, Medium};
+use volpath::VolpathSettings;
+
+use crate::common::{build_accel, parse_rgb, render_views, render_views_learned};
+use crate::dataset_cmd::house_rig;
+
+#[derive(Args)]
+pub struct NoiseBenchArgs {
+    /// Blob sizes (uniform scale of the unit blob, about 1 unit across at scale 1).
+    #[arg(long, value_delimiter = ',', default_value = "0.4,1")]
+    pub scales: Vec<f32>,
+    /// Extinction σ_t per channel (1/unit).
+    #[arg(long, value_parser = parse_rgb, default_value = "45,65,85")]
+    pub sigma_t: [f32; 3],
+    /// Albedo per channel.
+    #[arg(long, value_parser = parse_rgb, default_value = "0.85,0.92,0.96")]
+    pub albedo: [f32; 3],
+    /// Views per scene.
+    #[arg(long, default_value_t = 4)]
+    pub views: usize,
+    /// Image size.
+    #[arg(long, default_value_t = 128)]
+    pub res: u32,
+    /// Samples per pixel of the learned renders.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Samples per pixel of the volumetric renders.
+    #[arg(long, default_value_t = 128)]
+    pub volpath_spp: u32,
+    /// Pixel sampling schemes of the learned renderer to compare (`stratified`, `one-hot`).
+    #[arg(long, value_delimiter = ',', default_value = "one-hot,stratified")]
+    pub schemes: Vec<String>,
+    /// Loss-gradient evaluations per scheme and scene (0: skip the gradients).
+    #[arg(long, default_value_t = 8)]
+    pub grad_seeds: u32,
+    /// Samples per pixel of the gradient evaluations (the default of `optimize`).
+    #[arg(long, default_value_t = 32)]
+    pub grad_spp: u32,
+    /// Output folder (`noise.csv`, `gradient-noise.csv`).
+    #[arg(long, default_value = "out/bench-noise")]
+    pub out: PathBuf,
+    /// Seed (renders use seed and seed + 1).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+struct Case {
+    name: String,
+    scale: f32,
+    light: RigLight,
+    medium: Medium,
+}
+
+fn cases(a: &NoiseBenchArgs) -> Vec<Case> {
+    let coloured = Medium {
+        sigma_t: a.sigma_t,
+        albedo: a.albedo,
+        g: 0.0,
+        eta: 1.0,
+    };
+    let grey = Medium {
+        sigma_t: [a.sigma_t[1]; 3],
+        albedo: [a.albedo[1]; 3],
+        ..coloured
+    };
+    let flash = RigLight::Attached {
+        offset: glam::Vec3::new(0.8, 0.8, 0.0),
+    };
+    let fixed = RigLight::Fixed {
+        position: glam::Vec3::new(1.2, 1.6, 0.8),
+    };
+    let mut out = Vec::new();
+    for &scale in &a.scales {
+        for (lname, light) in [("flash", flash), ("fixed", fixed)] {
+            out.push(Case {
+                name: format!("blob{scale}-{lname}"),
+                scale,
+                light,
+                medium: coloured,
+            });
+        }
+    }
+    if let Some(&scale) = a.scales.first() {
+        out.push(Case {
+            name: format!("blob{scale}-flash-grey"),
+            scale,
+            light: flash,
+            medium: grey,
+        });
+    }
+    out
+}
+
+/// Relative variance per channel of one render from two seeds `a`, `b` over the pixels where
+/// `mask` is positive in that channel (module docs).
+fn relative_variance(a: &[Image], b: &[Image], mask: &[Image]) -> [f64; 3] {
+    let mut num = [0.0f64; 3];
+    let mut den = [0.0f64; 3];
+    for ((a, b), m) in a.iter().zip(b).zip(mask) {
+        for ((pa, pb), pm) in a.data.iter().zip(&b.data).zip(&m.data) {
+            for c in 0..3 {
+                if pm[c] > 0.0 {
+                    let (x, y) = (pa[c] as f64, pb[c] as f64);
+                    num[c] += 0.5 * (x - y) * (x - y);
+                    den[c] += (0.5 * (x + y)).powi(2);
+                }
+            }
+        }
+    }
+    std::array::from_fn(|c| if den[c] > 0.0 { num[c] / den[c] } else { 0.0 })
+}
+
+fn mean_image(a: &[Image], b: &[Image]) -> Vec<Image> {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| {
+            let mut m = a.clone();
+            for (p, q) in m.data.iter_mut().zip(&b.data) {
+                *p = std::array::from_fn(|c| 0.5 * (p[c] + q[c]));
+            }
+            m
+        })
+        .collect()
+}
+
+pub fn run(a: &NoiseBenchArgs) -> Result<()> {
+    anyhow::ensure!(
+        a.views > 0 && a.spp > 0 && a.volpath_spp > 0 && a.res > 0,
+        "--views, --res, --spp and --volpath-spp must be at least 1"
+    );
+    let schemes: Vec<bssrdf::render::PixelSampling> = a
+        .schemes
+        .iter()
+        .map(|s| {
+            bssrdf::render::PixelSampling::from_name(s).with_context(|| {
+                format!("--schemes: unknown scheme '{s}' (expected stratified or one-hot)")
+            })
+        })
+        .collect::<Result<_>>()?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("{}: cannot create output folder", a.out.display()))?;
+    let model = crate::common::LearnedArgs::shipped_model()?;
+    let vs = VolpathSettings::default();
+    let mut csv = std::fs::File::create(a.out.join("noise.csv"))?;
+    writeln!(
+        csv,
+        "case,renderer,spp,seconds,relvar_r,relvar_g,relvar_b,volpath_vt_over_vt_r,volpath_vt_over_vt_g,volpath_vt_over_vt_b"
+    )?;
+    let mut gcsv = std::fs::File::create(a.out.join("gradient-noise.csv"))?;
+    writeln!(
+        gcsv,
+        "case,scheme,seconds,var_dsigma_r,var_dsigma_g,var_dsigma_b,var_dalbedo_r,var_dalbedo_g,var_dalbedo_b"
+    )?;
+    println!(
+        "{} views of {}², learned {} spp, volpath {} spp; v = relative variance of one render per pixel, t = seconds per render",
+        a.views, a.res, a.spp, a.volpath_spp
+    );
+    println!(
+        "{:<22} {:<18} {:>7} {:>26} {:>24}",
+        "case", "renderer", "t (s)", "v (R, G, B)", "volpath v·t / v·t"
+    );
+    for case in cases(a) {
+        let mesh = Shape::from_name("blob")?.scaled(case.scale).build()?;
+        let accel = build_accel(mesh, &[], "blob");
+        let rig = house_rig(a.views, a.res, case.light, (-90.0, 90.0));
+        let views = rig.build();
+        let timed = |f: &dyn Fn(u64) -> Result<crate::common::RenderReport>| -> Result<_> {
+            let r0 = f(a.seed)?;
+            let r1 = f(a.seed + 1)?;
+            let t: f64 = r0
+                .seconds_per_view
+                .iter()
+                .chain(&r1.seconds_per_view)
+                .sum::<f64>()
+                / 2.0;
+            Ok((r0.images, r1.images, t))
+        };
+        let (v0, v1, vt) = timed(&|seed| {
+            Ok(render_views(
+                &accel,
+                &case.medium,
+                &views,
+                a.volpath_spp,
+                seed,
+                &vs,
+            ))
+        })?;
+        let mask = mean_image(&v0, &v1);
+        let vrel = relative_variance(&v0, &v1, &mask);
+        let vol_vt: [f64; 3] = vrel.map(|v| v * vt);
+        let row =
+            |name: &str, spp: u32, t: f64, v: [f64; 3], csv: &mut std::fs::File| -> Result<()> {
+                let ratio: [f64; 3] = std::array::from_fn(|c| vol_vt[c] / (v[c] * t));
+                println!(
+                    "{:<22} {:<18} {:>7.2} {:>8.5} {:>8.5} {:>8.5} {:>7.2} {:>7.2} {:>7.2}",
+                    case.name, name, t, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+                );
+                writeln!(
+                    csv,
+                    "{},{name},{spp},{t:.4},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.4}",
+                    case.name, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+                )?;
+                Ok(())
+            };
+        row("volpath", a.volpath_spp, vt, vrel, &mut csv)?;
+        for &scheme in &schemes {
+            let settings = bssrdf::render::LearnedSettings {
+                sampling: scheme,
+                ..Default::default()
+            };
+            let (l0, l1, lt) = timed(&|seed| {
+                render_views_learned(&accel, &case.medium, &views, a.spp, seed, &model, settings)
+            })?;
+            let lrel = relative_variance(&l0, &l1, &mask);
+            row(
+                &format!("learned {}", scheme_name(scheme)),
+                a.spp,
+                lt,
+                lrel,
+                &mut csv,
+            )?;
+        }
+        if a.grad_seeds > 0 {
+            gradient_noise(
+                a, &case, &accel, &views[0], &mask[0], &model, &schemes, &mut gcsv,
+            )?;
+        }
+    }
+    println!("wrote {}", a.out.join("noise.csv").display());
+    Ok(())
+}
+
+fn scheme_name(s: bssrdf::render::PixelSampling) -> &'static str {
+    match s {
+        bssrdf::render::PixelSampling::Stratified => "stratified",
+        bssrdf::render::PixelSampling::OneHot => "one-hot",
+    }
+}
+
+/// Variance over seeds of the L2 loss gradient of one view (module docs).
+#[allow(clippy::too_many_arguments)]
+fn gradient_noise(
+    a: &NoiseBenchArgs,
+    case: &Case,
+    accel: &geometry::Accel,
+    view: &scene::ViewDesc,
+    target: &Image,
+    model: &bssrdf::nn::ShapeAdaptiveModel,
+    schemes: &[bssrdf::render::PixelSampling],
+    csv: &mut std::fs::File,
+) -> Result<()> {
+    use bssrdf::diff::{DiffSettings, Loss, render_loss_gradient};
+    let features =
+        bssrdf::render::VertexFeatures::fit(accel, &case.medium, model.info().c19_quirk, a.seed)?;
+    let mut first: Option<([f64; 6], f64)> = None;
+    for &scheme in schemes {
+        let settings = bssrdf::render::LearnedSettings {
+            sampling: scheme,
+            ..Default::default()
+        };
+        let scene =
+            bssrdf::render::LearnedScene::new(accel, model, &features, case.medium, settings)?;
+        let mut g: Vec<[f64; 6]> = Vec::new();
+        let t0 = Instant::now();
+        for k in 0..a.grad_seeds {
+            let rs = bssrdf::render::RenderSettings {
+                spp: a.grad_spp,
+                seed: a.seed + 100 + k as u64,
+                view: 0,
+            };
+            let r = render_loss_gradient(
+                &scene,
+                &view.camera,
+                &view.light,
+                &rs,
+                &DiffSettings::default(),
+                target,
+                Loss::L2,
+                false,
+                None,
+            )?;
+            g.push([
+                r.d_sigma_t[0],
+                r.d_sigma_t[1],
+                r.d_sigma_t[2],
+                r.d_albedo[0],
+                r.d_albedo[1],
+                r.d_albedo[2],
+            ]);
+        }
+        let t = t0.elapsed().as_secs_f64() / a.grad_seeds as f64;
+        let n = g.len() as f64;
+        let var: [f64; 6] = std::array::from_fn(|i| {
+            let m = g.iter().map(|v| v[i]).sum::<f64>() / n;
+            g.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)
+        });
+        let vt: Vec<String> = match first {
+            None => vec!["1.00".into(); 6],
+            Some((v0, t0)) => (0..6)
+                .map(|i| format!("{:.2}", v0[i] * t0 / (var[i] * t)))
+                .collect(),
+        };
+        println!(
+            "{:<22} {:<18} {:>7.2}   gradient variance·time, first scheme over this (σ_t R G B, α R G B): {}",
+            case.name,
+            format!("∇ {}", scheme_name(scheme)),
+            t,
+            vt.join(" ")
+        );
+        writeln!(
+            csv,
+            "{},{},{t:.4},{}",
+            case.name,
+            scheme_name(scheme),
+            var.map(|v| format!("{v:.6e}")).join(",")
+        )?;
+        if first.is_none() {
+            first = Some((var, t));
+        }
+    }
+    Ok(())
+}

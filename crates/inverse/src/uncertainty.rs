@@ -1,0 +1,401 @@
+//! The uncertainty of a recovered medium, from the images themselves: a sandwich
+//! (Gauss–Newton / cluster-robust) covariance of the L2 estimate, per channel.
+//!
+//! Channel c of every image depends only on θ_c = (ln σ_t,c, α_c), so the covariance is block
+//! diagonal with one 2×2 block per channel. The estimate minimises L(θ) = Σ_v Σ_p (I_p(θ) − T_p)²
+//! over the views v and their pixels p. With J_p = ∂I_p/∂θ_c (per pixel, from the derivative
+//! images: ∂I/∂ln σ_t = σ_t·∂I/∂σ_t) and the residuals r_p = I_p(θ̂) − T_p:
+//!
+//!   A = Σ_v Σ_p J_p J_pᵀ                       (Gauss–Newton: half the Hessian of L)
+//!   g_v = Σ_p J_p r_p                           (half the gradient of view v's loss)
+//!   B = V/(V − 1) · Σ_v (g_v − ḡ)(g_v − ḡ)ᵀ     (the views as independent draws of the capture)
+//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt,   d = A⁻¹ Σ_v Σ_p J_p I_p
+//!
+//! (the M-estimator sandwich with views as clusters: White 1980, Liang & Zeger 1986). B holds
+//! whatever makes the views disagree at the estimate: the targets' noise, the renderer's noise
+//! and the model's error where it differs from view to view, so the interval widens where the
+//! learned model fits some views worse than others, which a noise-only Fisher interval would
+//! not. Where the images barely constrain a direction of θ_c (a light beside the camera makes
+//! σ_t and α trade along a valley), A is nearly singular along it and the interval is wide.
+//! The middle term is the learned model's brightness error, which is common to all views and so
+//! invisible to B: if every image of the model were too bright by a factor (1 + b), the
+//! Gauss–Newton step moves the estimate by b·d. With b of standard deviation s_b
+//! ([`UncertaintySettings::model_brightness_sd`], from the model's measured brightness error
+//! against the volumetric path tracer) it adds s_b²·d dᵀ. Along a valley of the loss (light
+//! beside the camera) d is long, and the interval says so.
+//! J_p J_pᵀ is taken as the symmetrised product of two independent renders' derivatives
+//! (½(J¹J²ᵀ + J²J¹ᵀ)), whose expectation is J̄J̄ᵀ without the Monte Carlo noise that J¹J¹ᵀ
+//! would add to A. C_opt is the covariance of the optimiser's last iterates (its stochastic
+//! wandering around the minimum: the estimate is the last iterate).
+//!
+//! The 95 % interval is θ̂ ± 1.96·sd in (ln σ_t, α): σ_t·exp(±1.96·sd) and α ± 1.96·sd clamped
+//! to [0, 1]. A parameter is reported *determined* when its interval is narrow: σ_t's upper
+//! bound at most [`DETERMINED_SIGMA_T_RATIO`] times its lower one, α's half-width at most
+//! [`DETERMINED_ALBEDO_HALF_WIDTH`].
+
+use scene::Image;
+use serde::{Deserialize, Serialize};
+
+/// z of a two-sided 95 % normal interval.
+pub const Z95: f64 = 1.959_963_984_540_054;
+/// σ_t counts as determined when hi/lo of its 95 % interval is at most this (about ±10 %).
+pub const DETERMINED_SIGMA_T_RATIO: f64 = 1.2;
+/// α counts as determined when the half-width of its 95 % interval is at most this.
+pub const DETERMINED_ALBEDO_HALF_WIDTH: f64 = 0.02;
+
+/// Settings of the uncertainty estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UncertaintySettings {
+    /// Views used (evenly spread over the targets; all when there are fewer).
+    pub views: usize,
+    /// Samples per pixel of each of the two derivative renders per view.
+    pub spp: u32,
+    /// Fraction of the run's last iterations whose spread gives C_opt.
+    pub tail_fraction: f64,
+    /// s_b: standard deviation of the learned model's relative brightness error, common to all
+    /// views (module docs).
+    pub model_brightness_sd: f64,
+}
+
+impl Default for UncertaintySettings {
+    fn default() -> Self {
+        Self {
+            views: 16,
+            spp: 32,
+            tail_fraction: 0.1,
+            model_brightness_sd: 0.03,
+        }
+    }
+}
+
+/// Per-channel sums over the views (module docs).
+#[derive(Clone, Debug, Default)]
+pub struct Accumulator {
+    /// A per channel, [a00, a01, a11] in (ln σ_t, α).
+    a: [[f64; 3]; 3],
+    /// g_v per view and channel.
+    g: Vec<[[f64; 2]; 3]>,
+    /// Σ_p J_p I_p per channel (the direction of a common brightness error).
+    ji: [[f64; 2]; 3],
+}
+
+/// One view's derivative renders at the estimate: value and ∂I/∂σ_t, ∂I/∂α images of two
+/// independent renders, and the target.
+pub struct ViewRenders<'a> {
+    pub value: [&'a Image; 2],
+    pub d_sigma_t: [&'a Image; 2],
+    pub d_albedo: [&'a Image; 2],
+    pub target: &'a Image,
+}
+
+impl Accumulator {
+    /// Adds one view at σ_t = `sigma_t` (per channel).
+    pub fn add_view(&mut self, r: &ViewRenders, sigma_t: [f64; 3]) {
+        let n = r.target.data.len();
+        self.add_rows((0..n).flat_map(|p| {
+            (0..3).map(move |c| {
+                let j = |k: usize| {
+                    [
+                        sigma_t[c] * r.d_sigma_t[k].data[p][c] as f64,
+                        r.d_albedo[k].data[p][c] as f64,
+                    ]
+                };
+                let v = [0, 1].map(|k| r.value[k].data[p][c] as f64);
+                (c, [j(0), j(1)], v, r.target.data[p][c] as f64)
+            })
+        }));
+    }
+
+    /// Adds one view from its pixel rows: channel, two independent estimates of the Jacobian
+    /// row in (ln σ_t, α) and of the value, and the target. J J^T and J·I each take their two
+    /// factors from different estimates (no Monte Carlo covariance between them).
+    pub fn add_rows(&mut self, rows: impl Iterator<Item = (usize, [[f64; 2]; 2], [f64; 2], f64)>) {
+        let mut g = [[0.0; 2]; 3];
+        for (c, [j1, j2], [v1, v2], t) in rows {
+            let res = 0.5 * (v1 + v2) - t;
+            if !(res.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
+                continue;
+            }
+            let a = &mut self.a[c];
+            a[0] += j1[0] * j2[0];
+            a[1] += 0.5 * (j1[0] * j2[1] + j1[1] * j2[0]);
+            a[2] += j1[1] * j2[1];
+            for k in 0..2 {
+                g[c][k] += 0.5 * (j1[k] + j2[k]) * res;
+                self.ji[c][k] += 0.5 * (j1[k] * v2 + j2[k] * v1);
+            }
+        }
+        self.g.push(g);
+    }
+
+    /// The covariance A⁻¹BA⁻¹ + s_b²·d dᵀ per channel in (ln σ_t, α) as [c00, c01, c11]
+    /// (`model_brightness_sd` = s_b), or `None` for a channel whose A is not positive definite
+    /// or with fewer than two views.
+    pub fn covariance(&self, model_brightness_sd: f64) -> [Option<[f64; 3]>; 3] {
+        let v = self.g.len();
+        std::array::from_fn(|c| {
+            if v < 2 {
+                return None;
+            }
+            let [a00, a01, a11] = self.a[c];
+            let det = a00 * a11 - a01 * a01;
+            if !(a00 > 0.0 && a11 > 0.0 && det > 0.0 && det.is_finite()) {
+                return None;
+            }
+            let inv = [a11 / det, -a01 / det, a00 / det];
+            let mean = [0, 1].map(|k| self.g.iter().map(|g| g[c][k]).sum::<f64>() / v as f64);
+            let mut b = [0.0; 3];
+            for g in &self.g {
+                let d = [g[c][0] - mean[0], g[c][1] - mean[1]];
+                b[0] += d[0] * d[0];
+                b[1] += d[0] * d[1];
+                b[2] += d[1] * d[1];
+            }
+            let f = v as f64 / (v as f64 - 1.0);
+            let b = b.map(|x| x * f);
+            let ji = self.ji[c];
+            let d = [
+                inv[0] * ji[0] + inv[1] * ji[1],
+                inv[1] * ji[0] + inv[2] * ji[1],
+            ];
+            let s2 = model_brightness_sd * model_brightness_sd;
+            let m = sandwich(inv, b);
+            Some([
+                m[0] + s2 * d[0] * d[0],
+                m[1] + s2 * d[0] * d[1],
+                m[2] + s2 * d[1] * d[1],
+            ])
+        })
+    }
+}
+
+/// S·B·S for symmetric 2×2 matrices stored as [m00, m01, m11].
+fn sandwich(s: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    // M = S·B
+    let m00 = s[0] * b[0] + s[1] * b[1];
+    let m01 = s[0] * b[1] + s[1] * b[2];
+    let m10 = s[1] * b[0] + s[2] * b[1];
+    let m11 = s[1] * b[1] + s[2] * b[2];
+    [
+        m00 * s[0] + m01 * s[1],
+        m00 * s[1] + m01 * s[2],
+        m10 * s[1] + m11 * s[2],
+    ]
+}
+
+/// The covariance per channel in (ln σ_t, α) of the iterates `params` (σ_t, α per channel).
+pub fn iterate_covariance(params: &[([f64; 3], [f64; 3])]) -> [[f64; 3]; 3] {
+    let n = params.len();
+    if n < 2 {
+        return [[0.0; 3]; 3];
+    }
+    std::array::from_fn(|c| {
+        let x: Vec<[f64; 2]> = params.iter().map(|(s, a)| [s[c].ln(), a[c]]).collect();
+        let m = [0, 1].map(|k| x.iter().map(|v| v[k]).sum::<f64>() / n as f64);
+        let mut cov = [0.0; 3];
+        for v in &x {
+            let d = [v[0] - m[0], v[1] - m[1]];
+            cov[0] += d[0] * d[0];
+            cov[1] += d[0] * d[1];
+            cov[2] += d[1] * d[1];
+        }
+        cov.map(|v| v / (n as f64 - 1.0))
+    })
+}
+
+/// 95 % intervals, standard deviations and whether each parameter is determined.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Uncertainty {
+    /// [lo, hi] of σ_t per channel (`None`: the images give no finite interval).
+    pub sigma_t: [Option<[f64; 2]>; 3],
+    /// [lo, hi] of α per channel.
+    pub albedo: [Option<[f64; 2]>; 3],
+    /// Standard deviation of ln σ_t per channel.
+    pub sd_ln_sigma_t: [Option<f64>; 3],
+    /// Standard deviation of α per channel.
+    pub sd_albedo: [Option<f64>; 3],
+    /// Correlation of ln σ_t and α per channel.
+    pub correlation: [Option<f64>; 3],
+    /// σ_t is determined by the images (module docs).
+    pub determined_sigma_t: [bool; 3],
+    /// α is determined by the images.
+    pub determined_albedo: [bool; 3],
+    /// Views the estimate used.
+    pub views: usize,
+}
+
+impl Uncertainty {
+    /// The intervals around `sigma_t`, `albedo` from per-channel covariances (sandwich plus
+    /// optimiser) in (ln σ_t, α).
+    pub fn new(
+        sigma_t: [f64; 3],
+        albedo: [f64; 3],
+        cov: [Option<[f64; 3]>; 3],
+        views: usize,
+    ) -> Self {
+        let sd_t: [Option<f64>; 3] =
+            std::array::from_fn(|c| cov[c].map(|m| m[0].sqrt()).filter(|v| v.is_finite()));
+        let sd_a: [Option<f64>; 3] =
+            std::array::from_fn(|c| cov[c].map(|m| m[2].sqrt()).filter(|v| v.is_finite()));
+        let si: [Option<[f64; 2]>; 3] = std::array::from_fn(|c| {
+            sd_t[c].map(|s| [sigma_t[c] * (-Z95 * s).exp(), sigma_t[c] * (Z95 * s).exp()])
+        });
+        let ai: [Option<[f64; 2]>; 3] = std::array::from_fn(|c| {
+            sd_a[c].map(|s| {
+                [
+                    (albedo[c] - Z95 * s).max(0.0),
+                    (albedo[c] + Z95 * s).min(1.0),
+                ]
+            })
+        });
+        Self {
+            determined_sigma_t: std::array::from_fn(|c| {
+                si[c].is_some_and(|[lo, hi]| lo > 0.0 && hi / lo <= DETERMINED_SIGMA_T_RATIO)
+            }),
+            determined_albedo: std::array::from_fn(|c| {
+                sd_a[c].is_some_and(|s| Z95 * s <= DETERMINED_ALBEDO_HALF_WIDTH)
+            }),
+            correlation: std::array::from_fn(|c| {
+                cov[c]
+                    .map(|m| m[1] / (m[0] * m[2]).sqrt())
+                    .filter(|v| v.is_finite())
+            }),
+            sigma_t: si,
+            albedo: ai,
+            sd_ln_sigma_t: sd_t,
+            sd_albedo: sd_a,
+            views,
+        }
+    }
+
+    /// `result.json`'s `interval95` and `determined` fields.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "interval95": {
+                "sigma_t": self.sigma_t,
+                "albedo": self.albedo,
+            },
+            "determined": {
+                "sigma_t": self.determined_sigma_t,
+                "albedo": self.determined_albedo,
+            },
+            "uncertainty": {
+                "sd_ln_sigma_t": self.sd_ln_sigma_t,
+                "sd_albedo": self.sd_albedo,
+                "correlation_ln_sigma_t_albedo": self.correlation,
+                "views": self.views,
+                "method": "sandwich (Gauss-Newton bread, per-view gradient meat) plus the spread of the last iterates",
+            },
+        })
+    }
+}
+
+/// Adds two per-channel covariances (a missing one stays missing).
+pub fn add_covariances(a: [Option<[f64; 3]>; 3], b: [[f64; 3]; 3]) -> [Option<[f64; 3]>; 3] {
+    std::array::from_fn(|c| a[c].map(|m| std::array::from_fn(|k| m[k] + b[c][k])))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volpath::rng::Sampler;
+
+    /// A linear model I_p(θ) = J_p·θ with Gaussian target noise of per-view scale (views
+    /// differ in noise, as real views differ in brightness): the least-squares estimate's
+    /// 95 % intervals from the sandwich must cover the truth in 95 % of trials. Binomial
+    /// tolerance: over 400 trials × 2 parameters the coverage of each parameter has s.d.
+    /// √(0.95·0.05/400) ≈ 0.011; the sandwich with 30 clusters is slightly optimistic
+    /// (Cameron & Miller 2015), so the check is coverage ≥ 0.95 − 0.01 − 3·0.011 ≈ 0.907 and
+    /// ≤ 0.95 + 3·0.011.
+    #[test]
+    fn sandwich_intervals_cover_a_linear_model() {
+        let truth = [0.3, -0.2];
+        let (trials, views, pixels) = (400, 30, 40);
+        let mut covered = [0usize; 2];
+        let mut rng = Sampler::new(1, 2, 3, 4);
+        let mut gauss = || {
+            let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        };
+        for _ in 0..trials {
+            // Per view: pixels with a Jacobian row and noise.
+            let mut data = Vec::new();
+            for v in 0..views {
+                let noise = 0.05 * (1.0 + (v % 5) as f64);
+                let rows: Vec<([f64; 2], f64)> = (0..pixels)
+                    .map(|_| {
+                        let j = [1.0 + 0.5 * gauss(), 0.8 * gauss()];
+                        let t = j[0] * truth[0] + j[1] * truth[1] + noise * gauss();
+                        (j, t)
+                    })
+                    .collect();
+                data.push(rows);
+            }
+            // The least-squares estimate.
+            let (mut a, mut b) = ([0.0; 3], [0.0; 2]);
+            for rows in &data {
+                for (j, t) in rows {
+                    a[0] += j[0] * j[0];
+                    a[1] += j[0] * j[1];
+                    a[2] += j[1] * j[1];
+                    b[0] += j[0] * t;
+                    b[1] += j[1] * t;
+                }
+            }
+            let det = a[0] * a[2] - a[1] * a[1];
+            let est = [
+                (a[2] * b[0] - a[1] * b[1]) / det,
+                (a[0] * b[1] - a[1] * b[0]) / det,
+            ];
+            let mut acc = Accumulator::default();
+            for rows in &data {
+                acc.add_rows(rows.iter().map(|(j, t)| {
+                    let v = j[0] * est[0] + j[1] * est[1];
+                    (0, [*j, *j], [v, v], *t)
+                }));
+            }
+            let cov = acc.covariance(0.0)[0].expect("positive definite");
+            let sd = [cov[0].sqrt(), cov[2].sqrt()];
+            for k in 0..2 {
+                if (est[k] - truth[k]).abs() <= Z95 * sd[k] {
+                    covered[k] += 1;
+                }
+            }
+        }
+        for k in 0..2 {
+            let f = covered[k] as f64 / trials as f64;
+            assert!((0.907..=0.983).contains(&f), "parameter {k}: coverage {f}");
+        }
+    }
+
+    /// A direction the images do not see (the second parameter has no effect): no interval.
+    #[test]
+    fn an_unseen_parameter_has_no_interval() {
+        let mut acc = Accumulator::default();
+        for v in 0..5 {
+            acc.add_rows((0..10).map(|p| {
+                let j = [1.0 + p as f64, 0.0];
+                (1, [j, j], [1.0; 2], v as f64)
+            }));
+        }
+        assert!(acc.covariance(0.03)[1].is_none());
+        let u = Uncertainty::new([50.0; 3], [0.5; 3], acc.covariance(0.03), 5);
+        assert_eq!(u.determined_sigma_t, [false; 3]);
+        assert!(u.sigma_t[1].is_none());
+    }
+
+    /// The interval in σ_t is the exponential of the one in ln σ_t; determined follows the
+    /// width.
+    #[test]
+    fn intervals_and_determination() {
+        let narrow = Some([0.02f64.powi(2), 0.0, 0.001f64.powi(2)]);
+        let wide = Some([0.3f64.powi(2), 0.0, 0.05f64.powi(2)]);
+        let u = Uncertainty::new([50.0; 3], [0.95; 3], [narrow, wide, None], 8);
+        let [lo, hi] = u.sigma_t[0].unwrap();
+        assert!((lo - 50.0 * (-Z95 * 0.02f64).exp()).abs() < 1e-9);
+        assert!((hi - 50.0 * (Z95 * 0.02f64).exp()).abs() < 1e-9);
+        assert_eq!(u.determined_sigma_t, [true, false, false]);
+        assert_eq!(u.determined_albedo, [true, false, false]);
+        assert_eq!(u.albedo[1].unwrap()[1], 1.0);
+    }
+}
