@@ -17,10 +17,10 @@
 //! 1/(v·t) with t the render time of one render; the table gives volpath's v·t over each
 //! learned scheme's (> 1: the learned renderer is less noisy per second).
 //!
-//! Gradient variance: the L2 loss gradient (the default estimator `ours`, offset-mean primal)
-//! of view 0 against the volpath render at the truth, with the vertex polynomials fitted at the
-//! truth, `--grad-seeds` times with different seeds; per parameter the variance over seeds
-//! times the time of one evaluation, relative to the first scheme.
+//! Gradient variance: the loss gradient of an `optimize` iteration with its default settings
+//! (`ours`, two renders, `--grad-spp` samples per pixel) on view 0 against the volpath render, at
+//! the truth, over `--grad-seeds` iterations (each its own random numbers); per parameter the
+//! variance over iterations times the time of one evaluation, relative to the first scheme.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -269,7 +269,7 @@ fn scheme_name(s: bssrdf::render::PixelSampling) -> &'static str {
     }
 }
 
-/// Variance over seeds of the L2 loss gradient of one view (module docs).
+/// Variance over iterations of the loss gradient of one view (module docs).
 #[allow(clippy::too_many_arguments)]
 fn gradient_noise(
     a: &NoiseBenchArgs,
@@ -281,36 +281,24 @@ fn gradient_noise(
     schemes: &[bssrdf::render::PixelSampling],
     csv: &mut std::fs::File,
 ) -> Result<()> {
-    use bssrdf::diff::{DiffSettings, Loss, render_loss_gradient};
-    let features =
-        bssrdf::render::VertexFeatures::fit(accel, &case.medium, model.info().c19_quirk, a.seed)?;
+    use inverse::optimize::{OptimizeConfig, Optimizer, TargetView};
+    let truth = inverse::params::Params::of(&case.medium);
     let mut first: Option<([f64; 6], f64)> = None;
     for &scheme in schemes {
-        let settings = bssrdf::render::LearnedSettings {
-            sampling: scheme,
-            ..Default::default()
-        };
-        let scene =
-            bssrdf::render::LearnedScene::new(accel, model, &features, case.medium, settings)?;
+        let mut config = OptimizeConfig::new(truth);
+        config.spp = a.grad_spp;
+        config.seed = a.seed;
+        config.learned.sampling = scheme;
+        let targets = vec![TargetView {
+            camera: &view.camera,
+            light: &view.light,
+            image: target,
+        }];
+        let opt = Optimizer::new(config, accel, model, case.medium, targets)?;
         let mut g: Vec<[f64; 6]> = Vec::new();
         let t0 = Instant::now();
         for k in 0..a.grad_seeds {
-            let rs = bssrdf::render::RenderSettings {
-                spp: a.grad_spp,
-                seed: a.seed + 100 + k as u64,
-                view: 0,
-            };
-            let r = render_loss_gradient(
-                &scene,
-                &view.camera,
-                &view.light,
-                &rs,
-                &DiffSettings::default(),
-                target,
-                Loss::L2,
-                false,
-                None,
-            )?;
+            let r = opt.gradient(k, &truth)?;
             g.push([
                 r.d_sigma_t[0],
                 r.d_sigma_t[1],

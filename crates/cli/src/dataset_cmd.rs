@@ -28,7 +28,8 @@ pub struct RigArgs {
     /// `blob:amplitude=0.05:bumps=6`).
     #[arg(long)]
     pub shape: Option<String>,
-    /// Uniform scale of the built-in shape (default objects are about 1 unit across).
+    /// Uniform scale of the built-in shape (default objects are about 1 unit across; not
+    /// allowed with --mesh).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f32,
     /// Number of views (cameras on a Fibonacci sphere around the object).
@@ -61,6 +62,14 @@ impl RigArgs {
     pub fn mesh_source(&self) -> Result<MeshSource> {
         if self.scale <= 0.0 || !self.scale.is_finite() {
             bail!("--scale must be a positive number, got {}", self.scale);
+        }
+        if let (Some(p), true) = (&self.mesh, self.scale != 1.0) {
+            bail!(
+                "--scale {} applies to built-in shapes only; {} is used as it is (scale the \
+                 mesh file itself, or place the cameras with --radius)",
+                self.scale,
+                p.display()
+            );
         }
         Ok(match &self.mesh {
             Some(p) => MeshSource::File(p.clone()),

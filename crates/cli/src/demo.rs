@@ -146,7 +146,7 @@ pub(crate) fn recovery_args(a: &DemoArgs) -> crate::optimize_cmd::OptimizeArgs {
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
     o.overwrite = true;
-    o.bc.bias_correction = a.bias_correction_steps > 0;
+    o.bc.no_bias_correction = a.bias_correction_steps == 0;
     o.bc.bias_correction_steps = a.bias_correction_steps.max(1);
     o
 }

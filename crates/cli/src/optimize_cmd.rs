@@ -21,7 +21,7 @@ use scene::{Dataset, Image, Medium};
 use crate::common::{LearnedArgs, build_accel, parse_rgb, progress};
 
 mod bias_correction;
-mod reuse;
+pub(crate) mod reuse;
 
 pub use bias_correction::BiasCorrectionArgs;
 pub use reuse::run_or_reuse;
@@ -50,6 +50,11 @@ pub struct OptimizeArgs {
     /// (The default; accepted for older scripts.)
     #[arg(long, hide = true, conflicts_with = "single_render")]
     pub two_renders: bool,
+    /// The two renders of the gradient as a full value render and a full derivative render at
+    /// --spp each, instead of two derivative renders at half of --spp each (the default: as
+    /// unbiased, at the cost of one render).
+    #[arg(long, conflicts_with = "single_render")]
+    pub full_renders: bool,
     /// Normalise each view's loss, per channel, by the loss of a black image against its target,
     /// so that dim views (light that crossed the object) count as much as bright ones.
     #[arg(long)]
@@ -126,6 +131,11 @@ pub struct OptimizeArgs {
     /// Samples per pixel of the interval renders.
     #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
     pub uncertainty_spp: u32,
+    /// Views re-rendered at the estimate by the volumetric path tracer (twice, at the dataset's
+    /// samples per pixel) to check that the estimate reproduces the images without the learned
+    /// model (0: no check).
+    #[arg(long, default_value_t = 4)]
+    pub consistency_views: usize,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -183,6 +193,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.view_subset = a.view_subset.clone();
     c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
     c.two_renders = !a.single_render;
+    c.split_samples = !a.full_renders;
     anyhow::ensure!(
         a.view_weight_floor > 0.0 && a.view_weight_floor <= 1.0,
         "--view-weight-floor must be in (0, 1], got {}",
@@ -379,12 +390,6 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     } else {
         None
     };
-    let problems = inverse::health::assess(
-        opt.history(),
-        &estimate,
-        &opt.config().params,
-        base.g as f64,
-    );
     let mut result = report::result_json(
         opt.config(),
         opt.history(),
@@ -392,7 +397,10 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         truth.as_ref(),
         seconds_total,
     );
-    report::add_assessment(&mut result, &problems, uncertainty.as_ref());
+    report::add_assessment(&mut result, &[], uncertainty.as_ref());
+    // Not final until the correction and the checks below are in: an interrupted command is
+    // resumed rather than reused (`run_or_reuse`).
+    result["complete"] = serde_json::json!(false);
     scene::fsutil::atomic_write(
         &a.out.join("result.json"),
         serde_json::to_string_pretty(&result)?.as_bytes(),
@@ -407,24 +415,13 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     rerender(a, &opt, &ds, &estimate, &base)?;
     let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
-    if let Some(u) = &uncertainty {
-        for line in report::interval_lines(&estimate, u) {
-            println!("  {line}");
-        }
-    }
-    for p in &problems {
-        println!("  FAILED: {}", p.message());
-    }
-    if a.bc.bias_correction {
+    let (mut shown, mut shown_u) = (estimate, uncertainty.clone());
+    if a.bc.enabled() {
         // The model's own fit stays in convergence.png and final/; result.json reports the
         // corrected medium.
         let c = bias_correction::correct(a, &ds, &estimate, &base)?;
-        let result = bias_correction::corrected_result(result, &c, truth.as_ref());
-        scene::fsutil::atomic_write(
-            &a.out.join("result.json"),
-            serde_json::to_string_pretty(&result)?.as_bytes(),
-            true,
-        )?;
+        result =
+            bias_correction::corrected_result(result, &c, truth.as_ref(), uncertainty.as_ref());
         if let Some(last) = c.steps.last() {
             println!(
                 "bias-corrected ({} step{}, simulations at {} spp):",
@@ -433,7 +430,75 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
                 c.spp
             );
             print_estimate(&last.corrected, truth.as_ref());
+            shown = last.corrected;
+            shown_u = uncertainty.as_ref().map(|u| u.corrected(&estimate, &shown));
         }
+    }
+    // The reported medium, rendered by the volumetric path tracer, against the targets.
+    let consistency = (a.consistency_views > 0).then(|| {
+        let n = ds.views.len();
+        let k = a.consistency_views.min(n);
+        let views: Vec<inverse::consistency::CheckView> = (0..k)
+            .map(|i| i * n / k)
+            .map(|v| inverse::consistency::CheckView {
+                camera: &ds.views[v].camera,
+                light: &ds.views[v].light,
+                target: images[v],
+                index: opt.config().view_subset.as_ref().map_or(v, |s| s[v]),
+            })
+            .collect();
+        let spp = ds.render.spp.unwrap_or(64);
+        let pb = progress(0, "consistency (volumetric path tracer)");
+        let c = inverse::consistency::check(
+            &accel,
+            &shown.medium(&base),
+            &views,
+            spp,
+            a.seed ^ 0xC0_5157,
+        );
+        pb.finish_and_clear();
+        c
+    });
+    let problems = inverse::health::assess(
+        opt.history(),
+        &shown,
+        &opt.config().params,
+        base.g as f64,
+        consistency.as_ref(),
+    );
+    report::add_assessment(&mut result, &problems, None);
+    if let Some(c) = &consistency {
+        result["consistency"] = serde_json::to_value(c)?;
+    }
+    result["complete"] = serde_json::json!(true);
+    scene::fsutil::atomic_write(
+        &a.out.join("result.json"),
+        serde_json::to_string_pretty(&result)?.as_bytes(),
+        true,
+    )?;
+    if let Some(u) = &shown_u {
+        for line in report::interval_lines(&shown, u) {
+            println!("  {line}");
+        }
+    }
+    if let Some(c) = &consistency {
+        println!(
+            "  consistency (the estimate rendered by the volumetric path tracer, {} views): \
+             brightness ratio ({:.3}, {:.3}, {:.3}), L2 ({:.2}, {:.2}, {:.2})× the noise floor",
+            c.views.len(),
+            c.mean_ratio[0],
+            c.mean_ratio[1],
+            c.mean_ratio[2],
+            c.l2_over_noise[0],
+            c.l2_over_noise[1],
+            c.l2_over_noise[2]
+        );
+    }
+    if problems.is_empty() {
+        println!("  status: ok");
+    }
+    for p in &problems {
+        println!("  FAILED: {}", p.message());
     }
     println!("wrote {}", a.out.display());
     Ok(())

@@ -44,6 +44,9 @@ use crate::params::Params;
 /// Smallest σ_t a correction may return (1/unit): the correction of an estimate is never allowed
 /// to leave the parameter domain σ_t > 0.
 pub const MIN_SIGMA_T: f64 = 1e-3;
+/// Steps of the correction that `optimize`, `demo` and `experiment` run by default.
+pub const DEFAULT_STEPS: u32 = 1;
+
 /// Albedo range a correction may return: the optimiser's own clamp, (0, 0.99995].
 pub const ALBEDO_RANGE: (f64, f64) = (1e-4, 0.99995);
 

@@ -9,12 +9,15 @@
 //!   sees a random view, so single losses scatter by view; the windows' spread gives the
 //!   standard errors);
 //! * a reduced albedo α' = α(1 − g)/(1 − αg) below [`TRAINED_ALBEDO_RED_MIN`], the smallest
-//!   the shipped model saw in training (its data clamp α' ≥ 0.05).
+//!   the shipped model saw in training (its data clamp α' ≥ 0.05);
+//! * the estimate, rendered by the volumetric path tracer, does not reproduce the targets
+//!   ([`crate::consistency`]).
 //!
 //! Each check returns a [`Problem`] with a sentence for the user.
 
 use serde::{Deserialize, Serialize};
 
+use crate::consistency::Consistency;
 use crate::optimize::IterationRecord;
 use crate::params::{ALBEDO_MAX, ALBEDO_MIN, ParamSpec, Params, SIGMA_T_MIN};
 
@@ -37,6 +40,12 @@ pub enum Problem {
     LossRising { earlier: f64, last: f64, z: f64 },
     /// The estimate lies outside the learned model's training range.
     OutsideTrainingRange { channel: usize, albedo_red: f64 },
+    /// The volumetric path tracer's render of the estimate does not match the targets.
+    Inconsistent {
+        channels: Vec<usize>,
+        mean_ratio: [f64; 3],
+        l2_over_noise: [f64; 3],
+    },
 }
 
 impl Problem {
@@ -71,17 +80,36 @@ impl Problem {
                  training range (≥ {TRAINED_ALBEDO_RED_MIN}); its images there are extrapolated",
                 CH[*channel]
             ),
+            Problem::Inconsistent {
+                channels,
+                mean_ratio,
+                l2_over_noise,
+            } => format!(
+                "the estimate does not reproduce the images in {} when rendered by the volumetric \
+                 path tracer (brightness ratio {:.3?}, L2 {:.2?}× the noise floor): the learned \
+                 model's error has moved the estimate further than the bias correction (on by \
+                 default) could bring it back; add views that determine σ_t, or run more \
+                 correction steps (--bias-correction-steps)",
+                channels
+                    .iter()
+                    .map(|&c| CH[c])
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                mean_ratio,
+                l2_over_noise
+            ),
         }
     }
 }
 
-/// The problems of a run with history `history`, final `estimate`, parameter spec `spec` and
-/// phase-function asymmetry `g` (module docs).
+/// The problems of a run with history `history`, final `estimate`, parameter spec `spec`,
+/// phase-function asymmetry `g` and, when checked, its consistency (module docs).
 pub fn assess(
     history: &[IterationRecord],
     estimate: &Params,
     spec: &ParamSpec,
     g: f64,
+    consistency: Option<&Consistency>,
 ) -> Vec<Problem> {
     let mut out = Vec::new();
     let values = estimate.sigma_t.iter().chain(&estimate.albedo);
@@ -118,6 +146,16 @@ pub fn assess(
     }
     if let Some(p) = loss_rising(history) {
         out.push(p);
+    }
+    if let Some(c) = consistency {
+        let channels = c.inconsistent_channels();
+        if !channels.is_empty() {
+            out.push(Problem::Inconsistent {
+                channels,
+                mean_ratio: c.mean_ratio,
+                l2_over_noise: c.l2_over_noise,
+            });
+        }
     }
     out
 }
@@ -183,7 +221,7 @@ mod tests {
                 )
             })
             .collect();
-        assert!(assess(&h, &params(60.0, 0.9), &ParamSpec::default(), 0.0).is_empty());
+        assert!(assess(&h, &params(60.0, 0.9), &ParamSpec::default(), 0.0, None).is_empty());
     }
 
     #[test]
@@ -202,25 +240,35 @@ mod tests {
                 })
                 .collect()
         };
-        let nan = assess(&flat, &params(f64::NAN, 0.9), &spec, 0.0);
+        let nan = assess(&flat, &params(f64::NAN, 0.9), &spec, 0.0, None);
         assert_eq!(kinds(&nan), ["non-finite"]);
-        let pinned = assess(&flat, &params(60.0, ALBEDO_MAX), &spec, 0.0);
+        let pinned = assess(&flat, &params(60.0, ALBEDO_MAX), &spec, 0.0, None);
         assert_eq!(kinds(&pinned), ["at-clamp"; 3]);
-        let tiny = assess(&flat, &params(SIGMA_T_MIN, 0.5), &spec, 0.0);
+        let tiny = assess(&flat, &params(SIGMA_T_MIN, 0.5), &spec, 0.0, None);
         assert_eq!(kinds(&tiny), ["at-clamp"; 3]);
         // A fixed parameter at its bound is the user's choice, not a failure.
         let fixed = ParamSpec {
             fix_albedo: true,
             ..ParamSpec::default()
         };
-        assert!(assess(&flat, &params(60.0, ALBEDO_MAX), &fixed, 0.0).is_empty());
-        let dark = assess(&flat, &params(60.0, 0.03), &spec, 0.0);
+        assert!(assess(&flat, &params(60.0, ALBEDO_MAX), &fixed, 0.0, None).is_empty());
+        let dark = assess(&flat, &params(60.0, 0.03), &spec, 0.0, None);
         assert_eq!(kinds(&dark), ["outside-training-range"; 3]);
         let rising: Vec<_> = (0..100)
             .map(|k| record(k, 0.2 + 0.01 * (k % 3) as f64 + 0.004 * k as f64))
             .collect();
-        let r = assess(&rising, &params(60.0, 0.9), &spec, 0.0);
+        let r = assess(&rising, &params(60.0, 0.9), &spec, 0.0, None);
         assert_eq!(kinds(&r), ["loss-rising"]);
         assert!(r[0].message().contains("diverged"));
+        let off = Consistency {
+            view_ratio: vec![[1.0, 0.93, 1.0]],
+            mean_ratio: [1.0, 0.93, 1.0],
+            l2_over_noise: [1.1, 3.0, 1.0],
+            views: vec![0],
+            spp: 16,
+        };
+        let r = assess(&flat, &params(60.0, 0.9), &spec, 0.0, Some(&off));
+        assert_eq!(kinds(&r), ["inconsistent"]);
+        assert!(r[0].message().contains(" G "));
     }
 }

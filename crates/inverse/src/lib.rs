@@ -1,11 +1,13 @@
 //! Multi-view inverse rendering of homogeneous translucent media with the learned BSSRDF
 //! (Son et al. 2024 §5): parameters and their parameterisation ([`params`]), the Adam loop with
 //! checkpoints ([`optimize`]), its reports ([`report`]), the uncertainty of an estimate from the
-//! images ([`uncertainty`]), the checks of a run's health ([`health`]) and the parametric-bootstrap bias correction of a recovered medium
+//! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
+//! ([`consistency`]) and the parametric-bootstrap bias correction of a recovered medium
 //! ([`bootstrap`]). The gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
 pub mod bootstrap;
+pub mod consistency;
 pub mod health;
 pub mod optimize;
 pub mod params;

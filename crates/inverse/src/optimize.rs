@@ -82,6 +82,12 @@ pub struct OptimizeConfig {
     /// 2(I − T)·∂I/∂θ is biased by Cov(I, ∂I/∂θ); this one is not.
     #[serde(default)]
     pub two_renders: bool,
+    /// With `two_renders`: the two renders are two derivative renders with half of `spp` each
+    /// (∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ]): unbiased like two full renders
+    /// at the cost of one. Off: a full value render and a full derivative render. (Files
+    /// written before the option lack it and read as off.)
+    #[serde(default)]
+    pub split_samples: bool,
     /// Learning rate of σ_t's variable.
     pub lr_sigma_t: f32,
     /// Learning rate of α.
@@ -243,6 +249,7 @@ impl OptimizeConfig {
             crop: None,
             loss: Loss::L2,
             two_renders: true,
+            split_samples: true,
             lr_sigma_t: 0.015,
             lr_albedo: 0.02,
             decay: 0.85,
@@ -480,11 +487,10 @@ impl<'a> Optimizer<'a> {
             .map(|r| (r.params.sigma_t, r.params.albedo))
             .chain(std::iter::once((p.sigma_t, p.albedo)))
             .collect();
-        let cov = add_covariances(
-            acc.covariance(s.model_brightness_sd),
-            iterate_covariance(&iterates),
-        );
-        let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, k);
+        let spread = iterate_covariance(&iterates);
+        let cov = add_covariances(acc.covariance(s.model_brightness_sd), spread);
+        let images = add_covariances(acc.covariance(0.0), spread);
+        let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
         if c.params.fix_sigma_t {
             u.sigma_t = [None; 3];
             u.sd_ln_sigma_t = [None; 3];
@@ -550,7 +556,34 @@ impl<'a> Optimizer<'a> {
                 seed: hash_key(&[c.seed, k as u64]),
                 view: v as u64,
             };
-            let g = if c.two_renders {
+            let g = if c.two_renders && c.split_samples && c.spp >= 2 {
+                // Two derivative renders with half the samples each and independent seeds:
+                // ∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ], no covariance bias, the
+                // cost of one render at `spp`.
+                let half = c.spp / 2;
+                let rs_a = RenderSettings { spp: half, ..rs };
+                let rs_b = RenderSettings {
+                    spp: c.spp - half,
+                    seed: hash_key(&[c.seed, k as u64, 0xB]),
+                    ..rs
+                };
+                let view = ViewRays::new(&scene, t.camera, t.light);
+                let da = render_diff_view(&scene, &view, &rs_a, &ds, None)?;
+                let db = render_diff_view(&scene, &view, &rs_b, &ds, None)?;
+                let ab = decorrelated_gradient(&da.value, &db, t.image, c.loss);
+                let ba = decorrelated_gradient(&db.value, &da, t.image, c.loss);
+                LossGradient {
+                    loss: 0.5 * (ab.loss + ba.loss),
+                    loss_channels: std::array::from_fn(|ch| {
+                        0.5 * (ab.loss_channels[ch] + ba.loss_channels[ch])
+                    }),
+                    d_sigma_t: std::array::from_fn(|ch| {
+                        0.5 * (ab.d_sigma_t[ch] + ba.d_sigma_t[ch])
+                    }),
+                    d_albedo: std::array::from_fn(|ch| 0.5 * (ab.d_albedo[ch] + ba.d_albedo[ch])),
+                    images: None,
+                }
+            } else if c.two_renders {
                 // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
                 // ∂I/∂θ: two renders, independent samples (no covariance bias).
                 let rs_b = RenderSettings {

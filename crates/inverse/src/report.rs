@@ -136,10 +136,11 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
         .collect();
     if !open_t.is_empty() {
         out.push(format!(
-            "σ_t is NOT determined by these images in {} (its interval spans more than ±{:.0} %): \
-             brightness alone trades σ_t against α. Views with the light beside or behind the \
-             object (light that crossed it, a turntable with a fixed lamp) determine σ_t; more \
-             views or samples of the same capture do not.",
+            "σ_t is NOT determined by these images in {} (from the images alone its interval \
+             spans more than ±{:.0} %): their brightness trades σ_t against α. Views with the \
+             light beside or behind the object (light that crossed it) constrain σ_t most; a \
+             light at the camera barely does, however many views. More views, or more samples \
+             per iteration, narrow the interval of any capture.",
             open_t.join(", "),
             50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));

@@ -18,7 +18,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use inverse::params::Params;
 use scene::{Dataset, Medium};
@@ -30,16 +30,20 @@ use crate::dataset_cmd::{RenderOpts, render_dataset};
 
 #[derive(Args, Clone, Copy, Debug)]
 pub struct BiasCorrectionArgs {
-    /// Parametric-bootstrap bias correction of the recovered medium: render the dataset again
+    /// Skip the parametric-bootstrap bias correction. By default the dataset is rendered again
     /// with the volumetric path tracer at the estimate (same views, lights, spp and seed),
-    /// recover from those images with the same settings, and report 2θ̂ − θ̂₂ in (ln σ_t, α).
-    /// Doubles the cost (see --bias-correction-steps).
+    /// recovered with the same settings, and 2θ̂ − θ̂₂ in (ln σ_t, α) is reported, with the
+    /// correction's size added to the 95 % intervals. It doubles the cost and is what makes
+    /// the estimate and its interval hold on data the learned model did not make.
     #[arg(long)]
+    pub no_bias_correction: bool,
+    /// (The default; accepted for older scripts.)
+    #[arg(long, hide = true, conflicts_with = "no_bias_correction")]
     pub bias_correction: bool,
     /// Steps of the iterated correction: step k renders at the previous corrected medium
     /// θ_{k−1}, recovers θ̂_k from it and moves to θ_k = θ_{k−1} + θ̂ − θ̂_k; a bias of constant
     /// slope s shrinks by −s per step. Each step costs one volumetric render and one recovery.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    #[arg(long, default_value_t = inverse::bootstrap::DEFAULT_STEPS, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub bias_correction_steps: u32,
     /// Samples per pixel of the simulated images (default: the dataset's own, else 64).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
@@ -49,9 +53,25 @@ pub struct BiasCorrectionArgs {
 impl Default for BiasCorrectionArgs {
     fn default() -> Self {
         Self {
+            no_bias_correction: false,
             bias_correction: false,
-            bias_correction_steps: 1,
+            bias_correction_steps: inverse::bootstrap::DEFAULT_STEPS,
             bias_correction_spp: None,
+        }
+    }
+}
+
+impl BiasCorrectionArgs {
+    /// Whether the correction runs.
+    pub fn enabled(&self) -> bool {
+        !self.no_bias_correction
+    }
+
+    /// No correction (the bootstrap recoveries themselves, and runs whose caller corrects).
+    pub fn off() -> Self {
+        Self {
+            no_bias_correction: true,
+            ..Self::default()
         }
     }
 }
@@ -100,9 +120,12 @@ pub fn correct(
         let mut o = a.clone();
         o.dataset = data;
         o.out = dir.join("run");
-        o.bc = BiasCorrectionArgs::default();
-        // The simulation holds only the fitted views already (renumbered).
+        o.bc = BiasCorrectionArgs::off();
+        // The simulation holds only the fitted views already (renumbered). Its interval is
+        // taken to equal the main run's, and its consistency is not checked.
         o.view_subset = None;
+        o.uncertainty_views = 0;
+        o.consistency_views = 0;
         let refit = run_or_reuse(&o, &format!("bootstrap step {k}"))?;
         let corrected = inverse::bootstrap::bootstrap_step(&current, estimate, &refit.estimate)
             .with_context(|| {
@@ -136,7 +159,9 @@ pub fn correct(
     })
 }
 
-/// Render the dataset at `at` into `data`, unless it already holds that simulation.
+/// Render the dataset at `at` into `data`, unless it already holds that simulation. A
+/// simulation at another medium is this run's own from before it was continued (`--resume`
+/// with more iterations moves the estimate): it and its recovery are replaced.
 fn ensure_simulated(ds: &Dataset, at: Medium, opts: RenderOpts, data: &Path, k: u32) -> Result<()> {
     if data.join("dataset.json").exists() {
         let old = Dataset::load(data)?;
@@ -148,11 +173,13 @@ fn ensure_simulated(ds: &Dataset, at: Medium, opts: RenderOpts, data: &Path, k: 
             println!("bootstrap step {k}: reusing {}", data.display());
             return Ok(());
         }
-        bail!(
-            "{} holds a simulation at another medium or with other settings (an earlier run's); \
-             pass --overwrite to start the run again, or choose another --out",
-            data.display()
+        let step = data.parent().unwrap_or(data);
+        println!(
+            "bootstrap step {k}: {} was simulated at the run's earlier estimate; replacing it",
+            step.display()
         );
+        std::fs::remove_dir_all(step)
+            .with_context(|| format!("cannot remove {}", step.display()))?;
     }
     println!(
         "bootstrap step {k}: rendering {} views at σ_t = {:.2?}, α = {:.4?} ({} spp, volumetric \
@@ -172,10 +199,20 @@ pub fn corrected_result(
     mut result: serde_json::Value,
     c: &Correction,
     truth: Option<&Params>,
+    uncertainty: Option<&inverse::uncertainty::Uncertainty>,
 ) -> serde_json::Value {
     let Some(last) = c.steps.last() else {
         return result;
     };
+    if let (Some(u), Some(est)) = (uncertainty, c.steps.first().map(|s| s.at)) {
+        let corrected = u.corrected(&est, &last.corrected);
+        if let serde_json::Value::Object(m) = corrected.to_json() {
+            result
+                .as_object_mut()
+                .expect("result.json is an object")
+                .extend(m);
+        }
+    }
     let p = |p: &Params| json!({ "sigma_t": p.sigma_t, "albedo": p.albedo });
     result["estimate_uncorrected"] = result["estimate"].take();
     result["errors_uncorrected"] = result["errors"].take();

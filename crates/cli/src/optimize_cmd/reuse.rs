@@ -55,9 +55,10 @@ pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
             }
         }
     }
-    let done = read_json(&result)
-        .ok()
-        .is_some_and(|v| v["iterations"].as_u64() == Some(o.budget.iterations as u64));
+    let done = read_json(&result).ok().is_some_and(|v| {
+        v["iterations"].as_u64() == Some(o.budget.iterations as u64)
+            && v["complete"].as_bool() != Some(false)
+    });
     if done {
         println!("run {label} ({}): reusing {}", o.method, run_dir.display());
     } else {

@@ -337,3 +337,18 @@ fn bad_curvature_table_budget() {
     assert_stderr_has(&r, &["--collisions"]);
     assert!(!t.path().join("c.json").exists());
 }
+
+/// `--scale` with a mesh file is refused with the fix, not silently ignored.
+#[test]
+fn bad_scale_with_a_mesh_file() {
+    let t = tmp();
+    write(&t.path().join("cube.ply"), cube_ply());
+    let r = fails(
+        t.path(),
+        &[
+            "dataset", "--mesh", "cube.ply", "--scale", "0.5", "--views", "1", "--res", "8",
+            "--out", "ds",
+        ],
+    );
+    assert_stderr_has(&r, &["--scale", "cube.ply", "built-in shapes"]);
+}

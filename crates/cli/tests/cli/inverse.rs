@@ -356,16 +356,18 @@ fn experiment_accuracy_writes_table_and_reuses_its_runs() {
     let d = tmp();
     let args = tiny_accuracy_args(&["--inits", "2", "--methods", "ours,naive"]);
     let first = ok(d.path(), &args);
+    // The bias correction is on by default, as in `optimize`: every run gets its `+bc` row.
     assert_stdout_has(
         &first,
         &[
             "| sphere-m0 | ours |",
             "| sphere-m0 | naive |",
+            "| sphere-m0 | ours+bc |",
             "| random inits | 2 |",
         ],
     );
     let csv = String::from_utf8(read(&d.path().join("exp/results.csv"))).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 2 + 2, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 2 * (2 + 2), "{csv}");
     assert!(d.path().join("exp/inits.png").exists());
     for run in [
         "sphere-m0-ours",
@@ -602,4 +604,53 @@ fn optimize_fits_a_subset_of_the_views() {
         bad.extend(["--view-subset", list]);
         assert_stderr_has(&fails(d, &bad), &[msg]);
     }
+}
+
+/// A flash capture (the light next to each camera): `optimize` reports 95 % intervals, a
+/// status and the consistency check in `result.json`, and says in plain words that σ_t is not
+/// determined and which capture would determine it.
+#[test]
+fn flash_capture_says_sigma_t_is_not_determined() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(
+        d,
+        "ds",
+        "4",
+        "12",
+        &[
+            "--light",
+            "attached",
+            "--light-offset",
+            "0.05,0.05,0",
+            "--sigma-t",
+            "60",
+            "--albedo",
+            "0.9",
+        ],
+    );
+    let r = ok(d, &[&TINY_OPTIMIZE[..], &["--no-bias-correction"]].concat());
+    assert_stdout_has(
+        &r,
+        &[
+            "95 % intervals",
+            "σ_t is NOT determined",
+            "light beside or behind the object",
+            "consistency",
+        ],
+    );
+    let res = read_json(&d.join("o/result.json"));
+    for key in ["sigma_t", "albedo"] {
+        let i = res["interval95"][key].as_array().unwrap();
+        assert_eq!(i.len(), 3, "{res}");
+        let det = res["determined"][key].as_array().unwrap();
+        assert_eq!(det.len(), 3, "{res}");
+    }
+    assert_eq!(
+        res["determined"]["sigma_t"],
+        serde_json::json!([false, false, false])
+    );
+    assert!(res["status"].is_string(), "{res}");
+    assert!(res["consistency"]["mean_ratio"].is_array(), "{res}");
+    assert_eq!(res["complete"], true);
 }

@@ -1,0 +1,564 @@
+//! `translucent experiment robustness`: recovery with `optimize`'s defaults on data we did not
+//! tune on, crossing the capture, the object's size in mean free paths and the shape.
+//!
+//! Twelve cases: each of four captures at each of three optical sizes, the shapes taking turns.
+//! * Captures: `flash` (a light 0.14 units from each camera, about 4° off its axis: the light
+//!   moves with the camera); `fixed` (one point light for every view, the paper's data: some
+//!   views are lit from behind); `turntable` (camera and lamp fixed, the object turning: the
+//!   light 60° from every camera about the object); `backlit` (the light 150° from every camera:
+//!   every view sees light that crossed the object).
+//! * Optical sizes: object radius × mean σ_t ≈ 5, 15 and 50 mean free paths. The medium comes
+//!   from the paper's ranges (α ~ U[0.8, 0.98]; σ_t ~ U[30, 50], U[30, 100], U[70, 100] for the
+//!   three sizes), and the whole scene (object, cameras, lights) is scaled to reach the size;
+//!   the light's intensity scales with the square of the distances, so every case is exposed
+//!   alike.
+//! * Shapes: the blob, the torus, and `data/meshes/spot.obj` (Keenan Crane's cow, a mesh our
+//!   generator did not make: legs, ears and horns).
+//!
+//! Every case is rendered by the volumetric path tracer and recovered by `optimize` with its
+//! defaults (the bias correction included), `--seeds` times with independent renders and runs.
+//! The table gives, per case and channel, the σ_t error (corrected and uncorrected), whether the
+//! 95 % interval holds the truth, whether the images determine σ_t, the α error, the
+//! consistency (the uncorrected estimate re-rendered by the volumetric path tracer against the
+//! targets), the status and the seconds per iteration; the summary the calibration (how often
+//! the intervals hold the truth) and the accuracy where σ_t is determined. `OUT/robustness.md`
+//! and `OUT/robustness.csv`; an interrupted run continues where it stopped.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use glam::Vec3;
+use scene::rig::{Rig, RigLight};
+use scene::{Dataset, Medium, MeshSource};
+use volpath::rng::Sampler;
+
+use crate::dataset_cmd::{RenderOpts, make_dataset};
+use crate::optimize_cmd::reuse::read_json;
+use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
+
+#[derive(Args)]
+pub struct RobustnessArgs {
+    /// Output folder (datasets, runs, tables).
+    #[arg(long, default_value = "out/robustness")]
+    pub out: PathBuf,
+    /// Views per dataset.
+    #[arg(long, default_value_t = 24)]
+    pub views: usize,
+    /// Image width and height.
+    #[arg(long, default_value_t = 128)]
+    pub res: u32,
+    /// Samples per pixel of the volumetric target renders.
+    #[arg(long, default_value_t = 128)]
+    pub target_spp: u32,
+    #[command(flatten)]
+    pub budget: IterationArgs,
+    /// Independent repetitions of every case (renders and runs).
+    #[arg(long, default_value_t = 1)]
+    pub seeds: u64,
+    /// Only these cases (names as in the table, e.g. `flash-15-blob`).
+    #[arg(long, value_delimiter = ',')]
+    pub cases: Option<Vec<String>>,
+    /// The mesh file of the third shape.
+    #[arg(long, default_value = "data/meshes/spot.obj")]
+    pub mesh: PathBuf,
+    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
+    /// a smoke test of the pipeline, not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+    /// Seed of the media (renders and runs use seed + repetition).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+/// How the scene is lit (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Capture {
+    Flash,
+    Fixed,
+    Turntable,
+    Backlit,
+}
+
+impl Capture {
+    pub const ALL: [Capture; 4] = [
+        Capture::Flash,
+        Capture::Fixed,
+        Capture::Turntable,
+        Capture::Backlit,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Capture::Flash => "flash",
+            Capture::Fixed => "fixed",
+            Capture::Turntable => "turntable",
+            Capture::Backlit => "backlit",
+        }
+    }
+
+    /// The light of the house rig (cameras at distance 2), before scaling.
+    fn light(self) -> RigLight {
+        let around = |deg: f32| {
+            let t = deg.to_radians();
+            // In the camera's frame (x image left, z forward), at distance 2 from the object.
+            RigLight::Attached {
+                offset: Vec3::new(2.0 * t.sin(), 0.0, 2.0 * (1.0 - t.cos())),
+            }
+        };
+        match self {
+            Capture::Flash => RigLight::Attached {
+                offset: Vec3::new(0.1, 0.1, 0.0),
+            },
+            Capture::Fixed => RigLight::Fixed {
+                position: Vec3::new(1.2, 1.6, 0.8),
+            },
+            Capture::Turntable => around(60.0),
+            Capture::Backlit => around(150.0),
+        }
+    }
+}
+
+/// One case of the suite.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub name: String,
+    pub capture: Capture,
+    pub mfp: f32,
+    pub shape: &'static str,
+    pub medium: Medium,
+    /// The scene's scale (object radius / 0.5).
+    pub scale: f32,
+}
+
+/// The twelve cases (module docs), media drawn from `seed`.
+pub fn cases(seed: u64) -> Vec<Case> {
+    const SIZES: [(f32, f32, f32); 3] =
+        [(5.0, 30.0, 50.0), (15.0, 30.0, 100.0), (50.0, 70.0, 100.0)];
+    const SHAPES: [&str; 3] = ["blob", "torus", "spot"];
+    let mut out = Vec::new();
+    for (k, &(mfp, lo, hi)) in SIZES.iter().enumerate() {
+        for (j, &capture) in Capture::ALL.iter().enumerate() {
+            let i = k * 4 + j;
+            let shape = SHAPES[i % 3];
+            let mut s = Sampler::new(seed, 0x0B05_7000, i as u64, 0);
+            let sigma_t = [0; 3].map(|_| lo + (hi - lo) * s.next_f32());
+            let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
+            let mean = sigma_t.iter().sum::<f32>() / 3.0;
+            out.push(Case {
+                name: format!("{}-{}-{}", capture.name(), mfp as u32, shape),
+                capture,
+                mfp,
+                shape,
+                medium: Medium {
+                    sigma_t,
+                    albedo,
+                    g: 0.0,
+                    eta: 1.0,
+                },
+                // Every shape is made 0.5 in radius, then the scene is scaled by this.
+                scale: mfp / (0.5 * mean),
+            });
+        }
+    }
+    out
+}
+
+/// The rig of `case`: the house rig (cameras at distance 2, fov 35°) scaled with the object.
+fn rig(case: &Case, views: usize, res: u32) -> Rig {
+    let k = case.scale;
+    let light = match case.capture.light() {
+        RigLight::Fixed { position } => RigLight::Fixed {
+            position: position * k,
+        },
+        RigLight::Attached { offset } => RigLight::Attached { offset: offset * k },
+    };
+    Rig {
+        views,
+        radius: 2.0 * k,
+        target: Vec3::ZERO,
+        fov_x_deg: 35.0,
+        width: res,
+        height: res,
+        light,
+        intensity: [12.0 * k * k; 3],
+        elevation_deg: (-90.0, 90.0),
+    }
+}
+
+/// The mesh of `case` at radius 0.5·scale: a built-in shape, or the mesh file centred on its
+/// bounding box and scaled to its bounding radius, written into `dir`.
+fn mesh_source(case: &Case, mesh_file: &Path, dir: &Path) -> Result<MeshSource> {
+    if case.shape != "spot" {
+        let shape = geometry::Shape::from_name(case.shape)?;
+        return Ok(MeshSource::Shape(shape.scaled(case.scale)));
+    }
+    let (mut mesh, _) = geometry::io::load_mesh(mesh_file).with_context(|| {
+        format!(
+            "{}: the robustness suite's third shape (run from the repository root, or pass --mesh)",
+            mesh_file.display()
+        )
+    })?;
+    let (lo, hi) = mesh.bounds();
+    let centre = 0.5 * (lo + hi);
+    let radius = mesh
+        .positions
+        .iter()
+        .map(|p| (*p - centre).length())
+        .fold(0.0f32, f32::max);
+    let s = 0.5 * case.scale / radius;
+    mesh.transform(glam::Mat4::from_scale(Vec3::splat(s)) * glam::Mat4::from_translation(-centre));
+    std::fs::create_dir_all(dir)?;
+    let path = dir.join("mesh-input.obj");
+    geometry::io::save_obj(&mesh, &path)?;
+    Ok(MeshSource::File(path))
+}
+
+/// One recovery's figures, read from its `result.json`.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub case: Case,
+    pub rep: u64,
+    pub estimate: [[f64; 3]; 2],
+    pub uncorrected: [[f64; 3]; 2],
+    pub interval_sigma_t: [Option<[f64; 2]>; 3],
+    pub interval_albedo: [Option<[f64; 2]>; 3],
+    pub determined_sigma_t: [bool; 3],
+    pub consistency_ratio: [f64; 3],
+    pub consistency_l2: [f64; 3],
+    pub status: String,
+    pub seconds_per_iteration: f64,
+}
+
+impl Outcome {
+    fn sigma_t_error(&self, corrected: bool) -> [f64; 3] {
+        let e = if corrected {
+            &self.estimate
+        } else {
+            &self.uncorrected
+        };
+        std::array::from_fn(|c| e[0][c] / self.case.medium.sigma_t[c] as f64 - 1.0)
+    }
+
+    fn albedo_error(&self) -> [f64; 3] {
+        std::array::from_fn(|c| self.estimate[1][c] - self.case.medium.albedo[c] as f64)
+    }
+
+    fn covered(&self) -> [[bool; 3]; 2] {
+        let inside = |i: Option<[f64; 2]>, t: f32| {
+            i.is_some_and(|[lo, hi]| lo <= t as f64 && t as f64 <= hi)
+        };
+        [
+            std::array::from_fn(|c| inside(self.interval_sigma_t[c], self.case.medium.sigma_t[c])),
+            std::array::from_fn(|c| inside(self.interval_albedo[c], self.case.medium.albedo[c])),
+        ]
+    }
+}
+
+fn rgb(v: &serde_json::Value) -> [f64; 3] {
+    std::array::from_fn(|c| v[c].as_f64().unwrap_or(f64::NAN))
+}
+
+fn intervals(v: &serde_json::Value) -> [Option<[f64; 2]>; 3] {
+    std::array::from_fn(|c| {
+        let i = &v[c];
+        Some([i[0].as_f64()?, i[1].as_f64()?])
+    })
+}
+
+fn outcome(case: &Case, rep: u64, result: &Path) -> Result<Outcome> {
+    let v = read_json(result)?;
+    let pair = |p: &serde_json::Value| [rgb(&p["sigma_t"]), rgb(&p["albedo"])];
+    let estimate = pair(&v["estimate"]);
+    let uncorrected = if v["estimate_uncorrected"].is_object() {
+        pair(&v["estimate_uncorrected"])
+    } else {
+        estimate
+    };
+    let determined = &v["determined"]["sigma_t"];
+    Ok(Outcome {
+        case: case.clone(),
+        rep,
+        estimate,
+        uncorrected,
+        interval_sigma_t: intervals(&v["interval95"]["sigma_t"]),
+        interval_albedo: intervals(&v["interval95"]["albedo"]),
+        determined_sigma_t: std::array::from_fn(|c| determined[c].as_bool().unwrap_or(false)),
+        consistency_ratio: rgb(&v["consistency"]["mean_ratio"]),
+        consistency_l2: rgb(&v["consistency"]["l2_over_noise"]),
+        status: v["status"].as_str().unwrap_or("?").to_string(),
+        seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+    })
+}
+
+/// Render the dataset unless `dir` holds it already.
+fn ensure_dataset(a: &RobustnessArgs, case: &Case, rep: u64, dir: &Path) -> Result<()> {
+    let spp = if a.quick { 8 } else { a.target_spp };
+    let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
+    if dir.join("dataset.json").exists() {
+        let ds = Dataset::load(dir)?;
+        let same = ds.truth == Some(case.medium)
+            && ds.views.len() == views
+            && ds.render.spp == Some(spp)
+            && ds.views.first().is_some_and(|v| v.camera.width == res);
+        if same {
+            return Ok(());
+        }
+        bail!(
+            "{} holds a dataset made with other settings; remove it or choose another --out",
+            dir.display()
+        );
+    }
+    println!(
+        "dataset {} (repetition {rep}): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",
+        case.name,
+        case.medium.sigma_t,
+        case.medium.albedo,
+        0.5 * case.scale
+    );
+    let mesh = mesh_source(case, &a.mesh, &dir.with_extension("mesh"))?;
+    make_dataset(
+        &rig(case, views, res),
+        mesh,
+        case.medium,
+        RenderOpts {
+            spp,
+            seed: a.seed + rep,
+            max_depth: 128,
+            shadow: Default::default(),
+        },
+        dir,
+        false,
+    )?;
+    Ok(())
+}
+
+/// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
+pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> OptimizeArgs {
+    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
+    o.budget = a.budget;
+    o.seed = a.seed + rep;
+    o.final_spp = 16;
+    if a.quick {
+        o.budget.iterations = 12;
+        o.budget.spp = 4;
+        o.uncertainty_views = 3;
+        o.uncertainty_spp = 4;
+        o.consistency_views = 2;
+    }
+    o
+}
+
+pub fn run(a: &RobustnessArgs) -> Result<()> {
+    let mut all = cases(a.seed);
+    if let Some(want) = &a.cases {
+        for w in want {
+            if !all.iter().any(|c| &c.name == w) {
+                bail!(
+                    "--cases: no case '{w}' (the cases: {})",
+                    all.iter()
+                        .map(|c| c.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+        }
+        all.retain(|c| want.contains(&c.name));
+    }
+    anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    let mut outcomes = Vec::new();
+    for rep in 0..a.seeds {
+        for case in &all {
+            let tag = format!("{}-r{rep}", case.name);
+            let data = a.out.join("data").join(&tag);
+            ensure_dataset(a, case, rep, &data)?;
+            let run_dir = a.out.join("runs").join(&tag);
+            let o = run_args(a, &data, &run_dir, rep);
+            run_or_reuse(&o, &tag)?;
+            outcomes.push(outcome(case, rep, &run_dir.join("result.json"))?);
+        }
+    }
+    let (table, csv) = report(a, &outcomes);
+    println!("{table}");
+    std::fs::create_dir_all(&a.out)?;
+    scene::fsutil::atomic_write(&a.out.join("robustness.md"), table.as_bytes(), true)?;
+    scene::fsutil::atomic_write(&a.out.join("robustness.csv"), csv.as_bytes(), true)?;
+    println!(
+        "wrote {} and {}",
+        a.out.join("robustness.md").display(),
+        a.out.join("robustness.csv").display()
+    );
+    Ok(())
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The Markdown table with its summary, and the CSV.
+fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
+    let mut md = String::new();
+    let (views, res, spp) = if a.quick {
+        (6, 24, 8)
+    } else {
+        (a.views, a.res, a.target_spp)
+    };
+    let _ = writeln!(
+        md,
+        "Robustness: {views} views {res}² (volumetric targets at {spp} spp), `optimize` defaults ({} iterations × {} spp from σ_t = 50, α = 0.5, bias correction), {} repetition(s), seed {}{}\n",
+        if a.quick { 12 } else { a.budget.iterations },
+        if a.quick { 4 } else { a.budget.spp },
+        a.seeds,
+        a.seed,
+        if a.quick {
+            " — QUICK: a smoke test, not a measurement"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        md,
+        "| case | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | status | s/it |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+    let mut csv = String::from(
+        "case,capture,mfp,shape,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,status,seconds_per_iteration\n",
+    );
+    let f3 = |v: [f64; 3], s: f64, p: usize| {
+        format!(
+            "{:+.p$}, {:+.p$}, {:+.p$}",
+            s * v[0],
+            s * v[1],
+            s * v[2],
+            p = p
+        )
+    };
+    let yn = |v: [bool; 3]| v.map(|b| if b { "y" } else { "n" }).join("");
+    for o in outcomes {
+        let cov = o.covered();
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {} | {:.2} |",
+            o.case.name,
+            o.rep,
+            o.case.medium.sigma_t[0],
+            o.case.medium.sigma_t[1],
+            o.case.medium.sigma_t[2],
+            f3(o.sigma_t_error(true), 100.0, 1),
+            f3(o.sigma_t_error(false), 100.0, 1),
+            yn(cov[0]),
+            yn(cov[1]),
+            yn(o.determined_sigma_t),
+            f3(o.albedo_error(), 1.0, 4),
+            o.consistency_ratio[0],
+            o.consistency_ratio[1],
+            o.consistency_ratio[2],
+            o.consistency_l2[0],
+            o.consistency_l2[1],
+            o.consistency_l2[2],
+            o.status,
+            o.seconds_per_iteration
+        );
+        for c in 0..3 {
+            let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
+            let _ = writeln!(
+                csv,
+                "{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{},{:.4}",
+                o.case.name,
+                o.case.capture.name(),
+                o.case.mfp,
+                o.case.shape,
+                o.rep,
+                ["R", "G", "B"][c],
+                o.case.medium.sigma_t[c],
+                o.estimate[0][c],
+                o.sigma_t_error(true)[c],
+                o.sigma_t_error(false)[c],
+                i(o.interval_sigma_t[c], 0),
+                i(o.interval_sigma_t[c], 1),
+                cov[0][c],
+                o.determined_sigma_t[c],
+                o.case.medium.albedo[c],
+                o.estimate[1][c],
+                o.albedo_error()[c],
+                i(o.interval_albedo[c], 0),
+                i(o.interval_albedo[c], 1),
+                cov[1][c],
+                o.consistency_ratio[c],
+                o.consistency_l2[c],
+                o.status,
+                o.seconds_per_iteration
+            );
+        }
+    }
+    // Summary.
+    let pairs = outcomes.len() * 3;
+    let covered_t: usize = outcomes
+        .iter()
+        .map(|o| o.covered()[0].iter().filter(|&&b| b).count())
+        .sum();
+    let covered_a: usize = outcomes
+        .iter()
+        .map(|o| o.covered()[1].iter().filter(|&&b| b).count())
+        .sum();
+    let det: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| {
+            let e = o.sigma_t_error(true);
+            (0..3)
+                .filter(move |&c| o.determined_sigma_t[c])
+                .map(move |c| e[c].abs())
+        })
+        .collect();
+    let all_t: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| o.sigma_t_error(true).map(f64::abs))
+        .collect();
+    let all_t_unc: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| o.sigma_t_error(false).map(f64::abs))
+        .collect();
+    let max_a = outcomes
+        .iter()
+        .flat_map(|o| o.albedo_error().map(f64::abs))
+        .fold(0.0, f64::max);
+    let failed = outcomes.iter().filter(|o| o.status != "ok").count();
+    let _ = writeln!(md);
+    let _ = writeln!(
+        md,
+        "- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %)",
+        100.0 * covered_t as f64 / pairs.max(1) as f64,
+        100.0 * covered_a as f64 / pairs.max(1) as f64,
+        100.0 * (covered_t + covered_a) as f64 / (2 * pairs).max(1) as f64
+    );
+    let _ = writeln!(
+        md,
+        "- σ_t determined in {} of {pairs} pairs: median |error| {:.1} %, largest {:.1} % (goal: median ≤ 3 %, every channel ≤ 10 %)",
+        det.len(),
+        100.0 * median(det.clone()),
+        100.0 * det.iter().copied().fold(0.0, f64::max)
+    );
+    let _ = writeln!(
+        md,
+        "- all pairs: median |σ_t error| {:.1} % (uncorrected {:.1} %); largest |α error| {:.4} (goal ≤ 0.01)",
+        100.0 * median(all_t),
+        100.0 * median(all_t_unc),
+        max_a
+    );
+    let _ = writeln!(
+        md,
+        "- runs whose status is not ok: {failed} of {}",
+        outcomes.len()
+    );
+    (md, csv)
+}
