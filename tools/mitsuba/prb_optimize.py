@@ -56,6 +56,9 @@ from pathlib import Path
 
 import numpy as np
 
+# The camera conventions of the reference renders (same folder; run as a script, so importable).
+from render_reference import sensor_dict
+
 ALBEDO_MIN, ALBEDO_MAX = 1e-4, 0.99995
 # libLLVM candidates (Debian's libllvm19 first). Dr.Jit's llvm back end crashes with LLVM 15.
 LLVM_CANDIDATES = [
@@ -222,6 +225,26 @@ def write_ply(path, pos, faces):
 # Dataset loading: dataset.json (DATASET.md) or a Mitsuba reference folder (scene.json).
 
 
+def _to_world(c):
+    """A camera's to_world matrix: given, or from origin/target/up."""
+    if "to_world" in c:
+        return c["to_world"]
+    return look_at(c["origin"], c["target"], c.get("up", [0.0, 1.0, 0.0]))
+
+
+def _view(c, fov, fov_axis, width, height, light_position, intensity, image):
+    return dict(
+        to_world=_to_world(c),
+        fov=float(fov),
+        fov_axis=fov_axis,
+        width=int(width),
+        height=int(height),
+        light_position=[float(x) for x in light_position],
+        intensity=intensity,
+        image=image,
+    )
+
+
 def load_dataset(folder):
     """-> dict(mesh=path or None, shape=spec or None, truth=dict or None, max_depth, views=[...])
     with each view {to_world, fov, fov_axis, width, height, light_position, intensity, image}."""
@@ -232,20 +255,16 @@ def load_dataset(folder):
         views = []
         for i, v in enumerate(d["views"]):
             c, l = v["camera"], v["light"]
-            if "to_world" in c:
-                tw = c["to_world"]
-            else:
-                tw = look_at(c["origin"], c["target"], c.get("up", [0.0, 1.0, 0.0]))
             views.append(
-                dict(
-                    to_world=tw,
-                    fov=float(c["fov_x_deg"]),
-                    fov_axis="x",
-                    width=int(c["width"]),
-                    height=int(c["height"]),
-                    light_position=[float(x) for x in l["position"]],
-                    intensity=rgb3(l["intensity"], f"views[{i}].light.intensity"),
-                    image=folder / v["image"],
+                _view(
+                    c,
+                    c["fov_x_deg"],
+                    "x",
+                    c["width"],
+                    c["height"],
+                    l["position"],
+                    rgb3(l["intensity"], f"views[{i}].light.intensity"),
+                    folder / v["image"],
                 )
             )
         truth = d.get("truth")
@@ -269,20 +288,16 @@ def load_dataset(folder):
         inten = rgb3(light.get("intensity_rgb", light.get("intensity")), "light.intensity_rgb")
         views = []
         for v in d["views"]:
-            if "to_world" in v:
-                tw = v["to_world"]
-            else:
-                tw = look_at(v["origin"], v["target"], v.get("up", [0.0, 1.0, 0.0]))
             views.append(
-                dict(
-                    to_world=tw,
-                    fov=float(cam["fov_deg"]),
-                    fov_axis=cam.get("fov_axis", "x"),
-                    width=int(cam["width"]),
-                    height=int(cam["height"]),
-                    light_position=[float(x) for x in v.get("light_position", light.get("position"))],
-                    intensity=inten,
-                    image=folder / v["file_exr"],
+                _view(
+                    v,
+                    cam["fov_deg"],
+                    cam.get("fov_axis", "x"),
+                    cam["width"],
+                    cam["height"],
+                    v.get("light_position", light.get("position")),
+                    inten,
+                    folder / v["file_exr"],
                 )
             )
         b = d.get("boundary", {})
@@ -412,26 +427,19 @@ def main():
             },
         }
     )
-    sensors = []
-    for v in ds["views"]:
-        sensors.append(
-            mi.load_dict(
-                {
-                    "type": "perspective",
-                    "fov": v["fov"],
-                    "fov_axis": v["fov_axis"],
-                    "to_world": mi.ScalarTransform4f(v["to_world"]),
-                    "film": {
-                        "type": "hdrfilm",
-                        "width": v["width"],
-                        "height": v["height"],
-                        "rfilter": {"type": "box"},
-                        "pixel_format": "rgb",
-                    },
-                    "sampler": {"type": "independent", "sample_count": a.spp},
-                }
+    sensors = [
+        mi.load_dict(
+            sensor_dict(
+                v["fov"],
+                v["fov_axis"],
+                mi.ScalarTransform4f(v["to_world"]),
+                v["width"],
+                v["height"],
+                a.spp,
             )
         )
+        for v in ds["views"]
+    ]
     targets = []
     for v in ds["views"]:
         bmp = mi.Bitmap(str(v["image"])).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)

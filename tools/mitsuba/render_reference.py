@@ -22,6 +22,29 @@ import time
 from pathlib import Path
 
 
+def sensor_dict(fov, fov_axis, to_world, width, height, spp, clip=None):
+    """Mitsuba's description of one of our cameras: a perspective sensor (`fov` degrees along
+    `fov_axis`), `to_world` an `mi.ScalarTransform4f`, box filter, linear RGB `hdrfilm`,
+    independent sampler at `spp`; `clip` = (near, far) when the folder gives them."""
+    d = {
+        "type": "perspective",
+        "fov": fov,
+        "fov_axis": fov_axis,
+        "to_world": to_world,
+        "film": {
+            "type": "hdrfilm",
+            "width": width,
+            "height": height,
+            "rfilter": {"type": "box"},
+            "pixel_format": "rgb",
+        },
+        "sampler": {"type": "independent", "sample_count": spp},
+    }
+    if clip is not None:
+        d["near_clip"], d["far_clip"] = clip
+    return d
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("ref", type=Path, help="reference folder (scene.json + mesh)")
@@ -89,22 +112,15 @@ def main():
                 v,
                 lp,
                 mi.load_dict(
-                    {
-                        "type": "perspective",
-                        "fov": cam["fov_deg"],
-                        "fov_axis": cam["fov_axis"],
-                        "near_clip": cam["near_clip"],
-                        "far_clip": cam["far_clip"],
-                        "to_world": mi.ScalarTransform4f(v["to_world"]),
-                        "film": {
-                            "type": "hdrfilm",
-                            "width": cam["width"],
-                            "height": cam["height"],
-                            "rfilter": {"type": "box"},
-                            "pixel_format": "rgb",
-                        },
-                        "sampler": {"type": "independent", "sample_count": per_pass},
-                    }
+                    sensor_dict(
+                        cam["fov_deg"],
+                        cam["fov_axis"],
+                        mi.ScalarTransform4f(v["to_world"]),
+                        cam["width"],
+                        cam["height"],
+                        per_pass,
+                        clip=(cam["near_clip"], cam["far_clip"]),
+                    )
                 ),
             )
         )

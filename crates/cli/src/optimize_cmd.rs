@@ -363,11 +363,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
             "iterations": opt.history().len(),
             "config": opt.config(),
         });
-        scene::fsutil::atomic_write(
-            &a.out.join("result.json"),
-            serde_json::to_string_pretty(&failed)?.as_bytes(),
-            true,
-        )?;
+        write_result(&a.out, &failed)?;
         return Err(e).context(format!(
             "the optimisation failed after {} iterations (status in {})",
             opt.history().len(),
@@ -401,11 +397,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     // Not final until the correction and the checks below are in: an interrupted command is
     // resumed rather than reused (`run_or_reuse`).
     result["complete"] = serde_json::json!(false);
-    scene::fsutil::atomic_write(
-        &a.out.join("result.json"),
-        serde_json::to_string_pretty(&result)?.as_bytes(),
-        true,
-    )?;
+    write_result(&a.out, &result)?;
     report::write_plots(
         opt.history(),
         &estimate,
@@ -471,11 +463,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         result["consistency"] = serde_json::to_value(c)?;
     }
     result["complete"] = serde_json::json!(true);
-    scene::fsutil::atomic_write(
-        &a.out.join("result.json"),
-        serde_json::to_string_pretty(&result)?.as_bytes(),
-        true,
-    )?;
+    write_result(&a.out, &result)?;
     if let Some(u) = &shown_u {
         for line in report::interval_lines(&shown, u) {
             println!("  {line}");
@@ -501,6 +489,16 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         println!("  FAILED: {}", p.message());
     }
     println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// `OUT/result.json`, replaced atomically.
+fn write_result(out: &Path, result: &serde_json::Value) -> Result<()> {
+    scene::fsutil::atomic_write(
+        &out.join("result.json"),
+        serde_json::to_string_pretty(result)?.as_bytes(),
+        true,
+    )?;
     Ok(())
 }
 
