@@ -31,9 +31,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
-use scene::{Dataset, Medium, MeshSource};
+use scene::{Dataset, Medium, MeshSource, RenderInfo, SceneDesc};
 use volpath::rng::Sampler;
 
+use crate::common::{build_accel, render_views_learned};
 use crate::dataset_cmd::{RenderOpts, make_dataset};
 use crate::optimize_cmd::reuse::read_json;
 use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
@@ -70,6 +71,45 @@ pub struct RobustnessArgs {
     /// Seed of the media (renders and runs use seed + repetition).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Who renders the targets: `volpath` (ours), `mitsuba` (Mitsuba 3's volpath through
+    /// `--mitsuba-script`, an independent renderer), or both (`volpath,mitsuba`). Default: ours,
+    /// and Mitsuba's too when the script finds Mitsuba 3 (not with `--quick`).
+    #[arg(long, value_delimiter = ',')]
+    pub targets: Option<Vec<Targets>>,
+    /// The script that renders a dataset's views with Mitsuba 3 (`pip install mitsuba numpy`;
+    /// on Debian also `apt-get install libllvm19`).
+    #[arg(long, default_value = "tools/mitsuba/render_dataset.py")]
+    pub mitsuba_script: PathBuf,
+    /// The Python interpreter that runs `--mitsuba-script`.
+    #[arg(long, default_value = "python3")]
+    pub python: PathBuf,
+}
+
+/// The renderer of a case's target images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Targets {
+    /// Our volumetric path tracer.
+    Volpath,
+    /// Mitsuba 3's `volpath` (`tools/mitsuba/render_dataset.py`).
+    Mitsuba,
+}
+
+impl Targets {
+    pub fn name(self) -> &'static str {
+        match self {
+            Targets::Volpath => "volpath",
+            Targets::Mitsuba => "mitsuba",
+        }
+    }
+
+    /// The folder name of a case's dataset and run: `{case}-r{rep}` for our renders,
+    /// `{case}-mitsuba-r{rep}` for Mitsuba's.
+    fn tag(self, case: &str, rep: u64) -> String {
+        match self {
+            Targets::Volpath => format!("{case}-r{rep}"),
+            Targets::Mitsuba => format!("{case}-mitsuba-r{rep}"),
+        }
+    }
 }
 
 /// How the scene is lit (module docs).
@@ -188,27 +228,35 @@ fn rig(case: &Case, views: usize, res: u32) -> Rig {
 }
 
 /// The mesh of `case` at radius 0.5·scale: a built-in shape, or the mesh file centred on its
-/// bounding box and scaled to its bounding radius, written into `dir`.
-fn mesh_source(case: &Case, mesh_file: &Path, dir: &Path) -> Result<MeshSource> {
-    if case.shape != "spot" {
-        let shape = geometry::Shape::from_name(case.shape)?;
-        return Ok(MeshSource::Shape(shape.scaled(case.scale)));
-    }
-    let (mut mesh, _) = geometry::io::load_mesh(mesh_file).with_context(|| {
-        format!(
-            "{}: the robustness suite's third shape (run from the repository root, or pass --mesh)",
-            mesh_file.display()
-        )
-    })?;
-    let (lo, hi) = mesh.bounds();
-    let centre = 0.5 * (lo + hi);
-    let radius = mesh
-        .positions
-        .iter()
-        .map(|p| (*p - centre).length())
-        .fold(0.0f32, f32::max);
-    let s = 0.5 * case.scale / radius;
-    mesh.transform(glam::Mat4::from_scale(Vec3::splat(s)) * glam::Mat4::from_translation(-centre));
+/// bounding box and scaled to its bounding radius, written into `dir`. With `as_file`, a
+/// built-in shape is written into `dir` too (for renderers that read only mesh files).
+fn mesh_source(case: &Case, mesh_file: &Path, dir: &Path, as_file: bool) -> Result<MeshSource> {
+    let mesh = if case.shape != "spot" {
+        let shape = geometry::Shape::from_name(case.shape)?.scaled(case.scale);
+        if !as_file {
+            return Ok(MeshSource::Shape(shape));
+        }
+        shape.build()?
+    } else {
+        let (mut mesh, _) = geometry::io::load_mesh(mesh_file).with_context(|| {
+            format!(
+                "{}: the robustness suite's third shape (run from the repository root, or pass --mesh)",
+                mesh_file.display()
+            )
+        })?;
+        let (lo, hi) = mesh.bounds();
+        let centre = 0.5 * (lo + hi);
+        let radius = mesh
+            .positions
+            .iter()
+            .map(|p| (*p - centre).length())
+            .fold(0.0f32, f32::max);
+        let s = 0.5 * case.scale / radius;
+        mesh.transform(
+            glam::Mat4::from_scale(Vec3::splat(s)) * glam::Mat4::from_translation(-centre),
+        );
+        mesh
+    };
     std::fs::create_dir_all(dir)?;
     let path = dir.join("mesh-input.obj");
     geometry::io::save_obj(&mesh, &path)?;
@@ -220,6 +268,7 @@ fn mesh_source(case: &Case, mesh_file: &Path, dir: &Path) -> Result<MeshSource> 
 pub struct Outcome {
     pub case: Case,
     pub rep: u64,
+    pub targets: Targets,
     pub estimate: [[f64; 3]; 2],
     pub uncorrected: [[f64; 3]; 2],
     pub interval_sigma_t: [Option<[f64; 2]>; 3],
@@ -229,6 +278,9 @@ pub struct Outcome {
     pub consistency_l2: [f64; 3],
     pub status: String,
     pub seconds_per_iteration: f64,
+    /// The learned model's own error on this case: its render of the truth against the
+    /// targets, pooled brightness ratio per channel ([`model_ratio`]).
+    pub model_ratio: [f64; 3],
 }
 
 impl Outcome {
@@ -267,7 +319,7 @@ fn intervals(v: &serde_json::Value) -> [Option<[f64; 2]>; 3] {
     })
 }
 
-fn outcome(case: &Case, rep: u64, result: &Path) -> Result<Outcome> {
+fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Outcome> {
     let v = read_json(result)?;
     let pair = |p: &serde_json::Value| [rgb(&p["sigma_t"]), rgb(&p["albedo"])];
     let estimate = pair(&v["estimate"]);
@@ -280,6 +332,7 @@ fn outcome(case: &Case, rep: u64, result: &Path) -> Result<Outcome> {
     Ok(Outcome {
         case: case.clone(),
         rep,
+        targets,
         estimate,
         uncorrected,
         interval_sigma_t: intervals(&v["interval95"]["sigma_t"]),
@@ -289,19 +342,89 @@ fn outcome(case: &Case, rep: u64, result: &Path) -> Result<Outcome> {
         consistency_l2: rgb(&v["consistency"]["l2_over_noise"]),
         status: v["status"].as_str().unwrap_or("?").to_string(),
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+        model_ratio: [f64::NAN; 3],
     })
 }
 
+/// The learned model's error at the truth: every third view of the dataset rendered by the
+/// learned BSSRDF (the run's model and settings) with the true medium at 32 spp, and the
+/// pooled brightness ratio Σ_views Σ_pixels render / Σ_views Σ_pixels target per channel. An
+/// estimate can be no better than this allows: a model that renders the truth 10 % too dark
+/// must move σ_t or α to match the images. Cached in `RUN/model-ratio.json`.
+fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Result<[f64; 3]> {
+    let cache = run_dir.join("model-ratio.json");
+    if let Ok(v) = read_json(&cache) {
+        return Ok(rgb(&v["ratio"]));
+    }
+    let ds = Dataset::load(data)?;
+    let truth = ds
+        .truth
+        .with_context(|| format!("{}: no truth", data.display()))?;
+    let (mesh, warnings) = ds.load_mesh()?;
+    let accel = build_accel(mesh, &warnings, &data.display().to_string());
+    let picked: Vec<usize> = (0..ds.views.len()).step_by(3).collect();
+    let scene = ds.scene(truth);
+    let views: Vec<_> = picked.iter().map(|&i| scene.views[i].clone()).collect();
+    let spp = if quick { 4 } else { 32 };
+    let model = o.learned.load_model()?;
+    let rep = render_views_learned(
+        &accel,
+        &truth,
+        &views,
+        spp,
+        o.seed,
+        &model,
+        o.learned.settings(),
+    )?;
+    let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
+    for (img, &i) in rep.images.iter().zip(&picked) {
+        let target = ds.views[i]
+            .image
+            .as_ref()
+            .with_context(|| format!("{}: view {i} has no image", data.display()))?;
+        let (a, b) = (img.mean(), target.mean());
+        for c in 0..3 {
+            num[c] += a[c];
+            den[c] += b[c];
+        }
+    }
+    let ratio: [f64; 3] = std::array::from_fn(|c| num[c] / den[c]);
+    let json = serde_json::json!({
+        "ratio": ratio,
+        "views": picked,
+        "spp": spp,
+        "what": "learned BSSRDF render of the true medium ÷ targets, pooled over the views",
+    });
+    scene::fsutil::atomic_write(
+        &cache,
+        serde_json::to_string_pretty(&json)?.as_bytes(),
+        true,
+    )?;
+    Ok(ratio)
+}
+
 /// Render the dataset unless `dir` holds it already.
-fn ensure_dataset(a: &RobustnessArgs, case: &Case, rep: u64, dir: &Path) -> Result<()> {
+fn ensure_dataset(
+    a: &RobustnessArgs,
+    case: &Case,
+    rep: u64,
+    targets: Targets,
+    dir: &Path,
+) -> Result<()> {
     let spp = if a.quick { 8 } else { a.target_spp };
     let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
+        let by_mitsuba = ds
+            .render
+            .renderer
+            .as_deref()
+            .is_some_and(|r| r.starts_with("Mitsuba"));
         let same = ds.truth == Some(case.medium)
             && ds.views.len() == views
             && ds.render.spp == Some(spp)
-            && ds.views.first().is_some_and(|v| v.camera.width == res);
+            && ds.views.first().is_some_and(|v| v.camera.width == res)
+            && by_mitsuba == (targets == Targets::Mitsuba);
         if same {
             return Ok(());
         }
@@ -311,27 +434,157 @@ fn ensure_dataset(a: &RobustnessArgs, case: &Case, rep: u64, dir: &Path) -> Resu
         );
     }
     println!(
-        "dataset {} (repetition {rep}): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",
+        "dataset {} (repetition {rep}, {} targets): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",
         case.name,
+        targets.name(),
         case.medium.sigma_t,
         case.medium.albedo,
         0.5 * case.scale
     );
-    let mesh = mesh_source(case, &a.mesh, &dir.with_extension("mesh"))?;
-    make_dataset(
-        &rig(case, views, res),
-        mesh,
-        case.medium,
-        RenderOpts {
-            spp,
-            seed: a.seed + rep,
-            max_depth: 128,
-            shadow: Default::default(),
-        },
-        dir,
-        false,
-    )?;
+    let mesh_dir = dir.with_extension("mesh");
+    match targets {
+        Targets::Volpath => {
+            let mesh = mesh_source(case, &a.mesh, &mesh_dir, false)?;
+            make_dataset(
+                &rig(case, views, res),
+                mesh,
+                case.medium,
+                RenderOpts {
+                    spp,
+                    seed: a.seed + rep,
+                    max_depth: MAX_DEPTH,
+                    shadow: Default::default(),
+                },
+                dir,
+                false,
+            )?;
+        }
+        Targets::Mitsuba => {
+            let mesh = mesh_source(case, &a.mesh, &mesh_dir, true)?;
+            render_with_mitsuba(a, case, mesh, (views, res, spp), a.seed + rep, dir)?;
+        }
+    }
     Ok(())
+}
+
+/// Depth limit of the target renders (Mitsuba's `max_depth` semantics).
+const MAX_DEPTH: u32 = 128;
+
+/// The case's views rendered by Mitsuba 3 into the dataset `dir`: our layout of the case (mesh,
+/// medium, cameras, lights; blank images) goes to `DIR.layout`, `--mitsuba-script` renders it
+/// into `DIR.mitsuba`, and that is saved as `dir` with PNG previews. A staged render that
+/// finished is reused.
+fn render_with_mitsuba(
+    a: &RobustnessArgs,
+    case: &Case,
+    mesh: MeshSource,
+    (views, res, spp): (usize, u32, u32),
+    seed: u64,
+    dir: &Path,
+) -> Result<()> {
+    let layout = dir.with_extension("layout");
+    let staged = dir.with_extension("mitsuba");
+    if !staged.join("dataset.json").exists() {
+        let desc = SceneDesc {
+            mesh,
+            medium: case.medium,
+            views: rig(case, views, res).build(),
+            render: RenderInfo {
+                max_depth: Some(MAX_DEPTH),
+                ..Default::default()
+            },
+            path: layout.join("dataset.json"),
+        };
+        let mut ds = Dataset::from_scene(&desc);
+        for v in &mut ds.views {
+            v.image = Some(scene::Image::new(v.camera.width, v.camera.height));
+        }
+        ds.save(&layout, true)?;
+        let status = std::process::Command::new(&a.python)
+            .arg(&a.mitsuba_script)
+            .arg(&layout)
+            .arg("--out")
+            .arg(&staged)
+            .args(["--spp", &spp.to_string(), "--seed", &seed.to_string()])
+            .args(["--max-depth", &MAX_DEPTH.to_string(), "--overwrite"])
+            .stdout(std::process::Stdio::null())
+            .status()
+            .with_context(|| {
+                format!(
+                    "running {} {}",
+                    a.python.display(),
+                    a.mitsuba_script.display()
+                )
+            })?;
+        if !status.success() {
+            bail!(
+                "{} {} {} failed ({status}); its error is above",
+                a.python.display(),
+                a.mitsuba_script.display(),
+                layout.display()
+            );
+        }
+    }
+    let ds = Dataset::load(&staged)?;
+    ds.save(dir, false)?;
+    for d in [&layout, &staged] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+    Ok(())
+}
+
+/// Whether `--mitsuba-script --check` finds Mitsuba 3: `Ok(version line)` or `Err(why not)`.
+fn mitsuba_available(a: &RobustnessArgs) -> std::result::Result<String, String> {
+    if !a.mitsuba_script.exists() {
+        return Err(format!(
+            "{} not found (run from the repository root, or pass --mitsuba-script)",
+            a.mitsuba_script.display()
+        ));
+    }
+    let out = std::process::Command::new(&a.python)
+        .arg(&a.mitsuba_script)
+        .arg("--check")
+        .output()
+        .map_err(|e| format!("{}: {e}", a.python.display()))?;
+    let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    if out.status.success() {
+        Ok(text)
+    } else {
+        let err = String::from_utf8_lossy(&out.stderr);
+        Err(err.lines().last().unwrap_or("no output").to_string())
+    }
+}
+
+/// The target renderers of this run (`--targets`, or the default: ours, and Mitsuba's when
+/// found and not `--quick`).
+fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
+    if let Some(t) = &a.targets {
+        anyhow::ensure!(!t.is_empty(), "--targets: name volpath, mitsuba or both");
+        if t.contains(&Targets::Mitsuba)
+            && let Err(why) = mitsuba_available(a)
+        {
+            bail!(
+                "--targets mitsuba: Mitsuba 3 is not usable: {why}; fix: `pip install mitsuba numpy` \
+                 (on Debian also `apt-get install libllvm19`), or leave mitsuba out"
+            );
+        }
+        return Ok(t.clone());
+    }
+    if a.quick {
+        return Ok(vec![Targets::Volpath]);
+    }
+    match mitsuba_available(a) {
+        Ok(v) => {
+            println!("targets: our volumetric path tracer and {v}");
+            Ok(vec![Targets::Volpath, Targets::Mitsuba])
+        }
+        Err(why) => {
+            println!(
+                "targets: our volumetric path tracer only (Mitsuba 3 not usable: {why}; `pip install mitsuba numpy` adds its renders as an independent check)"
+            );
+            Ok(vec![Targets::Volpath])
+        }
+    }
 }
 
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
@@ -367,16 +620,22 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         all.retain(|c| want.contains(&c.name));
     }
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    let renderers = target_renderers(a)?;
     let mut outcomes = Vec::new();
+    // Repetition by repetition, so that an interrupted run has every renderer's first ones.
     for rep in 0..a.seeds {
-        for case in &all {
-            let tag = format!("{}-r{rep}", case.name);
-            let data = a.out.join("data").join(&tag);
-            ensure_dataset(a, case, rep, &data)?;
-            let run_dir = a.out.join("runs").join(&tag);
-            let o = run_args(a, &data, &run_dir, rep);
-            run_or_reuse(&o, &tag)?;
-            outcomes.push(outcome(case, rep, &run_dir.join("result.json"))?);
+        for &targets in &renderers {
+            for case in &all {
+                let tag = targets.tag(&case.name, rep);
+                let data = a.out.join("data").join(&tag);
+                ensure_dataset(a, case, rep, targets, &data)?;
+                let run_dir = a.out.join("runs").join(&tag);
+                let o = run_args(a, &data, &run_dir, rep);
+                run_or_reuse(&o, &tag)?;
+                let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
+                out.model_ratio = model_ratio(&o, &data, &run_dir, a.quick)?;
+                outcomes.push(out);
+            }
         }
     }
     let (table, csv) = report(a, &outcomes);
@@ -415,7 +674,8 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
     };
     let _ = writeln!(
         md,
-        "Robustness: {views} views {res}² (volumetric targets at {spp} spp), `optimize` defaults ({} iterations × {} spp from σ_t = 50, α = 0.5, bias correction), {} repetition(s), seed {}{}\n",
+        "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({} iterations × {} spp from σ_t = 50, α = 0.5, bias correction), {} repetition(s), seed {}{}\n",
+        renderers_named(outcomes),
         if a.quick { 12 } else { a.budget.iterations },
         if a.quick { 4 } else { a.budget.spp },
         a.seeds,
@@ -428,11 +688,11 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
     );
     let _ = writeln!(
         md,
-        "| case | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | status | s/it |"
+        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | model at truth ÷ targets | status | s/it |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut csv = String::from(
-        "case,capture,mfp,shape,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,status,seconds_per_iteration\n",
+        "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,model_ratio,status,seconds_per_iteration\n",
     );
     let f3 = |v: [f64; 3], s: f64, p: usize| {
         format!(
@@ -448,8 +708,9 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
         let cov = o.covered();
         let _ = writeln!(
             md,
-            "| {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {} | {:.2} |",
+            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} |",
             o.case.name,
+            o.targets.name(),
             o.rep,
             o.case.medium.sigma_t[0],
             o.case.medium.sigma_t[1],
@@ -466,6 +727,9 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
             o.consistency_l2[0],
             o.consistency_l2[1],
             o.consistency_l2[2],
+            o.model_ratio[0],
+            o.model_ratio[1],
+            o.model_ratio[2],
             o.status,
             o.seconds_per_iteration
         );
@@ -473,11 +737,12 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
             let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{},{:.4}",
+                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{},{:.4}",
                 o.case.name,
                 o.case.capture.name(),
                 o.case.mfp,
                 o.case.shape,
+                o.targets.name(),
                 o.rep,
                 ["R", "G", "B"][c],
                 o.case.medium.sigma_t[c],
@@ -496,12 +761,38 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
                 cov[1][c],
                 o.consistency_ratio[c],
                 o.consistency_l2[c],
+                o.model_ratio[c],
                 o.status,
                 o.seconds_per_iteration
             );
         }
     }
-    // Summary.
+    let _ = writeln!(md);
+    let mut names: Vec<Targets> = outcomes.iter().map(|o| o.targets).collect();
+    names.dedup();
+    if names.len() > 1 {
+        summary(&mut md, "all targets", outcomes);
+        for t in names {
+            let only: Vec<Outcome> = outcomes
+                .iter()
+                .filter(|o| o.targets == t)
+                .cloned()
+                .collect();
+            summary(&mut md, &format!("{} targets", t.name()), &only);
+        }
+    } else {
+        summary(&mut md, "", outcomes);
+    }
+    (md, csv)
+}
+
+/// The summary lines of `outcomes` (under the heading `label`, when given).
+fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
+    let (head, ind) = if label.is_empty() {
+        (String::new(), "")
+    } else {
+        (format!("- {label}:\n  "), "  ")
+    };
     let pairs = outcomes.len() * 3;
     let covered_t: usize = outcomes
         .iter()
@@ -533,32 +824,49 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
         .flat_map(|o| o.albedo_error().map(f64::abs))
         .fold(0.0, f64::max);
     let failed = outcomes.iter().filter(|o| o.status != "ok").count();
-    let _ = writeln!(md);
     let _ = writeln!(
         md,
-        "- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %)",
+        "{head}- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %)",
         100.0 * covered_t as f64 / pairs.max(1) as f64,
         100.0 * covered_a as f64 / pairs.max(1) as f64,
         100.0 * (covered_t + covered_a) as f64 / (2 * pairs).max(1) as f64
     );
+    if det.is_empty() {
+        let _ = writeln!(md, "{ind}- σ_t determined in none of the {pairs} pairs");
+    } else {
+        let _ = writeln!(
+            md,
+            "{ind}- σ_t determined in {} of {pairs} pairs: median |error| {:.1} %, largest {:.1} % (goal: median ≤ 3 %, every channel ≤ 10 %)",
+            det.len(),
+            100.0 * median(det.clone()),
+            100.0 * det.iter().copied().fold(0.0, f64::max)
+        );
+    }
     let _ = writeln!(
         md,
-        "- σ_t determined in {} of {pairs} pairs: median |error| {:.1} %, largest {:.1} % (goal: median ≤ 3 %, every channel ≤ 10 %)",
-        det.len(),
-        100.0 * median(det.clone()),
-        100.0 * det.iter().copied().fold(0.0, f64::max)
-    );
-    let _ = writeln!(
-        md,
-        "- all pairs: median |σ_t error| {:.1} % (uncorrected {:.1} %); largest |α error| {:.4} (goal ≤ 0.01)",
+        "{ind}- all pairs: median |σ_t error| {:.1} % (uncorrected {:.1} %); largest |α error| {:.4} (goal ≤ 0.01)",
         100.0 * median(all_t),
         100.0 * median(all_t_unc),
         max_a
     );
     let _ = writeln!(
         md,
-        "- runs whose status is not ok: {failed} of {}",
+        "{ind}- runs whose status is not ok: {failed} of {}",
         outcomes.len()
     );
-    (md, csv)
+}
+
+/// "our volumetric path tracer", "Mitsuba 3's volpath" or both.
+fn renderers_named(outcomes: &[Outcome]) -> String {
+    let mut names: Vec<&str> = Vec::new();
+    for o in outcomes {
+        let n = match o.targets {
+            Targets::Volpath => "our volumetric path tracer",
+            Targets::Mitsuba => "Mitsuba 3's volpath",
+        };
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    names.join(" and ")
 }

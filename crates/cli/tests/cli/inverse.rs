@@ -1,6 +1,8 @@
 //! Inverse rendering (issue #5): optimize (with the bias correction), resume, gradcheck,
 //! experiment accuracy.
 
+use std::path::Path;
+
 use serde_json::Value;
 
 use super::helpers::*;
@@ -653,4 +655,72 @@ fn flash_capture_says_sigma_t_is_not_determined() {
     assert!(res["status"].is_string(), "{res}");
     assert!(res["consistency"]["mean_ratio"].is_array(), "{res}");
     assert_eq!(res["complete"], true);
+}
+
+/// `experiment robustness --quick`: every one of the twelve cases is rendered, recovered and
+/// tabulated (Markdown and CSV, with intervals, consistency and the learned model's own error at
+/// the truth); a second invocation reuses the datasets and runs; Mitsuba targets without a
+/// usable script are a clear error.
+#[test]
+fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
+    let t = tmp();
+    let d = t.path();
+    let spot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/spot.obj");
+    let spot = spot.to_str().unwrap();
+    let args = [
+        "-q",
+        "experiment",
+        "robustness",
+        "--quick",
+        "--out",
+        "rb",
+        "--mesh",
+        spot,
+    ];
+    let r = ok(d, &args);
+    assert_stdout_has(&r, &["calibration", "QUICK", "model at truth ÷ targets"]);
+    let csv = std::fs::read_to_string(d.join("rb/robustness.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 12 * 3, "{csv}");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for row in &rows {
+        let f: Vec<&str> = row.split(',').collect();
+        assert_eq!(f[col("targets")], "volpath", "{row}");
+        for name in [
+            "sigma_t_est",
+            "albedo_est",
+            "model_ratio",
+            "consistency_ratio",
+        ] {
+            let v: f64 = f[col(name)].parse().unwrap();
+            assert!(v.is_finite() && v > 0.0, "{name} in {row}");
+        }
+    }
+    for capture in ["flash", "fixed", "turntable", "backlit"] {
+        assert!(
+            rows.iter().filter(|r| r.contains(capture)).count() == 9,
+            "{capture}"
+        );
+    }
+    assert!(d.join("rb/robustness.md").exists());
+    let again = ok(d, &args);
+    assert_eq!(
+        again.stdout.matches("reusing").count(),
+        12,
+        "{}",
+        again.stdout
+    );
+    let fails_ = fails(
+        d,
+        &[
+            &args[..],
+            &["--targets", "mitsuba", "--mitsuba-script", "no-such.py"],
+        ]
+        .concat(),
+    );
+    assert_stderr_has(
+        &fails_,
+        &["--targets mitsuba", "no-such.py", "pip install mitsuba"],
+    );
 }
