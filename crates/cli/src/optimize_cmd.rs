@@ -226,6 +226,43 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     Ok(c)
 }
 
+/// A resumed run continues with the settings it started with: every setting given now must
+/// equal the checkpoint's, except the number of iterations (a run may be extended) and the view
+/// subset (a resumed run may leave it out). The error names each differing setting with both
+/// values.
+fn check_resume_settings(now: &OptimizeConfig, saved: &OptimizeConfig, ckpt: &Path) -> Result<()> {
+    let as_map = |c: &OptimizeConfig| -> Result<serde_json::Map<String, serde_json::Value>> {
+        let mut c = c.clone();
+        c.iterations = 0;
+        c.view_subset = None;
+        match serde_json::to_value(&c)? {
+            serde_json::Value::Object(m) => Ok(m),
+            _ => bail!("settings do not serialise to an object"),
+        }
+    };
+    let (now, saved) = (as_map(now)?, as_map(saved)?);
+    let mut keys: Vec<&String> = now.keys().chain(saved.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let null = serde_json::Value::Null;
+    let diffs: Vec<String> = keys
+        .into_iter()
+        .filter_map(|k| {
+            let (a, b) = (now.get(k).unwrap_or(&null), saved.get(k).unwrap_or(&null));
+            (a != b).then(|| format!("{k}: the run has {b}, this command gives {a}"))
+        })
+        .collect();
+    if !diffs.is_empty() {
+        bail!(
+            "--resume: the settings differ from those of the run in {} ({}); repeat the run's \
+             own options (only --iterations may change), or start a new run with --overwrite",
+            ckpt.display(),
+            diffs.join("; ")
+        );
+    }
+    Ok(())
+}
+
 /// The views of `ds` named by `subset` (indices into the dataset), in that order: a clear error
 /// for an empty list, an index past the last view or an index given twice.
 pub(crate) fn select_views(ds: &mut Dataset, subset: &[usize], what: &Path) -> Result<()> {
@@ -252,9 +289,13 @@ pub(crate) fn select_views(ds: &mut Dataset, subset: &[usize], what: &Path) -> R
 
 pub fn run(a: &OptimizeArgs) -> Result<()> {
     let mut ds = Dataset::load(&a.dataset)?;
+    // One run per output folder; released when this function returns (or the process dies).
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
     let ckpt = a.out.join("checkpoint.json");
     let checkpoint = if a.resume {
-        Some(Checkpoint::read(&ckpt)?)
+        let c = Checkpoint::read(&ckpt)?;
+        check_resume_settings(&config_of(a)?, &c.config, &ckpt)?;
+        Some(c)
     } else {
         None
     };
@@ -355,7 +396,18 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     });
     pb.finish_and_clear();
     if let Err(e) = ran {
-        // A run that broke down still leaves its record: the history so far and a failed status.
+        if !matches!(e, inverse::optimize::InverseError::NonFinite { .. }) {
+            // A failed write (disk full, permissions) or render: the outputs on disk stay as
+            // they were (the last checkpoint included, written atomically); say what failed.
+            return Err(e).context(format!(
+                "the optimisation stopped in iteration {}; {} holds the last checkpoint written \
+                 before (resume from it with --resume)",
+                opt.history().len(),
+                ckpt.display()
+            ));
+        }
+        // A run that broke down numerically still leaves its record: the history so far and a
+        // failed status (the last good checkpoint stays as it was).
         report::write_csv(opt.history(), &csv)?;
         let failed = serde_json::json!({
             "status": "failed",

@@ -55,6 +55,21 @@ pub enum InverseError {
         /// Why.
         reason: String,
     },
+    /// NaN or Inf appeared in iteration `iteration`: in the loss or gradient of one view, or in
+    /// the parameters after the Adam step. The optimiser keeps its last finite state.
+    #[error(
+        "iteration {iteration}{}: {what} is not finite; the run stopped with the parameters of the \
+         iteration before; check the target images and the learning rates",
+        .view.map_or(String::new(), |v| format!(", view {v}"))
+    )]
+    NonFinite {
+        /// The iteration (0-based) in which it appeared.
+        iteration: u32,
+        /// The target view (index among the optimiser's targets), when a view's render caused it.
+        view: Option<usize>,
+        /// What was not finite, with its value.
+        what: String,
+    },
 }
 
 /// Settings of a run.
@@ -600,6 +615,13 @@ impl<'a> Optimizer<'a> {
                     &scene, t.camera, t.light, &rs, &ds, t.image, c.loss, false, None,
                 )?
             };
+            if let Some(what) = non_finite_part(&g) {
+                return Err(InverseError::NonFinite {
+                    iteration: k,
+                    view: Some(v),
+                    what,
+                });
+            }
             let w = self.weights[v];
             for ch in 0..3 {
                 loss += w[ch] * g.loss_channels[ch] / views.len() as f64;
@@ -608,10 +630,11 @@ impl<'a> Optimizer<'a> {
             }
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
-            return Err(InverseError::Invalid(format!(
-                "iteration {k}: the loss or its gradient is not finite (loss {loss}); check the \
-                 target images for NaN/Inf pixels and the learning rates"
-            )));
+            return Err(InverseError::NonFinite {
+                iteration: k,
+                view: None,
+                what: format!("the loss or its gradient over the views (loss {loss})"),
+            });
         }
         Ok(IterationGradient {
             loss,
@@ -647,8 +670,19 @@ impl<'a> Optimizer<'a> {
             c.lr_sigma_t
         };
         let scale = [lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
-        self.adam.step_scaled(&mut self.u, &mut g, &scale);
-        c.params.clamp(&mut self.u);
+        // The step is taken on copies and kept only when it is finite, so that a failure
+        // leaves the optimiser (and a checkpoint written after it) at the last good state.
+        let (mut adam, mut u) = (self.adam.clone(), self.u.clone());
+        adam.step_scaled(&mut u, &mut g, &scale);
+        c.params.clamp(&mut u);
+        if let Some(i) = u.iter().position(|x| !x.is_finite()) {
+            return Err(InverseError::NonFinite {
+                iteration: k,
+                view: None,
+                what: format!("parameter variable {i} after the Adam step ({})", u[i]),
+            });
+        }
+        (self.adam, self.u) = (adam, u);
         self.history.push(IterationRecord {
             iteration: k,
             loss,
@@ -682,6 +716,23 @@ impl<'a> Optimizer<'a> {
         }
         Ok(())
     }
+}
+
+/// The first non-finite part of one view's loss gradient, named with its value.
+fn non_finite_part(g: &LossGradient) -> Option<String> {
+    if !g.loss.is_finite() {
+        return Some(format!("the loss ({})", g.loss));
+    }
+    let rgb = ["R", "G", "B"];
+    (0..3).find_map(|c| {
+        if !g.d_sigma_t[c].is_finite() {
+            Some(format!("∂ℓ/∂σ_t {} ({})", rgb[c], g.d_sigma_t[c]))
+        } else if !g.d_albedo[c].is_finite() {
+            Some(format!("∂ℓ/∂α {} ({})", rgb[c], g.d_albedo[c]))
+        } else {
+            None
+        }
+    })
 }
 
 /// The decorrelated loss gradient: ℓ and ∂ℓ/∂I from the render `i1`, ∂I/∂θ from the derivative

@@ -19,6 +19,12 @@ pub enum SceneError {
     /// Refused to overwrite a file the user made.
     #[error("{path} already exists; pass --overwrite to replace it")]
     Exists { path: PathBuf },
+    /// Another run holds the output folder ([`crate::fsutil::lock_folder`]).
+    #[error(
+        "{dir} is in use by another translucent run (process {owner}); wait for it to finish, or \
+         choose another output folder"
+    )]
+    Busy { dir: PathBuf, owner: String },
     #[error(transparent)]
     Geometry(#[from] geometry::GeometryError),
 }

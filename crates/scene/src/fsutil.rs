@@ -1,4 +1,5 @@
-//! Small file-system helpers: the overwrite policy and atomic writes (temp file + rename).
+//! Small file-system helpers: the overwrite policy, atomic writes (temp file + rename) and the
+//! lock that keeps two runs out of one output folder.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -57,4 +58,70 @@ pub fn atomic_write(path: &Path, bytes: &[u8], overwrite: bool) -> Result<(), Sc
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The name of the lock file [`lock_folder`] keeps in an output folder.
+pub const LOCK_FILE: &str = ".translucent.lock";
+
+/// An output folder claimed by this process until the value is dropped ([`lock_folder`]).
+#[derive(Debug)]
+pub struct FolderLock {
+    _file: std::fs::File,
+}
+
+/// Claim the output folder `dir` (created if needed) for one run: `dir/.translucent.lock` is
+/// locked with the operating system's advisory file lock (`flock` on Unix, `LockFileEx` on
+/// Windows) and holds the owner's process id. A second run on the same folder, in this process
+/// or another, gets [`SceneError::Busy`] naming the owner. The lock goes with its process, so a
+/// run that crashed or was killed (`kill -9`) leaves the file behind but never a stuck lock.
+pub fn lock_folder(dir: &Path) -> Result<FolderLock, SceneError> {
+    let io = |p: &Path| {
+        let p = p.to_path_buf();
+        move |source| SceneError::Io { path: p, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let path = dir.join(LOCK_FILE);
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(io(&path))?;
+    match file.try_lock() {
+        Ok(()) => {
+            file.set_len(0).map_err(io(&path))?;
+            write!(file, "{}", std::process::id()).map_err(io(&path))?;
+            file.flush().map_err(io(&path))?;
+            Ok(FolderLock { _file: file })
+        }
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let owner = std::fs::read_to_string(&path).unwrap_or_default();
+            Err(SceneError::Busy {
+                dir: dir.to_path_buf(),
+                owner: owner.trim().to_string(),
+            })
+        }
+        Err(std::fs::TryLockError::Error(source)) => Err(SceneError::Io { path, source }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_locked_folder_refuses_a_second_claim_until_released() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("run");
+        let first = lock_folder(&dir).unwrap();
+        let second = lock_folder(&dir).unwrap_err();
+        let msg = second.to_string();
+        assert!(matches!(second, SceneError::Busy { .. }), "{msg}");
+        assert!(msg.contains(&std::process::id().to_string()), "{msg}");
+        assert!(msg.contains("run"), "{msg}");
+        drop(first);
+        let _again = lock_folder(&dir).unwrap();
+        assert!(dir.join(LOCK_FILE).exists());
+    }
 }

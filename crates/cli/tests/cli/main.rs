@@ -10,5 +10,6 @@ mod helpers;
 mod bad_input;
 mod dataset_render_compare;
 mod demo_validate;
+mod faults;
 mod inverse;
 mod train;
