@@ -119,6 +119,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .iter()
         .map(|s| Ok(ShapeSpec::parse_compact(s, "--shapes")?.to_shape("--shapes")?))
         .collect::<Result<_>>()?;
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
     std::fs::create_dir_all(a.out.join("data"))?;
     std::fs::create_dir_all(a.out.join("runs"))?;
     let rig = paper_rig(a.views, a.res);

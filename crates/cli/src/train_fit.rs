@@ -100,8 +100,8 @@ pub fn run_fit(a: &FitArgs) -> Result<()> {
         );
         Vec::new()
     };
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    // One run per output folder; released when this function returns (or the process dies).
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
     let ckpt = a.out.join("checkpoint.bin");
     let model_path = a.out.join("model.safetensors");
     let init = a

@@ -620,6 +620,7 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         all.retain(|c| want.contains(&c.name));
     }
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
     let renderers = target_renderers(a)?;
     let mut outcomes = Vec::new();
     // Repetition by repetition, so that an interrupted run has every renderer's first ones.
