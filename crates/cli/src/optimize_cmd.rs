@@ -21,6 +21,7 @@ use scene::{Dataset, Image, Medium};
 use crate::common::{LearnedArgs, build_accel, parse_rgb, progress};
 
 mod bias_correction;
+pub(crate) mod multi_start;
 pub(crate) mod reuse;
 
 pub use bias_correction::BiasCorrectionArgs;
@@ -139,6 +140,12 @@ pub struct OptimizeArgs {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Several initialisations first: N shorter runs (a third of --iterations each) from σ_t
+    /// between a third and three times --init-sigma-t; the one with the lowest loss starts the
+    /// run. For images that may leave σ_t open; costs N/3 more runs. Listed in
+    /// OUT/starts/starts.json and result.json.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub starts: u32,
     /// Continue the run in --out from its checkpoint (--iterations may extend it).
     #[arg(long)]
     pub resume: bool,
@@ -227,29 +234,22 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
 }
 
 /// A resumed run continues with the settings it started with: every setting given now must
-/// equal the checkpoint's, except the number of iterations (a run may be extended) and the view
-/// subset (a resumed run may leave it out). The error names each differing setting with both
-/// values.
+/// equal the checkpoint's ([`reuse::differing_settings`]), except the number of iterations (a
+/// run may be extended) and the view subset (a resumed run may leave it out). The error names
+/// each differing setting with both values.
 fn check_resume_settings(now: &OptimizeConfig, saved: &OptimizeConfig, ckpt: &Path) -> Result<()> {
-    let as_map = |c: &OptimizeConfig| -> Result<serde_json::Map<String, serde_json::Value>> {
+    let json = |c: &OptimizeConfig| {
         let mut c = c.clone();
-        c.iterations = 0;
         c.view_subset = None;
-        match serde_json::to_value(&c)? {
-            serde_json::Value::Object(m) => Ok(m),
-            _ => bail!("settings do not serialise to an object"),
-        }
+        serde_json::to_value(&c)
     };
-    let (now, saved) = (as_map(now)?, as_map(saved)?);
-    let mut keys: Vec<&String> = now.keys().chain(saved.keys()).collect();
-    keys.sort();
-    keys.dedup();
-    let null = serde_json::Value::Null;
-    let diffs: Vec<String> = keys
+    let diffs: Vec<String> = reuse::differing_settings(&json(now)?, &json(saved)?)
         .into_iter()
-        .filter_map(|k| {
-            let (a, b) = (now.get(k).unwrap_or(&null), saved.get(k).unwrap_or(&null));
-            (a != b).then(|| format!("{k}: the run has {b}, this command gives {a}"))
+        .map(|d| {
+            format!(
+                "{}: the run has {}, this command gives {}",
+                d.key, d.recorded, d.expected
+            )
         })
         .collect();
     if !diffs.is_empty() {
@@ -288,6 +288,22 @@ pub(crate) fn select_views(ds: &mut Dataset, subset: &[usize], what: &Path) -> R
 }
 
 pub fn run(a: &OptimizeArgs) -> Result<()> {
+    if a.starts > 1 {
+        Dataset::load(&a.dataset)?;
+        let (starts, best) = {
+            let _lock = scene::fsutil::lock_folder(&a.out)?;
+            multi_start::run_starts(a)?
+        };
+        let mut b = a.clone();
+        b.starts = 1;
+        b.init_sigma_t = starts[best].estimate.sigma_t.map(|v| v as f32);
+        b.init_albedo = starts[best].estimate.albedo.map(|v| v as f32);
+        run(&b)?;
+        // The starts go into the run's record.
+        let mut result = reuse::read_json(&a.out.join("result.json"))?;
+        result["starts"] = serde_json::json!({ "starts": starts, "chosen": best });
+        return write_result(&a.out, &result);
+    }
     let mut ds = Dataset::load(&a.dataset)?;
     // One run per output folder; released when this function returns (or the process dies).
     let _lock = scene::fsutil::lock_folder(&a.out)?;

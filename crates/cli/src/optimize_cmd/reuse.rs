@@ -23,23 +23,12 @@ pub struct RunResult {
 pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
     let run_dir = &o.out;
     let result = run_dir.join("result.json");
-    // Numbers compare at f32 precision, as the files write them either way.
     let expected = serde_json::to_value(config_of(o)?)?;
     let differing = |c: &serde_json::Value| -> Vec<String> {
-        let Some(m) = expected.as_object() else {
-            return vec!["the format".into()];
-        };
-        let mut keys: Vec<String> = m
-            .iter()
-            .filter(|(k, e)| {
-                *k != "iterations" && !c.get(k.as_str()).is_some_and(|v| json_close(v, e))
-            })
-            .map(|(k, _)| k.clone())
-            .collect();
-        if keys.is_empty() && c.as_object().map_or(0, |c| c.len()) != m.len() {
-            keys.push("the format".into());
-        }
-        keys
+        differing_settings(&expected, c)
+            .into_iter()
+            .map(|d| d.key)
+            .collect()
     };
     let checkpoint = run_dir.join("checkpoint.json");
     for file in [&result, &checkpoint] {
@@ -77,6 +66,53 @@ pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
             .with_context(|| format!("{}: no estimate.sigma_t/albedo", result.display()))?,
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
     })
+}
+
+/// One setting in which a run's recorded configuration differs from a command's.
+pub(crate) struct SettingDifference {
+    /// The configuration's key ("the format" when only the sets of keys differ).
+    pub key: String,
+    /// The command's value.
+    pub expected: serde_json::Value,
+    /// The run's value.
+    pub recorded: serde_json::Value,
+}
+
+/// The top-level settings in which a run's recorded configuration `recorded` differs from
+/// `expected` (both the JSON form of an [`inverse::optimize::OptimizeConfig`]), the iteration
+/// count aside: a run may be extended. Numbers compare at f32 precision, as the files write them
+/// either way.
+pub(crate) fn differing_settings(
+    expected: &serde_json::Value,
+    recorded: &serde_json::Value,
+) -> Vec<SettingDifference> {
+    let Some(m) = expected.as_object() else {
+        return vec![SettingDifference {
+            key: "the format".into(),
+            expected: expected.clone(),
+            recorded: recorded.clone(),
+        }];
+    };
+    let null = serde_json::Value::Null;
+    let mut out: Vec<SettingDifference> = m
+        .iter()
+        .filter(|(k, e)| {
+            *k != "iterations" && !recorded.get(k.as_str()).is_some_and(|v| json_close(v, e))
+        })
+        .map(|(k, e)| SettingDifference {
+            key: k.clone(),
+            expected: e.clone(),
+            recorded: recorded.get(k.as_str()).unwrap_or(&null).clone(),
+        })
+        .collect();
+    if out.is_empty() && recorded.as_object().map_or(0, |c| c.len()) != m.len() {
+        out.push(SettingDifference {
+            key: "the format".into(),
+            expected: expected.clone(),
+            recorded: recorded.clone(),
+        });
+    }
+    out
 }
 
 /// `{"sigma_t": [3], "albedo": [3]}` as parameters.

@@ -724,3 +724,48 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
         &["--targets mitsuba", "no-such.py", "pip install mitsuba"],
     );
 }
+
+/// `--starts 3`: three short runs from σ_t = init/3, init, 3·init; the run starts from the
+/// estimate of the one with the lowest loss, and result.json lists them all.
+#[test]
+fn multi_start_runs_from_the_best_start() {
+    let t = tiny_optimize_dataset("2");
+    let d = t.path();
+    let r = ok(
+        d,
+        &[
+            &TINY_OPTIMIZE[..],
+            &[
+                "--starts",
+                "3",
+                "--no-bias-correction",
+                "--uncertainty-views",
+                "0",
+            ],
+        ]
+        .concat(),
+    );
+    assert_stdout_has(
+        &r,
+        &["start 0 of 3", "start 2 of 3", "loss over the last third"],
+    );
+    let res = read_json(&d.join("o/result.json"));
+    let starts = res["starts"]["starts"].as_array().unwrap();
+    assert_eq!(starts.len(), 3);
+    let inits: Vec<f64> = starts
+        .iter()
+        .map(|s| s["init_sigma_t"][0].as_f64().unwrap())
+        .collect();
+    assert!(
+        (inits[0] - 50.0 / 3.0).abs() < 1e-3 && inits[1] == 50.0 && (inits[2] - 150.0).abs() < 1e-3
+    );
+    let best = res["starts"]["chosen"].as_u64().unwrap() as usize;
+    let losses: Vec<f64> = starts.iter().map(|s| s["loss"].as_f64().unwrap()).collect();
+    assert!(losses.iter().all(|&l| l >= losses[best]), "{losses:?}");
+    for c in 0..3 {
+        let init = res["config"]["init"]["sigma_t"][c].as_f64().unwrap();
+        let chosen = starts[best]["estimate"]["sigma_t"][c].as_f64().unwrap();
+        assert!((init - chosen).abs() <= 1e-5 * chosen, "{init} vs {chosen}");
+    }
+    assert!(d.join("o/starts/starts.json").exists());
+}
