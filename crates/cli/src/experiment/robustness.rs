@@ -855,7 +855,41 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
         "{ind}- runs whose status is not ok: {failed} of {}",
         outcomes.len()
     );
+    // Where the learned model itself is off at the truth, and the calibration of the runs that
+    // did not report a failure (a failed run's interval is not meant to be trusted).
+    let off = |o: &Outcome| {
+        o.model_ratio
+            .iter()
+            .any(|r| r.is_finite() && (r - 1.0).abs() > MODEL_RATIO_OFF)
+    };
+    let model_off: Vec<&Outcome> = outcomes.iter().filter(|o| off(o)).collect();
+    let big_alpha = |o: &Outcome| o.albedo_error().iter().any(|e| e.abs() > 0.01);
+    let _ = writeln!(
+        md,
+        "{ind}- the learned model renders the truth more than {:.0} % off the targets (a channel) in {} of {} runs; of the {} runs with an α error above 0.01, {} are among them",
+        100.0 * MODEL_RATIO_OFF,
+        model_off.len(),
+        outcomes.len(),
+        outcomes.iter().filter(|o| big_alpha(o)).count(),
+        model_off.iter().filter(|o| big_alpha(o)).count()
+    );
+    let ok: Vec<&Outcome> = outcomes.iter().filter(|o| o.status == "ok").collect();
+    let covered_ok: usize = ok
+        .iter()
+        .map(|o| o.covered().iter().flatten().filter(|&&b| b).count())
+        .sum();
+    let _ = writeln!(
+        md,
+        "{ind}- calibration of the {} runs whose status is ok: {covered_ok} of {} (parameter, channel) pairs ({:.0} %)",
+        ok.len(),
+        6 * ok.len(),
+        100.0 * covered_ok as f64 / (6 * ok.len()).max(1) as f64
+    );
 }
+
+/// A channel whose learned render of the truth differs from the targets by more than this
+/// (relative) counts as the model's own error in the summary.
+const MODEL_RATIO_OFF: f64 = 0.05;
 
 /// "our volumetric path tracer", "Mitsuba 3's volpath" or both.
 fn renderers_named(outcomes: &[Outcome]) -> String {
