@@ -540,14 +540,18 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     if let Some(c) = &consistency {
         println!(
             "  consistency (the estimate rendered by the volumetric path tracer, {} views): \
-             brightness ratio ({:.3}, {:.3}, {:.3}), L2 ({:.2}, {:.2}, {:.2})× the noise floor",
+             brightness ratio ({:.3}, {:.3}, {:.3}), L2 ({:.2}, {:.2}, {:.2})× the noise floor \
+             (the targets' own pixel variance {:.1}, {:.1}, {:.1}× our renders')",
             c.views.len(),
             c.mean_ratio[0],
             c.mean_ratio[1],
             c.mean_ratio[2],
             c.l2_over_noise[0],
             c.l2_over_noise[1],
-            c.l2_over_noise[2]
+            c.l2_over_noise[2],
+            c.target_noise_ratio[0],
+            c.target_noise_ratio[1],
+            c.target_noise_ratio[2]
         );
     }
     if problems.is_empty() {

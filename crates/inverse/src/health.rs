@@ -264,6 +264,7 @@ mod tests {
             view_ratio: vec![[1.0, 0.93, 1.0]],
             mean_ratio: [1.0, 0.93, 1.0],
             l2_over_noise: [1.1, 3.0, 1.0],
+            target_noise_ratio: [1.0; 3],
             views: vec![0],
             spp: 16,
         };
