@@ -44,7 +44,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use volpath::rng::Sampler;
 
-use crate::exit::{ExitSlice, ExitTable, ONE_MINUS_ALBEDO, albedo_spline, shipped};
+use crate::exit::{
+    ExitSlice, ExitTable, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, albedo_spline,
+    shipped,
+};
 use crate::incidence::{IncidenceSlice, IncidenceTable, fast_acos};
 
 /// Camera-cosine nodes.
@@ -222,6 +225,7 @@ pub struct CurvatureTable {
 
 /// The table written by `translucent model curvature-table` for g = 0, η = 1.
 const SHIPPED_JSON: &str = include_str!("../data/curvature-g0-eta1.json");
+const SHIPPED_NAME: &str = "data/curvature-g0-eta1.json";
 
 impl CurvatureTable {
     /// Simulates the table for g = 0, η = 1 against the shipped exit and incidence tables (the
@@ -283,13 +287,28 @@ impl CurvatureTable {
     pub fn index_matched_isotropic() -> std::sync::Arc<CurvatureTable> {
         static TABLE: std::sync::OnceLock<std::sync::Arc<CurvatureTable>> =
             std::sync::OnceLock::new();
-        shipped(&TABLE, SHIPPED_JSON)
+        shipped(&TABLE, SHIPPED_JSON, SHIPPED_NAME)
     }
 
     /// The table at albedo `albedo`, with ∂C/∂α.
     pub fn slice(&self, albedo: f32) -> CurvatureSlice {
         let (c, dc) = albedo_spline(&self.c, PER_ALBEDO, albedo);
         CurvatureSlice { c, dc }
+    }
+}
+
+impl TableFile for CurvatureTable {
+    const KIND: &'static str = "curvature";
+
+    /// `c`: albedos × camera cosines × curvatures × light cosines × φ values, finite and in
+    /// (0, C_MAX] (the generator clamps C to [1/C_MAX, C_MAX]).
+    fn check(&self, name: &str) -> Result<(), TableError> {
+        let c = TableCheck {
+            name,
+            table: Self::KIND,
+        };
+        c.len("c", self.c.len(), ONE_MINUS_ALBEDO.len() * PER_ALBEDO)?;
+        c.values("c", &self.c, f32::MIN_POSITIVE, C_MAX)
     }
 }
 

@@ -203,7 +203,7 @@ impl ExitTable {
     /// `translucent model exit-table` with the settings it records.
     pub fn index_matched_isotropic() -> std::sync::Arc<ExitTable> {
         static TABLE: std::sync::OnceLock<std::sync::Arc<ExitTable>> = std::sync::OnceLock::new();
-        shipped(&TABLE, SHIPPED_JSON)
+        shipped(&TABLE, SHIPPED_JSON, SHIPPED_NAME)
     }
 
     /// The table for a medium with phase g and index η: the shipped one for (0, 1), otherwise
@@ -226,14 +226,148 @@ impl ExitTable {
 /// The tables simulated at run time for media other than the shipped one, per process.
 pub(crate) type MediumCache<T> = std::sync::Mutex<Vec<std::sync::Arc<T>>>;
 
-/// A shipped table (JSON built into the binary), parsed once.
-pub(crate) fn shipped<T: serde::de::DeserializeOwned>(
+/// Errors of reading a table ([`TableFile::from_json`]); each names the file and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    /// The text is not the JSON of this kind of table.
+    #[error(
+        "{name}: not a valid {table} table ({reason}); fix: regenerate it with `translucent model {table}-table`"
+    )]
+    Parse {
+        /// The file.
+        name: String,
+        /// The kind of table (`exit`, `incidence`, `curvature`).
+        table: &'static str,
+        /// What the JSON parser said.
+        reason: String,
+    },
+    /// A field has the wrong length or an impossible value.
+    #[error(
+        "{name}: {table} table field `{field}` {reason}; fix: regenerate it with `translucent model {table}-table`"
+    )]
+    Invalid {
+        /// The file.
+        name: String,
+        /// The kind of table.
+        table: &'static str,
+        /// The field (`settings.g`, `a`, `a[17]`, …).
+        field: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+}
+
+/// A table stored as JSON (the shipped `data/*.json` files, written by `translucent model
+/// …-table`): parsed, then checked against the grid of this build, so that a damaged or
+/// mismatched file is an error naming the field and never an out-of-bounds lookup later.
+pub trait TableFile: serde::de::DeserializeOwned {
+    /// The kind of table, as in the command that writes it (`exit`, `incidence`, `curvature`).
+    const KIND: &'static str;
+
+    /// Checks lengths and values; `name` is the file, for the error.
+    fn check(&self, name: &str) -> Result<(), TableError>;
+
+    /// Parses and checks the JSON text of a table; `name` is the file, for errors.
+    fn from_json(text: &str, name: &str) -> Result<Self, TableError> {
+        let table: Self = serde_json::from_str(text).map_err(|e| TableError::Parse {
+            name: name.to_string(),
+            table: Self::KIND,
+            reason: e.to_string(),
+        })?;
+        table.check(name)?;
+        Ok(table)
+    }
+}
+
+/// Checks shared by the table files: lengths against the grid, values finite and in range.
+pub(crate) struct TableCheck<'a> {
+    pub(crate) name: &'a str,
+    pub(crate) table: &'static str,
+}
+
+impl TableCheck<'_> {
+    pub(crate) fn err(&self, field: impl Into<String>, reason: impl Into<String>) -> TableError {
+        TableError::Invalid {
+            name: self.name.to_string(),
+            table: self.table,
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+
+    /// `len == expected`.
+    pub(crate) fn len(&self, field: &str, len: usize, expected: usize) -> Result<(), TableError> {
+        if len != expected {
+            return Err(self.err(
+                field,
+                format!("holds {len} values, this build's grid needs {expected}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every value finite and within `[lo, hi]`.
+    pub(crate) fn values(
+        &self,
+        field: &str,
+        v: &[f32],
+        lo: f32,
+        hi: f32,
+    ) -> Result<(), TableError> {
+        if let Some(i) = v
+            .iter()
+            .position(|x| !(x.is_finite() && (lo..=hi).contains(x)))
+        {
+            return Err(self.err(
+                format!("{field}[{i}]"),
+                format!("= {} is outside [{lo}, {hi}]", v[i]),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The medium of a walk table: |g| < 1, η finite and positive.
+    pub(crate) fn settings(&self, s: &ExitTableSettings) -> Result<(), TableError> {
+        if !(s.g.is_finite() && s.g.abs() < 1.0) {
+            return Err(self.err("settings.g", format!("= {} is outside (-1, 1)", s.g)));
+        }
+        if !(s.eta.is_finite() && s.eta > 0.0) {
+            return Err(self.err("settings.eta", format!("= {} is not positive", s.eta)));
+        }
+        Ok(())
+    }
+}
+
+impl TableFile for ExitTable {
+    const KIND: &'static str = "exit";
+
+    /// `f`: albedos × [`MU_BINS`]² values, finite and ≥ 0 (a density relative to the cosine
+    /// law); `escaped`: albedos × [`MU_BINS`] fractions in [0, 1].
+    fn check(&self, name: &str) -> Result<(), TableError> {
+        let c = TableCheck {
+            name,
+            table: Self::KIND,
+        };
+        c.settings(&self.settings)?;
+        let rows = ONE_MINUS_ALBEDO.len() * MU_BINS;
+        c.len("f", self.f.len(), rows * MU_BINS)?;
+        c.len("escaped", self.escaped.len(), rows)?;
+        c.values("f", &self.f, 0.0, f32::MAX)?;
+        c.values("escaped", &self.escaped, 0.0, 1.0)
+    }
+}
+
+/// A shipped table (JSON built into the binary, `name` its file under `data/`), parsed and
+/// checked once.
+pub(crate) fn shipped<T: TableFile>(
     cell: &std::sync::OnceLock<std::sync::Arc<T>>,
     json: &str,
+    name: &str,
 ) -> std::sync::Arc<T> {
     cell.get_or_init(|| {
         std::sync::Arc::new(
-            serde_json::from_str(json).expect("a shipped table parses (checked by its tests)"),
+            T::from_json(json, name)
+                .unwrap_or_else(|e| panic!("a shipped table reads (checked by its tests): {e}")),
         )
     })
     .clone()
@@ -346,6 +480,7 @@ pub const DEFAULT_RUNTIME_WALKS: u32 = 40_000;
 
 /// The table written by `translucent model exit-table` for g = 0, η = 1.
 const SHIPPED_JSON: &str = include_str!("../data/exit-g0-eta1.json");
+const SHIPPED_NAME: &str = "data/exit-g0-eta1.json";
 
 /// f(α; ·, ·) and ∂f/∂α at one albedo (see [`ExitTable::slice`]).
 #[derive(Clone, Debug, PartialEq)]

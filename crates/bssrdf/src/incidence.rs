@@ -56,7 +56,8 @@ use volpath::phase::HenyeyGreenstein;
 use volpath::rng::Sampler;
 
 use crate::exit::{
-    MU_BINS, MediumCache, ONE_MINUS_ALBEDO, WalkTable, albedo_spline, for_medium, shipped,
+    MU_BINS, MediumCache, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, WalkTable,
+    albedo_spline, for_medium, shipped,
 };
 
 /// Distance bins (uniform in ln(1 + ρ/ρ₀), ρ in mean free paths; the last is open).
@@ -303,7 +304,7 @@ impl IncidenceTable {
     pub fn index_matched_isotropic() -> std::sync::Arc<IncidenceTable> {
         static TABLE: std::sync::OnceLock<std::sync::Arc<IncidenceTable>> =
             std::sync::OnceLock::new();
-        shipped(&TABLE, SHIPPED_JSON)
+        shipped(&TABLE, SHIPPED_JSON, SHIPPED_NAME)
     }
 
     /// The table for a medium with phase g and index η: the shipped one for (0, 1), otherwise
@@ -323,6 +324,27 @@ impl IncidenceTable {
     }
 }
 
+impl TableFile for IncidenceTable {
+    const KIND: &'static str = "incidence";
+
+    /// `a`: albedos × [`MU_BINS`] × [`RHO_BINS`] × [`PSI_BINS`] values, finite and ≥ 0;
+    /// `cells`: one count per (albedo, cosine, distance); `norm`: albedos × [`MU_BINS`]² ×
+    /// [`PHI_BINS`] values, finite and ≥ 0.
+    fn check(&self, name: &str) -> Result<(), TableError> {
+        let c = TableCheck {
+            name,
+            table: Self::KIND,
+        };
+        c.settings(&self.settings)?;
+        let albedos = ONE_MINUS_ALBEDO.len();
+        c.len("a", self.a.len(), albedos * PER_ALBEDO)?;
+        c.len("cells", self.cells.len(), albedos * MU_BINS * RHO_BINS)?;
+        c.len("norm", self.norm.len(), albedos * NORM_PER_ALBEDO)?;
+        c.values("a", &self.a, 0.0, f32::MAX)?;
+        c.values("norm", &self.norm, 0.0, f32::MAX)
+    }
+}
+
 impl WalkTable for IncidenceTable {
     fn settings(&self) -> &IncidenceSettings {
         &self.settings
@@ -337,6 +359,7 @@ pub const DEFAULT_RUNTIME_WALKS: u32 = 100_000;
 
 /// The table written by `translucent model incidence-table` for g = 0, η = 1.
 const SHIPPED_JSON: &str = include_str!("../data/incidence-g0-eta1.json");
+const SHIPPED_NAME: &str = "data/incidence-g0-eta1.json";
 
 /// A(α; ·, ·, ·) and ∂A/∂α at one albedo (see [`IncidenceTable::slice`]).
 #[derive(Clone, Debug, PartialEq)]

@@ -270,12 +270,18 @@ impl Architecture {
         let blocks: [(&str, &Vec<usize>, usize, Option<usize>); 3] = [
             ("feature", &self.feature, INPUT_DIM, Some(f)),
             ("absorption", &self.absorption, f, Some(1)),
-            ("decoder", &self.decoder, LATENT_DIM + f, Some(POSITION_DIM)),
+            // Saturating: F comes from the file (an impossible width is reported below).
+            (
+                "decoder",
+                &self.decoder,
+                LATENT_DIM.saturating_add(f),
+                Some(POSITION_DIM),
+            ),
         ];
         let enc = self
             .encoder
             .as_ref()
-            .map(|w| ("encoder", w, POSITION_DIM + f, None));
+            .map(|w| ("encoder", w, POSITION_DIM.saturating_add(f), None));
         for (name, w, first, last) in blocks.into_iter().chain(enc) {
             if w.len() < 2 {
                 p.push(format!(

@@ -96,3 +96,41 @@ fn slices_interpolate_with_their_derivative() {
     assert!(s.eval(0.03, 0.03).0 > 3.0);
     assert!(s.eval(1.0, 1.0).0 < 0.97);
 }
+
+/// The tables are read through `TableFile::from_json`, which checks them against this build's
+/// grid: the shipped files pass, and a table of the wrong size, with a NaN or with an impossible
+/// medium is an error naming the file and the field (before, a wrong length surfaced as an
+/// out-of-bounds lookup during rendering).
+#[test]
+fn table_files_are_checked_against_the_grid() {
+    use bssrdf::curvature::CurvatureTable;
+    use bssrdf::exit::TableFile;
+    use bssrdf::incidence::IncidenceTable;
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let read = |name: &str| std::fs::read_to_string(data.join(name)).unwrap();
+    let exit = read("exit-g0-eta1.json");
+    ExitTable::from_json(&exit, "exit-g0-eta1.json").unwrap();
+    IncidenceTable::from_json(&read("incidence-g0-eta1.json"), "incidence.json").unwrap();
+    CurvatureTable::from_json(&read("curvature-g0-eta1.json"), "curvature.json").unwrap();
+
+    let mut v: serde_json::Value = serde_json::from_str(&exit).unwrap();
+    let refused = |v: &serde_json::Value, field: &str| {
+        let e = ExitTable::from_json(&v.to_string(), "damaged.json")
+            .expect_err("a damaged table must be refused")
+            .to_string();
+        assert!(e.contains("damaged.json") && e.contains(field), "{e}");
+    };
+    v["f"].as_array_mut().unwrap().pop();
+    refused(&v, "`f`");
+    let mut v: serde_json::Value = serde_json::from_str(&exit).unwrap();
+    v["escaped"][3] = serde_json::json!(1.5);
+    refused(&v, "`escaped[3]`");
+    let mut v: serde_json::Value = serde_json::from_str(&exit).unwrap();
+    v["settings"]["eta"] = serde_json::json!(-1.0);
+    refused(&v, "`settings.eta`");
+    let e = ExitTable::from_json("{\"settings\": 1}", "junk.json")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("junk.json") && e.contains("exit table"), "{e}");
+}

@@ -546,6 +546,14 @@ fn metadata_inconsistent_with_tensors() {
     });
     let e = model::load(&path).unwrap_err();
     assert!(matches!(e, ModelError::MetadataInvalid { .. }), "{e:?}");
+    // A feature width of 2⁶⁴ − 1 (found by the mutation pass of `crates/fuzz` in the test
+    // profile: the expected decoder input 4 + F overflowed while checking the architecture).
+    let path = edited(dir.path(), "g.safetensors", &m, |_, j| {
+        j["architecture"]["feature_dim"] = u64::MAX.into();
+    });
+    let e = model::load(&path).unwrap_err();
+    assert!(matches!(e, ModelError::MetadataInvalid { .. }), "{e:?}");
+    assert!(e.to_string().contains("g.safetensors"), "{e}");
 }
 
 #[test]

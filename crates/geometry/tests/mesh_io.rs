@@ -836,3 +836,44 @@ fn transform_moves_positions_and_normals() {
         assert!((*p - c).normalize().dot(*n) > 0.9999);
     }
 }
+
+/// Face corner indices are checked before tobj resolves them (found by the mutation pass of
+/// `crates/fuzz` in the test profile: tobj computes `3·index` unchecked, so a normal index of
+/// 6148914691236517207 overflowed there and, without overflow checks, wrapped around to a small
+/// offset: the face silently got another vertex's normal). Index 0, a relative index before the
+/// first element and an index past the last are errors naming the line.
+#[test]
+fn obj_corner_indices_are_checked_before_they_are_resolved() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nvn 0 1 0\n";
+    let refused = |faces: &str, expect: &str| {
+        let text = format!("{base}{faces}");
+        let path = write(dir.path(), "corners.obj", text.as_bytes());
+        let e = load_mesh(&path).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("corners.obj"), "{msg}");
+        let reason = parse_reason(e);
+        assert!(reason.contains(expect), "{reason}");
+    };
+    refused(
+        "f 1//6148914691236517207 3//1 2//1\n",
+        "line 7: normal index 6148914691236517207 is out of range (the file has 2 normals)",
+    );
+    refused("f 1 3 0\n", "line 7: vertex index 0");
+    refused(
+        "f 1 3 -5\n",
+        "relative vertex index -5 reaches before the first vertex",
+    );
+    refused(
+        "f 1 3 9\n",
+        "vertex index 9 is out of range (the file has 4 vertices)",
+    );
+    // Valid relative and absolute indices still read; texture indices without any `vt` are
+    // ignored, as before.
+    let path = write(
+        dir.path(),
+        "fine.obj",
+        format!("{base}f 1/7/1 3//2 -3//-1\nf 1 4 3\nf 1 2 4\nf 2 3 4\n").as_bytes(),
+    );
+    load_mesh(&path).unwrap();
+}

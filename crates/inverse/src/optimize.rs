@@ -244,7 +244,71 @@ impl Default for OptimizeConfig {
     }
 }
 
+/// Largest number of views rendered per iteration (the views are drawn with replacement, so
+/// more than the targets is allowed; a bound keeps the per-iteration lists bounded).
+pub const MAX_VIEWS_PER_ITER: usize = 1 << 16;
+
 impl OptimizeConfig {
+    /// Checks the settings that do not depend on the data: at least one view per iteration (at
+    /// most [`MAX_VIEWS_PER_ITER`]) and one sample per pixel, finite learning rates and decay, a
+    /// positive offset `delta_rel`, a crop of at least one pixel, a view-weight floor in (0, 1]
+    /// when views are normalised, initial parameters that are a medium (σ_t finite and
+    /// positive, α in [0, 1]) and a view subset that names each view once. Used by
+    /// [`Optimizer::new`] and by [`Checkpoint::read`], whose configuration comes from a file.
+    pub fn check(&self) -> Result<(), String> {
+        if self.views_per_iter == 0 || self.spp == 0 {
+            return Err("views per iteration and spp must be at least 1".into());
+        }
+        if self.views_per_iter > MAX_VIEWS_PER_ITER {
+            return Err(format!(
+                "views_per_iter = {} is above the limit of {MAX_VIEWS_PER_ITER}",
+                self.views_per_iter
+            ));
+        }
+        if self.normalize_views && !(self.view_weight_floor > 0.0 && self.view_weight_floor <= 1.0)
+        {
+            return Err(format!(
+                "view_weight_floor must be in (0, 1], got {}",
+                self.view_weight_floor
+            ));
+        }
+        for (name, v) in [
+            ("lr_sigma_t", self.lr_sigma_t),
+            ("lr_albedo", self.lr_albedo),
+            ("decay", self.decay),
+        ] {
+            if !v.is_finite() {
+                return Err(format!("{name} = {v} is not a finite number"));
+            }
+        }
+        if !(self.delta_rel.is_finite() && self.delta_rel > 0.0) {
+            return Err(format!("delta_rel = {} must be positive", self.delta_rel));
+        }
+        if self.crop == Some(0) {
+            return Err("crop = 0: a crop needs at least one pixel".into());
+        }
+        let p = &self.init;
+        if let Some(s) = p.sigma_t.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(format!("init.sigma_t holds {s}, σ_t must be positive"));
+        }
+        if let Some(a) = p.albedo.iter().find(|a| !(0.0..=1.0).contains(*a)) {
+            return Err(format!("init.albedo holds {a}, α must be in [0, 1]"));
+        }
+        if let Some(subset) = &self.view_subset {
+            if subset.is_empty() {
+                return Err("view_subset is empty".into());
+            }
+            if let Some((k, i)) = subset
+                .iter()
+                .enumerate()
+                .find(|(k, i)| subset[..*k].contains(i))
+            {
+                return Err(format!("view_subset names view {i} twice (entry {k})"));
+            }
+        }
+        Ok(())
+    }
+
     /// The α-first iterations actually used: `albedo_warmup`, but at most a third of the run.
     pub fn effective_albedo_warmup(&self) -> u32 {
         self.albedo_warmup.min(self.iterations / 3)
@@ -365,19 +429,7 @@ impl<'a> Optimizer<'a> {
         if targets.is_empty() {
             return Err(InverseError::Invalid("no target views".into()));
         }
-        if config.normalize_views
-            && !(config.view_weight_floor > 0.0 && config.view_weight_floor <= 1.0)
-        {
-            return Err(InverseError::Invalid(format!(
-                "view_weight_floor must be in (0, 1], got {}",
-                config.view_weight_floor
-            )));
-        }
-        if config.views_per_iter == 0 || config.spp == 0 {
-            return Err(InverseError::Invalid(
-                "views per iteration and spp must be at least 1".into(),
-            ));
-        }
+        config.check().map_err(InverseError::Invalid)?;
         let init_medium = config.init.medium(&base);
         init_medium
             .validate("initial parameters")

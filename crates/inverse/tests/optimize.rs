@@ -246,6 +246,58 @@ fn damaged_checkpoint_is_refused() {
     );
 }
 
+/// A checkpoint's configuration is checked when it is read (`OptimizeConfig::check`), as a new
+/// run's is: a damaged setting (no views per iteration, 10¹² of them, a zero offset
+/// `delta_rel`, a negative σ_t, an empty crop, a view named twice) is refused naming the file
+/// and the field, instead of failing or allocating later in the resumed run (before, `read`
+/// checked the format and the variables only, and `resume` trusted the settings).
+#[test]
+fn checkpoint_settings_are_checked_when_read() {
+    let s = setup();
+    let dir = tempfile::tempdir().unwrap();
+    let ck = dir.path().join("checkpoint.json");
+    let mut o = Optimizer::new(config(1), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    o.run(Some((&ck, 1)), |_, _| {}).unwrap();
+    let good: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&ck).unwrap()).unwrap();
+    assert!(Checkpoint::read(&ck).is_ok());
+    let cases: [(&str, serde_json::Value, &str); 6] = [
+        ("views_per_iter", 0.into(), "views per iteration"),
+        (
+            "views_per_iter",
+            1_000_000_000_000u64.into(),
+            "views_per_iter",
+        ),
+        ("delta_rel", serde_json::json!(0.0), "delta_rel"),
+        (
+            "init",
+            serde_json::json!({"sigma_t": [-1.0, 50.0, 50.0], "albedo": [0.5, 0.5, 0.5]}),
+            "init.sigma_t",
+        ),
+        ("crop", 0.into(), "crop"),
+        ("view_subset", serde_json::json!([1, 0, 1]), "view_subset"),
+    ];
+    for (field, value, expect) in cases {
+        let mut v = good.clone();
+        v["config"][field] = value;
+        std::fs::write(&ck, v.to_string()).unwrap();
+        let e = Checkpoint::read(&ck)
+            .err()
+            .unwrap_or_else(|| panic!("{field} must be refused"))
+            .to_string();
+        assert!(e.contains("checkpoint.json") && e.contains(expect), "{e}");
+    }
+    // One Adam step per recorded iteration at most.
+    let mut v = good.clone();
+    v["adam_step"] = u64::MAX.into();
+    std::fs::write(&ck, v.to_string()).unwrap();
+    let e = Checkpoint::read(&ck).err().unwrap().to_string();
+    assert!(
+        e.contains("checkpoint.json") && e.contains("adam_step"),
+        "{e}"
+    );
+}
+
 /// `view_weights`: a view 10× brighter gets 1/100 of the L2 weight (1/10 for L1), so every view's
 /// black-image loss weighs the same; a view dimmer than the floor is capped at 1/floor times the
 /// mean; without normalisation all weights are 1.

@@ -89,6 +89,40 @@ impl Widths {
     }
 }
 
+impl Widths {
+    /// The number of trainable parameters of a model with these widths (the layers of
+    /// [`init_model`]), computed without building it; `None` when the feature or encoder widths
+    /// are empty or the count overflows. A reader compares it with the parameters a file holds
+    /// before it allocates a model of widths read from that file.
+    pub fn n_params(&self) -> Option<usize> {
+        fn stack(n_in: usize, widths: impl IntoIterator<Item = usize>) -> Option<usize> {
+            let mut prev = n_in;
+            let mut total = 0usize;
+            for w in widths {
+                total = total.checked_add(prev.checked_mul(w)?.checked_add(w)?)?;
+                prev = w;
+            }
+            Some(total)
+        }
+        let f = *self.feature.last()?;
+        let h = *self.encoder_hidden.last()?;
+        let parts = [
+            stack(INPUT_DIM, self.feature.iter().copied())?,
+            stack(f, self.absorption_hidden.iter().copied().chain([1]))?,
+            stack(
+                LATENT_DIM.checked_add(f)?,
+                self.decoder_hidden.iter().copied().chain([POSITION_DIM]),
+            )?,
+            stack(
+                POSITION_DIM.checked_add(f)?,
+                self.encoder_hidden.iter().copied(),
+            )?,
+            stack(h, [LATENT_DIM])?.checked_mul(2)?,
+        ];
+        parts.into_iter().try_fold(0usize, usize::checked_add)
+    }
+}
+
 /// Loss weights (model-spec §6).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LossWeights {

@@ -129,8 +129,10 @@ impl Adam {
             grad.iter_mut().for_each(|g| *g *= s);
         }
         let lr = self.learning_rate(self.state.step);
-        self.state.step += 1;
-        let t = self.state.step as i32;
+        // Saturating: the count may come from a checkpoint file. Past 2³¹ steps the bias
+        // corrections are 1 to f32 precision, so clamping t changes nothing.
+        self.state.step = self.state.step.saturating_add(1);
+        let t = self.state.step.min(i32::MAX as u64) as i32;
         let c = &self.config;
         let bc1 = 1.0 - c.beta1.powi(t);
         let bc2 = 1.0 - c.beta2.powi(t);
@@ -151,6 +153,25 @@ impl Adam {
 
 #[cfg(test)]
 mod tests {
+
+    /// A step count read from a damaged checkpoint (2⁶⁴ − 1) saturates instead of overflowing,
+    /// and the step is the bias-corrected one of a long run.
+    #[test]
+    fn a_huge_step_count_saturates() {
+        let mut adam = Adam::from_state(
+            AdamConfig::default(),
+            AdamState {
+                step: u64::MAX,
+                m: vec![0.0],
+                v: vec![0.0],
+            },
+        );
+        let mut p = [1.0f32];
+        adam.step(&mut p, &mut [0.5]);
+        assert_eq!(adam.state().step, u64::MAX);
+        assert!(p[0].is_finite() && p[0] < 1.0);
+    }
+
     use super::*;
 
     #[test]

@@ -316,23 +316,7 @@ impl Trainer {
         train: Prepared,
         val: Prepared,
     ) -> Result<Self, TrainError> {
-        if train.is_empty() {
-            return Err(TrainError::Data("the training set is empty".into()));
-        }
-        if train.len() > u32::MAX as usize {
-            return Err(TrainError::Data("more than 2^32 training samples".into()));
-        }
-        if config.batch_size == 0 {
-            return Err(TrainError::Data("the batch size must be at least 1".into()));
-        }
-        if let Objective::EnergyScore { draws, weight } = config.objective
-            && (draws < 2 || !(weight.is_finite() && weight > 0.0))
-        {
-            return Err(TrainError::Data(format!(
-                "the energy objective needs at least 2 draws and a positive weight, got {draws} \
-                 draws and weight {weight}"
-            )));
-        }
+        check_run(&config, &train)?;
         let params = vae::params_to_flat(&model);
         let adam = Adam::new(params.len(), config.adam.clone());
         let grads = Gradients::zeros_like(&model);
@@ -553,6 +537,44 @@ impl Trainer {
         }
         Ok(())
     }
+}
+
+/// Largest batch (rows per step): the batch buffers hold 23 inputs and the noise of each row,
+/// so a bound on the rows bounds what a step allocates.
+pub const MAX_BATCH: usize = 1 << 20;
+/// Largest number of latent draws per row of the energy objective (it is used with a handful).
+pub const MAX_DRAWS: usize = 1024;
+
+/// The checks of a run's settings against its data, shared by a fresh run and a resumed one
+/// (whose settings come from a checkpoint file, so that a damaged field is an error and not a
+/// huge allocation at the first step): a non-empty training set of at most 2³² rows, a batch of
+/// 1 to [`MAX_BATCH`] rows, and an energy objective with 2 to [`MAX_DRAWS`] draws and a positive
+/// weight.
+fn check_run(config: &TrainConfig, train: &Prepared) -> Result<(), TrainError> {
+    if train.is_empty() {
+        return Err(TrainError::Data("the training set is empty".into()));
+    }
+    if train.len() > u32::MAX as usize {
+        return Err(TrainError::Data("more than 2^32 training samples".into()));
+    }
+    if config.batch_size == 0 {
+        return Err(TrainError::Data("the batch size must be at least 1".into()));
+    }
+    if config.batch_size > MAX_BATCH {
+        return Err(TrainError::Data(format!(
+            "the batch size {} is above the limit of {MAX_BATCH} rows",
+            config.batch_size
+        )));
+    }
+    if let Objective::EnergyScore { draws, weight } = config.objective
+        && !((2..=MAX_DRAWS).contains(&draws) && weight.is_finite() && weight > 0.0)
+    {
+        return Err(TrainError::Data(format!(
+            "the energy objective needs 2 to {MAX_DRAWS} draws and a positive weight, got \
+                 {draws} draws and weight {weight}"
+        )));
+    }
+    Ok(())
 }
 
 mod checkpoint;

@@ -13,29 +13,112 @@ fn tobj_f32(x: impl Into<f64>) -> f32 {
     x.into() as f32
 }
 
+/// The elements face corners index, in the order of a corner `v/vt/vn`.
+const CORNER_PARTS: [(&str, &str, &str); 3] = [
+    ("v", "vertex", "vertices"),
+    ("vt", "texture coordinate", "texture coordinates"),
+    ("vn", "normal", "normals"),
+];
+
+/// Checks every face corner index of an OBJ text before tobj resolves it: index 0, a relative
+/// (negative) index reaching before the first element, and a vertex index past the file's
+/// vertices are errors naming the line. tobj computes `3·index` unchecked: a normal index of
+/// 6148914691236517207 wrapped around to a small offset, so a damaged file read silently with
+/// another vertex's normal (and an overflow panic in builds with overflow checks). Texture
+/// coordinate and normal indices are checked only when the file has such elements (tobj ignores
+/// them otherwise); tokens that are not integers are left to tobj's own error.
+fn check_face_indices(text: &str, path: &Path) -> Result<(), GeometryError> {
+    let mut totals = [0usize; 3];
+    for line in text.lines() {
+        if let Some(k) = line
+            .split_whitespace()
+            .next()
+            .and_then(|t| CORNER_PARTS.iter().position(|(tag, ..)| *tag == t))
+        {
+            totals[k] += 1;
+        }
+    }
+    let mut so_far = [0usize; 3];
+    for (n, line) in text.lines().enumerate() {
+        let mut tokens = line.split_whitespace();
+        let tag = tokens.next();
+        if let Some(k) = tag.and_then(|t| CORNER_PARTS.iter().position(|(tag, ..)| *tag == t)) {
+            so_far[k] += 1;
+            continue;
+        }
+        if tag != Some("f") {
+            continue;
+        }
+        for corner in tokens {
+            for (k, part) in corner.split('/').enumerate().take(3) {
+                let Ok(i) = part.parse::<i64>() else {
+                    continue;
+                };
+                let (_, what, whats) = CORNER_PARTS[k];
+                if k > 0 && totals[k] == 0 {
+                    continue;
+                }
+                let problem = if i == 0 {
+                    Some(format!("{what} index 0 (OBJ indices start at 1)"))
+                } else if i < 0 && i.unsigned_abs() > so_far[k] as u64 {
+                    Some(format!(
+                        "relative {what} index {i} reaches before the first {what} ({} so far)",
+                        so_far[k]
+                    ))
+                } else if i > 0 && i as u64 > totals[k] as u64 {
+                    Some(format!(
+                        "{what} index {i} is out of range (the file has {} {})",
+                        totals[k],
+                        if totals[k] == 1 { what } else { whats }
+                    ))
+                } else {
+                    None
+                };
+                if let Some(p) = problem {
+                    return Err(parse_error(path, "OBJ", format!("line {}: {p}", n + 1)));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn read_obj(reader: &mut impl BufRead, path: &Path) -> Result<Mesh, GeometryError> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|source| GeometryError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    // Text that is not UTF-8 is left to tobj, which reports it.
+    if let Ok(text) = std::str::from_utf8(&bytes) {
+        check_face_indices(text, path)?;
+    }
+    let mut reader = bytes.as_slice();
     let models = guard(path, "OBJ", || {
         // Materials are irrelevant here: refuse to load any .mtl file.
-        tobj::load_obj_buf(reader, &options, |_| Err(tobj::LoadError::GenericFailure))
-            .map(|(models, _materials)| models)
-            .map_err(|e| {
-                let reason = match e {
-                    tobj::LoadError::ReadError => {
-                        "read error (I/O failure, or the file is not UTF-8 text)".to_string()
-                    }
-                    tobj::LoadError::FaceVertexOutOfBounds => {
-                        "a face refers to a vertex that does not exist (index out of range)"
-                            .to_string()
-                    }
-                    other => other.to_string(),
-                };
-                parse_error(path, "OBJ", reason)
-            })
+        tobj::load_obj_buf(&mut reader, &options, |_| {
+            Err(tobj::LoadError::GenericFailure)
+        })
+        .map(|(models, _materials)| models)
+        .map_err(|e| {
+            let reason = match e {
+                tobj::LoadError::ReadError => {
+                    "read error (I/O failure, or the file is not UTF-8 text)".to_string()
+                }
+                tobj::LoadError::FaceVertexOutOfBounds => {
+                    "a face refers to a vertex that does not exist (index out of range)".to_string()
+                }
+                other => other.to_string(),
+            };
+            parse_error(path, "OBJ", reason)
+        })
     })?;
 
     let mut mesh = Mesh::default();

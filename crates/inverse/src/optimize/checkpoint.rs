@@ -40,7 +40,11 @@ fn err(path: &Path, reason: impl Into<String>) -> InverseError {
 }
 
 impl Checkpoint {
-    /// Reads and checks a checkpoint file.
+    /// Reads and checks a checkpoint file: format and version, six finite variables with
+    /// finite Adam moments (second moments ≥ 0) and at most one Adam step per recorded
+    /// iteration, and a configuration that passes
+    /// [`OptimizeConfig::check`], so that resuming from it cannot fail later on a damaged
+    /// setting. Errors name the file.
     pub fn read(path: &Path) -> Result<Self, InverseError> {
         let text = std::fs::read_to_string(path).map_err(|e| err(path, e.to_string()))?;
         let c: Checkpoint = serde_json::from_str(&text)
@@ -61,6 +65,28 @@ impl Checkpoint {
         if c.u.iter().any(|v| !v.is_finite()) {
             return Err(err(path, "non-finite parameters"));
         }
+        if c.adam_m.iter().chain(&c.adam_v).any(|v| !v.is_finite())
+            || c.adam_v.iter().any(|v| *v < 0.0)
+        {
+            return Err(err(
+                path,
+                "non-finite or negative optimiser moments; the file is damaged",
+            ));
+        }
+        // One Adam step per iteration at most, one history record per iteration.
+        if c.adam_step > c.history.len() as u64 || c.history.len() > u32::MAX as usize {
+            return Err(err(
+                path,
+                format!(
+                    "adam_step = {} with {} iterations recorded; the file is damaged",
+                    c.adam_step,
+                    c.history.len()
+                ),
+            ));
+        }
+        c.config
+            .check()
+            .map_err(|e| err(path, format!("config: {e}; the file is damaged")))?;
         Ok(c)
     }
 }

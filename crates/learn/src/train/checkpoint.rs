@@ -103,14 +103,40 @@ impl Trainer {
             ));
         }
         let body = &bytes[16 + len..];
-        if body.len() != 12 * h.n_params {
+        // Parameters, Adam's m and v: 12 bytes per parameter.
+        if h.n_params.checked_mul(12) != Some(body.len()) {
             return Err(err(
                 path,
                 format!(
-                    "holds {} bytes of tensors, expected {} for {} parameters; the file is damaged",
+                    "holds {} bytes of tensors, expected 12 per parameter for n_params = {}; the \
+                     file is damaged",
                     body.len(),
-                    12 * h.n_params,
                     h.n_params
+                ),
+            ));
+        }
+        // The widths must describe exactly those parameters before a model of these widths is
+        // allocated (a damaged width would otherwise ask for any amount of memory).
+        if h.config.widths.n_params() != Some(h.n_params) {
+            return Err(err(
+                path,
+                format!(
+                    "config.widths {:?} do not describe the n_params = {} parameters the file \
+                     holds; the file is damaged",
+                    h.config.widths, h.n_params
+                ),
+            ));
+        }
+        super::check_run(&h.config, &train).map_err(|e| err(path, format!("config: {e}")))?;
+        // A run stops at config.steps and takes one Adam step per step.
+        if h.step > h.config.steps || h.adam_step > h.step {
+            return Err(err(
+                path,
+                format!(
+                    "step = {}, adam_step = {} and config.steps = {} are inconsistent (a run \
+                     takes one optimiser step per step and stops at config.steps); the file is \
+                     damaged",
+                    h.step, h.adam_step, h.config.steps
                 ),
             ));
         }

@@ -1,4 +1,5 @@
 //! Image files: EXR reading (channels looked up by name, f16/f32/u32 samples, any compression,
+//! declared sizes checked against the file before decoding, decoder panics turned into errors,
 //! NaN/Inf rejected with the pixel named), atomic linear f32 EXR writing, and tone-mapped sRGB
 //! PNG previews.
 
@@ -12,9 +13,13 @@ use crate::fsutil::{atomic_write, check_overwrite};
 impl Image {
     /// Read an EXR (channels looked up by name R, G, B; f16/f32; any compression). Errors name the
     /// file and say which channel is missing; NaN/Inf pixels are an error naming the first pixel.
+    ///
+    /// Before any pixel is decoded, the sizes the headers declare are checked against what the
+    /// file can hold ([`check_exr_size`]), so that a damaged size field is an error and not an
+    /// allocation of gigabytes; a panic inside the decoder is an error naming the file.
     pub fn read_exr(path: &Path) -> Result<Image, SceneError> {
-        use exr::prelude::{AnyChannels, FlatSamples, Layer, Vec2};
-        let file = exr::prelude::read_all_flat_layers_from_file(path).map_err(|e| match e {
+        use exr::prelude::{AnyChannels, FlatSamples, Layer, ReadChannels, ReadLayers, Vec2};
+        let exr_err = |e: exr::error::Error| match e {
             exr::error::Error::Io(source) => SceneError::Io {
                 path: path.to_path_buf(),
                 source,
@@ -26,6 +31,45 @@ impl Image {
                      OpenEXR (e.g. Mitsuba's default film output)"
                 ),
             },
+        };
+        let file_len = std::fs::metadata(path)
+            .map_err(|source| SceneError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?
+            .len();
+        // The decoder asserts its own invariants, and some of those a damaged file can break
+        // (a tile of a mip level in an image without levels trips a debug assertion): a panic
+        // inside it is an error about this file, not a crash.
+        let decoded = std::panic::catch_unwind(|| {
+            let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_err)?;
+            check_exr_size(&meta, file_len, path)?;
+            // `read_all_flat_layers_from_file` with sequential decompression: the parallel
+            // decoder runs on a thread pool whose panics abort the process, out of reach of
+            // this guard.
+            exr::prelude::read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .all_channels()
+                .all_layers()
+                .all_attributes()
+                .non_parallel()
+                .from_file(path)
+                .map_err(exr_err)
+        });
+        let file = decoded.unwrap_or_else(|payload| {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Err(SceneError::Parse {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "the OpenEXR decoder failed on this file ({what}); the file is damaged, \
+                     write the image again"
+                ),
+            })
         })?;
         let find = |layer: &Layer<AnyChannels<FlatSamples>>, name: &str| {
             layer
@@ -200,6 +244,85 @@ impl Image {
         }
         Ok(())
     }
+}
+
+/// No lossless EXR compression packs more than this many bytes of samples into one byte of file
+/// (deflate, used by ZIP and ZIPS, reaches about 1032:1; RLE 64:1; PIZ and PXR24 less).
+const EXR_MAX_EXPANSION: u64 = 1032;
+/// Decoded bytes allowed whatever the file's size (small files, lossy codecs).
+const EXR_MIN_BUDGET: u64 = 64 << 20;
+
+/// Checks that the layers an EXR's headers declare fit in what the file can hold: the decoded
+/// samples of all layers (each channel at its own sampling rate and sample size) plus the
+/// 12 bytes per pixel of the [`Image`] made from them, and each layer's block (a tile or a
+/// group of scan lines, which the decoder reserves per chunk), at most
+/// max([`EXR_MIN_BUDGET`], [`EXR_MAX_EXPANSION`] × file size). A header whose data window was
+/// damaged to 60000 × 60000 pixels is then an error naming the layer and its size, instead of
+/// an attempt to allocate tens of gigabytes before the missing data is noticed.
+pub fn check_exr_size(
+    meta: &exr::meta::MetaData,
+    file_len: u64,
+    path: &Path,
+) -> Result<(), SceneError> {
+    let budget = EXR_MIN_BUDGET.max(EXR_MAX_EXPANSION.saturating_mul(file_len));
+    let mut total: u64 = 0;
+    for (i, header) in meta.headers.iter().enumerate() {
+        let (w, h) = (header.layer_size.width(), header.layer_size.height());
+        let pixels = (w as u64).saturating_mul(h as u64);
+        let mut bytes = pixels.saturating_mul(12);
+        for c in &header.channels.list {
+            let (sx, sy) = (c.sampling.x().max(1), c.sampling.y().max(1));
+            let samples = ((w / sx) as u64).saturating_mul((h / sy) as u64);
+            bytes = bytes
+                .saturating_add(samples.saturating_mul(c.sample_type.bytes_per_sample() as u64));
+        }
+        // The decoder reserves up to one block's bytes (a tile, or a group of scan lines) for
+        // each chunk it reads, before it knows whether the file holds them.
+        let bytes_per_pixel: u64 = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        let block_pixels = match header.blocks {
+            exr::meta::BlockDescription::Tiles(t) => {
+                (t.tile_size.width() as u64).saturating_mul(t.tile_size.height() as u64)
+            }
+            exr::meta::BlockDescription::ScanLines => {
+                (header.compression.scan_lines_per_block() as u64).saturating_mul(w as u64)
+            }
+        };
+        let block = block_pixels.saturating_mul(bytes_per_pixel);
+        if block > budget {
+            return Err(SceneError::Parse {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "layer {i} declares blocks of {block} bytes ({block_pixels} pixels of \
+                     {bytes_per_pixel} bytes), more than a file of {file_len} bytes can hold; \
+                     fix: the header is damaged, write the image again"
+                ),
+            });
+        }
+        total = total.saturating_add(bytes);
+        if total > budget {
+            let name = header
+                .own_attributes
+                .layer_name
+                .as_ref()
+                .map(|n| format!(" '{n}'"))
+                .unwrap_or_default();
+            return Err(SceneError::Parse {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "layer {i}{name} declares {w}×{h} pixels in {} channel(s), {total} bytes \
+                     decoded, more than a file of {file_len} bytes can hold; fix: the header is \
+                     damaged or the file truncated, write the image again",
+                    header.channels.list.len()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Linear value → 8-bit sRGB (clamped to [0, 1] first; NaN → 0).

@@ -151,6 +151,86 @@ fn exr_errors_name_the_file() {
     assert!(msg.contains("junk.exr") && msg.contains("OpenEXR"), "{msg}");
 }
 
+/// A damaged data window (found by the mutation pass of `crates/fuzz`: a 4 × 3 image whose
+/// header claimed billions of pixels made the EXR decoder allocate 11 GB) is an error naming the
+/// file and the declared size, and nothing is allocated for it.
+#[test]
+fn exr_with_a_damaged_size_is_an_error_not_an_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.exr");
+    ramp(4, 3).write_exr(&path, false).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a dataWindow attribute")
+        + key.len()
+        + 4;
+    // box2i: x_min, y_min, x_max, y_max.
+    bytes[at + 8..at + 12].copy_from_slice(&59_999i32.to_le_bytes());
+    bytes[at + 12..at + 16].copy_from_slice(&59_999i32.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let msg = Image::read_exr(&path).unwrap_err().to_string();
+    assert!(
+        msg.contains("huge.exr") && msg.contains("60000×60000 pixels"),
+        "{msg}"
+    );
+}
+
+/// A tiled EXR whose tile claims a mip level the header does not have (found by AFL on the EXR
+/// reader) trips an assertion inside the decoder in builds with debug assertions (the test
+/// profile): the reader turns that panic into an error naming the file. Without debug
+/// assertions the decoder reads the tile as if it were of level 0.
+#[test]
+fn exr_decoder_panics_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tiles.exr");
+    std::fs::write(&path, include_bytes!("testdata/tile-level-mismatch.exr")).unwrap();
+    let result = Image::read_exr(&path);
+    if cfg!(debug_assertions) {
+        let msg = result.unwrap_err().to_string();
+        assert!(
+            msg.contains("tiles.exr") && msg.contains("decoder failed"),
+            "{msg}"
+        );
+    }
+}
+
+/// A B44 block whose values underflow the decoder's arithmetic (found by AFL, minimised with
+/// `afl-tmin`): with overflow checks (the test profile) the decoder panics. It used to panic
+/// on the decoder's own thread pool, which aborts the process; the reader decodes on its own
+/// thread, so the panic is an error naming the file.
+#[test]
+fn exr_b44_underflow_is_an_error_not_an_abort() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("b44.exr");
+    std::fs::write(&path, include_bytes!("testdata/b44-underflow.exr")).unwrap();
+    let result = Image::read_exr(&path);
+    if cfg!(debug_assertions) {
+        let msg = result.unwrap_err().to_string();
+        assert!(
+            msg.contains("b44.exr") && msg.contains("decoder failed"),
+            "{msg}"
+        );
+    }
+}
+
+/// The same file minimised by `afl-tmin`, whose tile size became 0x30303030 pixels: the
+/// decoder would reserve 808 MB for the first tile's declared byte count before finding the
+/// file too short. The block size is checked against the file first.
+#[test]
+fn exr_with_huge_tiles_is_an_error_not_an_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tiles.exr");
+    std::fs::write(&path, include_bytes!("testdata/huge-tiles.exr")).unwrap();
+    let msg = Image::read_exr(&path).unwrap_err().to_string();
+    assert!(
+        msg.contains("tiles.exr") && msg.contains("blocks of"),
+        "{msg}"
+    );
+}
+
 #[test]
 fn overwrite_is_refused_unless_asked() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,0 +1,589 @@
+//! Writes the seed corpus of every reader (`fuzz/corpus/<reader>/`) and the fixed companion files
+//! some readers need (`fuzz/support/<reader>/`) with the project's own writers, deterministically:
+//!
+//! ```text
+//! cargo run --release -p translucent-fuzz --bin make-corpus
+//! ```
+//!
+//! Every file is small (a few KB; one model is the shipped one) and valid: the
+//! mutation pass checks that each is accepted before it mutates them. `fuzz/README.md` lists
+//! what each corpus holds.
+
+use std::path::{Path, PathBuf};
+
+use bssrdf::diff::Loss;
+use bssrdf::model::ModelInfo;
+use bssrdf::nn::Normalisation;
+use bssrdf::nn::ShapeAdaptiveModel;
+use fuzz::readers::{Reader, train_data};
+use geometry::{Accel, Mesh, Shape};
+use glam::Vec3;
+use inverse::optimize::{OptimizeConfig, Optimizer, TargetView};
+use inverse::params::Params;
+use scene::{Camera, Dataset, Image, Medium, PointLight, SceneDesc};
+
+type Res<T = ()> = Result<T, Box<dyn std::error::Error>>;
+
+fn main() -> Res {
+    let root = fuzz::fuzz_dir();
+    let repo = root.join("..");
+    // The tables' corpus is the shipped data folder; everything else is written here.
+    for r in Reader::ALL.into_iter().filter(|&r| r != Reader::Tables) {
+        reset(&r.corpus_dir())?;
+        reset(&r.support_dir())?;
+    }
+    let work = std::env::temp_dir().join(format!("translucent-make-corpus-{}", std::process::id()));
+    reset(&work)?;
+
+    meshes()?;
+    scenes()?;
+    datasets(&work)?;
+    exrs()?;
+    models(&repo)?;
+    optimize_checkpoints(&work)?;
+    samples_and_train_checkpoints(&work)?;
+    son24_bins()?;
+
+    std::fs::remove_dir_all(&work)?;
+    for r in Reader::ALL {
+        let _ = std::fs::remove_dir(r.support_dir()); // only when empty
+        let n = std::fs::read_dir(r.corpus_dir())?.count();
+        println!("{:20} {n} seed files", r.name());
+    }
+    Ok(())
+}
+
+/// An empty folder at `dir`.
+fn reset(dir: &Path) -> Res {
+    if dir.exists() {
+        std::fs::remove_dir_all(dir)?;
+    }
+    std::fs::create_dir_all(dir)?;
+    Ok(())
+}
+
+fn corpus(r: Reader, name: &str) -> PathBuf {
+    r.corpus_dir().join(name)
+}
+
+fn support(r: Reader, name: &str) -> PathBuf {
+    r.support_dir().join(name)
+}
+
+/// An icosahedron of radius 0.5 (12 vertices, 20 triangles).
+fn icosahedron() -> Res<Mesh> {
+    Ok(Shape::Sphere {
+        radius: 0.5,
+        subdivisions: 0,
+    }
+    .build()?)
+}
+
+fn meshes() -> Res {
+    let mut ico = icosahedron()?;
+    geometry::io::save_ply(&ico, &corpus(Reader::Ply, "icosahedron-binary-le.ply"))?;
+    geometry::io::save_obj(&ico, &corpus(Reader::Obj, "icosahedron.obj"))?;
+    ico.normals = Some(ico.compute_vertex_normals());
+    geometry::io::save_ply(
+        &ico,
+        &corpus(Reader::Ply, "icosahedron-normals-binary-le.ply"),
+    )?;
+    geometry::io::save_obj(&ico, &corpus(Reader::Obj, "icosahedron-normals.obj"))?;
+
+    // ASCII: a square pyramid (quad base, fan-triangulated), doubles, colours, an extra element.
+    std::fs::write(
+        corpus(Reader::Ply, "pyramid-ascii.ply"),
+        "ply\nformat ascii 1.0\ncomment square pyramid, quad base\nelement vertex 5\n\
+         property double x\nproperty double y\nproperty double z\nproperty uchar red\n\
+         property uchar green\nproperty uchar blue\nelement face 5\n\
+         property list uchar int vertex_indices\nelement edge 1\nproperty int vertex1\n\
+         property int vertex2\nend_header\n\
+         -0.5 0 -0.5 255 0 0\n0.5 0 -0.5 0 255 0\n0.5 0 0.5 0 0 255\n-0.5 0 0.5 9 9 9\n\
+         0 1 0 1 2 3\n4 0 1 2 3\n3 0 4 1\n3 1 4 2\n3 2 4 3\n3 3 4 0\n0 4\n",
+    )?;
+    // Binary big endian: a tetrahedron, float positions and normals, uint indices named
+    // vertex_index, as some exporters write them.
+    let p = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let faces = [[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    let mut be = b"ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\n\
+                   property float y\nproperty float z\nproperty float nx\nproperty float ny\n\
+                   property float nz\nelement face 4\nproperty list uchar uint vertex_index\n\
+                   end_header\n"
+        .to_vec();
+    for v in p {
+        let n = Vec3::from(v).normalize_or_zero();
+        for c in v.into_iter().chain(n.to_array()) {
+            be.extend_from_slice(&c.to_be_bytes());
+        }
+    }
+    for f in faces {
+        be.push(3);
+        for i in f {
+            be.extend_from_slice(&i.to_be_bytes());
+        }
+    }
+    std::fs::write(corpus(Reader::Ply, "tetrahedron-binary-be.ply"), be)?;
+
+    // OBJ by hand: a cube of quads with texture coordinates and normals, two groups, negative
+    // (relative) indices and comments.
+    std::fs::write(
+        corpus(Reader::Obj, "cube-quads.obj"),
+        "# unit cube, quads\no cube\nv -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\n\
+         v -0.5 0.5 -0.5\nv -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 -1\nvn 0 0 1\ng sides\n\
+         f 1/1/1 4/4/1 3/3/1 2/2/1\nf 5/1/2 6/2/2 7/3/2 8/4/2\nf 1 2 6 5\ng top\n\
+         f 2 3 7 6\nf -5 -1 -2 -6\nf 4 1 5 8\n",
+    )?;
+    // The companion mesh of scene files and datasets that name one.
+    for r in [
+        Reader::SceneToml,
+        Reader::SceneJson,
+        Reader::Dataset,
+        Reader::Reference,
+    ] {
+        let ico = icosahedron()?;
+        geometry::io::save_ply(&ico, &support(r, "mesh.ply"))?;
+    }
+    Ok(())
+}
+
+const SCENE_VIEWS_TOML: &str = r#"mesh = "mesh.ply"
+
+[medium]
+sigma_t = 60.0
+albedo = [0.95, 0.90, 0.85]
+g = 0.2
+eta = 1.3
+
+[[views]]
+camera = { origin = [0.0, 0.5, 2.0], target = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0], fov = 40.0, width = 16, height = 12 }
+light = { position = [1.0, 1.5, 0.5], intensity = [4.0, 4.0, 4.0] }
+
+[[views]]
+camera = { origin = [2.0, 0.0, 0.0], target = [0.0, 0.0, 0.0], width = 16, height = 12 }
+light = { position = [2.0, 0.2, 0.0], intensity = 4.0 }
+
+[render]
+spp = 4
+max_depth = 8
+seed = 3
+"#;
+
+const SCENE_RIG_TOML: &str = r#"shape = { name = "torus", major = 0.4, minor = 0.1, segments = 16, scale = 0.5 }
+
+[medium]
+sigma_t = [30.0, 40.0, 50.0]
+albedo = 0.9
+
+[rig]
+views = 3
+radius = 2.5
+fov = 30.0
+width = 8
+height = 8
+light = "attached"
+light_offset = [0.5, 0.5, 0.0]
+intensity = [1.0, 2.0, 3.0]
+"#;
+
+const SCENE_VIEWS_JSON: &str = r#"{
+  "mesh": "mesh.ply",
+  "medium": { "sigma_t": 60.0, "albedo": [0.95, 0.90, 0.85], "g": 0.0, "eta": 1.0 },
+  "views": [
+    { "camera": { "origin": [0.0, 0.5, 2.0], "target": [0.0, 0.0, 0.0], "up": [0.0, 1.0, 0.0],
+                  "fov": 40.0, "width": 16, "height": 12 },
+      "light": { "position": [1.0, 1.5, 0.5], "intensity": [4.0, 4.0, 4.0] } },
+    { "camera": { "origin": [2.0, 0.0, 0.0], "target": [0.0, 0.0, 0.0], "width": 16, "height": 12 },
+      "light": { "position": [2.0, 0.2, 0.0], "intensity": 4.0 } }
+  ],
+  "render": { "spp": 16, "max_depth": 32, "seed": 1, "renderer": "translucent volpath" }
+}
+"#;
+
+const SCENE_RIG_JSON: &str = r#"{
+  "shape": { "name": "box", "size": [0.8, 0.6, 0.7], "radius": 0.1, "segments": 8 },
+  "medium": { "sigma_t": [50.0, 60.0, 70.0], "albedo": 0.8 },
+  "rig": { "views": 4, "radius": 2.0, "target": [0.0, 0.1, 0.0], "fov": 45.0, "width": 8,
+           "height": 6, "light": "fixed", "light_position": [1.0, 1.5, 0.5], "intensity": 2.0,
+           "elevation": [-30.0, 60.0] }
+}
+"#;
+
+fn scenes() -> Res {
+    let small_example = scene::scene_file::EXAMPLE_SCENE_TOML
+        .replace("width = 128", "width = 8")
+        .replace("height = 128", "height = 8");
+    for (r, name, text) in [
+        (Reader::SceneToml, "example.toml", small_example.as_str()),
+        (Reader::SceneToml, "views-mesh.toml", SCENE_VIEWS_TOML),
+        (Reader::SceneToml, "rig-torus.toml", SCENE_RIG_TOML),
+        (Reader::SceneJson, "views-mesh.json", SCENE_VIEWS_JSON),
+        (Reader::SceneJson, "rig-box.json", SCENE_RIG_JSON),
+    ] {
+        std::fs::write(corpus(r, name), text)?;
+    }
+    Ok(())
+}
+
+/// An image with a smooth pattern (`k` varies it): the corpus's target and view images.
+fn pattern(width: u32, height: u32, k: f32) -> Image {
+    let mut img = Image::new(width, height);
+    for y in 0..height {
+        for x in 0..width {
+            let v = 0.05 + 0.1 * k + 0.01 * (x as f32) + 0.02 * (y as f32);
+            img.set(x, y, [v, 0.8 * v, 0.6 * v]);
+        }
+    }
+    img
+}
+
+fn datasets(work: &Path) -> Res {
+    // A dataset of a built-in shape, 2 views of 8 × 6, written by Dataset::save.
+    let toml = r#"shape = { name = "blob", scale = 0.5 }
+[medium]
+sigma_t = [50.0, 60.0, 70.0]
+albedo = [0.95, 0.90, 0.85]
+[[views]]
+camera = { origin = [0.0, 0.5, 2.0], target = [0.0, 0.0, 0.0], width = 8, height = 6 }
+light = { position = [1.0, 1.5, 0.5], intensity = 4.0 }
+[[views]]
+camera = { origin = [2.0, 0.0, 0.0], target = [0.0, 0.0, 0.0], width = 8, height = 6 }
+light = { position = [2.0, 0.2, 0.0], intensity = [1.0, 2.0, 3.0] }
+[render]
+spp = 2
+seed = 0
+"#;
+    let scene = SceneDesc::parse(toml, &work.join("scene.toml"))?;
+    let mut ds = Dataset::from_scene(&scene);
+    for (i, v) in ds.views.iter_mut().enumerate() {
+        v.image = Some(pattern(8, 6, i as f32));
+    }
+    let dir = work.join("dataset");
+    ds.save(&dir, false)?;
+    let text = std::fs::read_to_string(dir.join("dataset.json"))?;
+    std::fs::write(corpus(Reader::Dataset, "shape.json"), &text)?;
+    for i in 0..2 {
+        let name = format!("view_{i:03}.exr");
+        std::fs::copy(dir.join(&name), support(Reader::Dataset, &name))?;
+    }
+    // The same with the mesh file and the second camera in look-at form (both forms of
+    // DATASET.md).
+    let mut doc: serde_json::Value = serde_json::from_str(&text)?;
+    let obj = doc.as_object_mut().ok_or("dataset.json is not an object")?;
+    obj.remove("shape");
+    obj.insert("mesh".into(), "mesh.ply".into());
+    obj.remove("truth");
+    doc["views"][1]["camera"] = serde_json::json!({
+        "origin": [2.0, 0.0, 0.0], "target": [0.0, 0.0, 0.0], "up": [0.0, 1.0, 0.0],
+        "fov_x_deg": 40.0, "width": 8, "height": 6
+    });
+    std::fs::write(
+        corpus(Reader::Dataset, "mesh-lookat.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
+
+    // A Mitsuba reference folder as render_reference.py writes it (DATASET.md).
+    let img0 = pattern(8, 6, 0.0);
+    let img1 = pattern(8, 6, 1.0);
+    img0.write_exr(&support(Reader::Reference, "view_000.exr"), false)?;
+    img1.write_exr(&support(Reader::Reference, "view_001.exr"), false)?;
+    let origin0 = Vec3::new(0.231_250_14, 0.4375, 0.071_534_05);
+    let cam0 = Camera::look_at(origin0, Vec3::ZERO, Vec3::Y, 40.0, 8, 6);
+    let m = cam0.to_world_rows();
+    let doc = serde_json::json!({
+        "generator": "Mitsuba 3 (llvm_ad_rgb), reference data",
+        "software": { "variant": "llvm_ad_rgb", "mitsuba_version": "3.6.0" },
+        "units": "all lengths in abstract scene units",
+        "shape": { "kind": "sphere", "mesh_file": "mesh.ply" },
+        "boundary": { "bsdf": "null" },
+        "medium": { "type": "homogeneous", "sigma_t": [50.0, 60.0, 70.0],
+                    "albedo": [0.95, 0.9, 0.85], "phase": { "type": "isotropic", "g": 0.0 } },
+        "light": { "type": "point", "intensity_rgb": [0.785, 0.785, 0.785],
+                   "position": [0.26, 0.4, 0.13] },
+        "integrator": { "type": "volpath", "max_depth": 32, "rr_depth": 5 },
+        "camera": { "fov_deg": 40.0, "fov_axis": "x", "width": 8, "height": 6 },
+        "views": [
+            { "index": 0, "to_world": m, "light_position": [0.27, 0.40, 0.13],
+              "file_exr": "view_000.exr", "mean_rgb": img0.mean() },
+            { "index": 1, "origin": [-0.35, 0.31, 0.17], "target": [0.0, 0.0, 0.0],
+              "file_exr": "view_001.exr" }
+        ],
+        "render": { "spp": 64, "seed": 0 }
+    });
+    std::fs::write(
+        corpus(Reader::Reference, "null-boundary.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
+    let doc = serde_json::json!({
+        "shape": { "mesh_file": "mesh.ply" },
+        "boundary": { "bsdf": "dielectric", "int_ior": 1.5, "ext_ior": 1.0 },
+        "medium": { "sigma_t": 40.0, "albedo": 0.9, "phase": { "type": "hg", "g": 0.3 } },
+        "light": { "intensity": 2.0 },
+        "camera": { "fov_deg": 30.0, "fov_axis": "y", "width": 8, "height": 6 },
+        "views": [
+            { "origin": [0.0, 0.0, 2.0], "target": [0.0, 0.0, 0.0], "up": [0.0, 1.0, 0.0],
+              "light_position": [1.0, 1.0, 1.0], "file_exr": "view_001.exr" }
+        ]
+    });
+    std::fs::write(
+        corpus(Reader::Reference, "dielectric-fov-y.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
+    Ok(())
+}
+
+fn exrs() -> Res {
+    use exr::prelude::*;
+    pattern(4, 3, 0.0).write_exr(&corpus(Reader::Exr, "rgb-f32-zip.exr"), false)?;
+    let (w, h) = (4usize, 3usize);
+    let ramp = |k: f32| (0..w * h).map(move |i| 0.1 * k + 0.01 * i as f32);
+    let write = |name: &str, encoding: Encoding, channels: Vec<AnyChannel<FlatSamples>>| -> Res {
+        let layer = Layer::new(
+            (w, h),
+            LayerAttributes::named("main"),
+            encoding,
+            AnyChannels::sort(SmallVec::from_vec(channels)),
+        );
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_file(corpus(Reader::Exr, name))?;
+        Ok(())
+    };
+    let f16s = |k: f32| FlatSamples::F16(ramp(k).map(f16::from_f32).collect());
+    let f32s = |k: f32| FlatSamples::F32(ramp(k).collect());
+    write(
+        "rgba-f16-rle.exr",
+        Encoding {
+            compression: Compression::RLE,
+            blocks: Blocks::ScanLines,
+            line_order: LineOrder::Increasing,
+        },
+        vec![
+            AnyChannel::new("R", f16s(1.0)),
+            AnyChannel::new("G", f16s(2.0)),
+            AnyChannel::new("B", f16s(3.0)),
+            AnyChannel::new("A", f16s(10.0)),
+        ],
+    )?;
+    write(
+        "y-f32-uncompressed.exr",
+        Encoding::UNCOMPRESSED,
+        vec![AnyChannel::new("Y", f32s(1.0))],
+    )?;
+    write(
+        "rgb-f32-tiled-piz.exr",
+        Encoding {
+            compression: Compression::PIZ,
+            blocks: Blocks::Tiles(Vec2(2, 2)),
+            line_order: LineOrder::Increasing,
+        },
+        vec![
+            AnyChannel::new("R", f32s(1.0)),
+            AnyChannel::new("G", f32s(2.0)),
+            AnyChannel::new("B", f32s(3.0)),
+        ],
+    )?;
+    Ok(())
+}
+
+fn models(repo: &Path) -> Res {
+    std::fs::copy(
+        repo.join("models/translucent-v2.safetensors"),
+        corpus(Reader::Model, "translucent-v2.safetensors"),
+    )?;
+    let widths = learn::cvae::Widths {
+        feature: vec![4],
+        absorption_hidden: vec![],
+        decoder_hidden: vec![3],
+        encoder_hidden: vec![2],
+    };
+    let model =
+        learn::cvae::init_model(&widths, Normalisation::identity(), ModelInfo::default(), 1)?;
+    std::fs::write(
+        corpus(Reader::Model, "tiny-cvae.safetensors"),
+        bssrdf::model::to_bytes(&model)?,
+    )?;
+    Ok(())
+}
+
+/// What an optimisation checkpoint of the corpus was made on: a sphere of radius 0.5
+/// (subdivided once), the shipped model, two 8 × 8 views and the medium that supplies g and η.
+struct OptimizeSetup {
+    /// The object.
+    accel: Accel,
+    /// The shipped model.
+    model: ShapeAdaptiveModel,
+    /// Cameras, lights and target images.
+    views: Vec<(Camera, PointLight, Image)>,
+    /// The base medium (g, η).
+    base: Medium,
+}
+
+impl OptimizeSetup {
+    /// The setup (the shipped model is read from `models/`).
+    fn new() -> Result<Self, String> {
+        let mesh = Shape::Sphere {
+            radius: 0.5,
+            subdivisions: 1,
+        }
+        .build()
+        .map_err(|e| e.to_string())?;
+        let model_path = fuzz::fuzz_dir().join("../models/translucent-v2.safetensors");
+        let model = bssrdf::model::load(&model_path).map_err(|e| e.to_string())?;
+        let views = [Vec3::new(0.0, 0.3, 2.0), Vec3::new(1.5, 0.5, -1.2)]
+            .into_iter()
+            .enumerate()
+            .map(|(i, o)| {
+                (
+                    Camera::look_at(o, Vec3::ZERO, Vec3::Y, 30.0, 8, 8),
+                    PointLight {
+                        position: o + Vec3::new(0.8, 0.8, 0.0),
+                        intensity: [10.0; 3],
+                    },
+                    pattern(8, 8, i as f32),
+                )
+            })
+            .collect();
+        Ok(OptimizeSetup {
+            accel: Accel::new(mesh),
+            model,
+            views,
+            base: Medium {
+                sigma_t: [60.0; 3],
+                albedo: [0.9; 3],
+                g: 0.0,
+                eta: 1.0,
+            },
+        })
+    }
+
+    /// The target views, in order.
+    fn targets(&self) -> Vec<TargetView<'_>> {
+        self.views
+            .iter()
+            .map(|(camera, light, image)| TargetView {
+                camera,
+                light,
+                image,
+            })
+            .collect()
+    }
+}
+
+fn optimize_checkpoints(work: &Path) -> Res {
+    let setup = OptimizeSetup::new()?;
+    let init = Params {
+        sigma_t: [50.0; 3],
+        albedo: [0.5; 3],
+    };
+    let mut plain = OptimizeConfig::new(init);
+    plain.iterations = 2;
+    plain.spp = 1;
+    plain.albedo_warmup = 1;
+    let mut varied = plain.clone();
+    varied.loss = Loss::L1;
+    varied.crop = Some(4);
+    varied.refit_every = 1;
+    varied.normalize_views = true;
+    varied.view_subset = Some(vec![0, 1]);
+    varied.views_per_iter = 2;
+    varied.two_renders = false;
+    for (name, config) in [("plain.json", plain), ("varied.json", varied)] {
+        let path = work.join(name);
+        let mut run = Optimizer::new(
+            config,
+            &setup.accel,
+            &setup.model,
+            setup.base,
+            setup.targets(),
+        )?;
+        run.run(Some((&path, 1)), |_, _| {})?;
+        std::fs::copy(&path, corpus(Reader::OptimizeCheckpoint, name))?;
+    }
+    Ok(())
+}
+
+fn samples_and_train_checkpoints(work: &Path) -> Res {
+    let cfg = learn::datagen::DataConfig {
+        meshes: 1,
+        configs_per_mesh: 3,
+        samples_per_config: 8,
+        path_attempts: 64,
+        seed: 3,
+        ..Default::default()
+    };
+    let (samples, summary) = learn::datagen::generate(&cfg, None)?;
+    let mut header = learn::samplefile::SampleFileHeader::new(&cfg, Some(&summary));
+    header.created_unix_s = 0;
+    let all = support(Reader::TrainCheckpoint, "train.samples");
+    learn::samplefile::write_samples(&all, &header, &samples, false)?;
+    std::fs::copy(&all, corpus(Reader::Samples, "small.samples"))?;
+    learn::samplefile::write_samples(
+        &corpus(Reader::Samples, "three.samples"),
+        &header,
+        &samples[..3.min(samples.len())],
+        false,
+    )?;
+
+    let (norm, train, val) = train_data(&samples)?;
+    let widths = learn::cvae::Widths {
+        feature: vec![4],
+        absorption_hidden: vec![2],
+        decoder_hidden: vec![3],
+        encoder_hidden: vec![2],
+    };
+    let cvae = learn::train::TrainConfig {
+        widths,
+        batch_size: 4,
+        steps: 2,
+        eval_every: 1,
+        checkpoint_every: 1,
+        ..Default::default()
+    };
+    let energy = learn::train::TrainConfig {
+        objective: learn::train::Objective::EnergyScore {
+            draws: 2,
+            weight: 1.0,
+        },
+        ..cvae.clone()
+    };
+    for (name, config) in [("cvae.bin", cvae), ("energy.bin", energy)] {
+        let mut t = learn::train::Trainer::new(
+            config,
+            norm.clone(),
+            ModelInfo::default(),
+            train.clone(),
+            val.clone(),
+        )?;
+        t.train_step()?;
+        t.train_step()?;
+        let path = work.join(name);
+        t.save_checkpoint(&path)?;
+        std::fs::copy(&path, corpus(Reader::TrainCheckpoint, name))?;
+    }
+    Ok(())
+}
+
+/// `.bin` tensors of the reference weights' layout: int32 ndim, the dims, f32 values.
+fn son24_bins() -> Res {
+    let tensor = |dims: &[i32]| -> Vec<u8> {
+        let mut b = (dims.len() as i32).to_le_bytes().to_vec();
+        for d in dims {
+            b.extend_from_slice(&d.to_le_bytes());
+        }
+        let n: i32 = dims.iter().product();
+        for i in 0..n {
+            b.extend_from_slice(&(0.1 * i as f32 - 0.3).to_le_bytes());
+        }
+        b
+    };
+    std::fs::write(corpus(Reader::Son24Bin, "weights-4x3.bin"), tensor(&[4, 3]))?;
+    std::fs::write(corpus(Reader::Son24Bin, "biases-4.bin"), tensor(&[4]))?;
+    std::fs::write(corpus(Reader::Son24Bin, "scalar.bin"), tensor(&[]))?;
+    Ok(())
+}
