@@ -320,6 +320,36 @@ def load_dataset(folder):
     sys.exit(f"error: {folder}: no dataset.json (or scene.json); see DATASET.md")
 
 
+def scene_dict(integrator, max_depth, rr_depth, view, mesh_type, mesh_path, eta, g, sigma_t, albedo, scale):
+    """Mitsuba's description of one of our datasets' scenes: the mesh with a `null` boundary
+    (a `dielectric` for eta != 1) around a homogeneous medium (RGB sigma_t stored as
+    sigma_t / scale with `scale`, since 'rgb' values must lie in [0, 1] when loaded; HG phase with
+    g), one point light at `view`'s light, and `integrator` (volpath or prbvolpath)."""
+    boundary = {"type": "null"} if eta == 1.0 else {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
+    return {
+        "type": "scene",
+        "integrator": {"type": integrator, "max_depth": max_depth, "rr_depth": rr_depth},
+        "light": {
+            "type": "point",
+            "position": view["light_position"],
+            "intensity": {"type": "rgb", "value": view["intensity"]},
+        },
+        "object": {
+            "type": mesh_type,
+            "filename": str(mesh_path),
+            "face_normals": True,
+            "bsdf": boundary,
+            "interior": {
+                "type": "homogeneous",
+                "sigma_t": {"type": "rgb", "value": [x / scale for x in sigma_t]},
+                "scale": scale,
+                "albedo": {"type": "rgb", "value": list(albedo)},
+                "phase": {"type": "isotropic"} if g == 0.0 else {"type": "hg", "g": g},
+            },
+        },
+    }
+
+
 def loaded_llvm():
     try:
         for line in open("/proc/self/maps"):
@@ -398,34 +428,12 @@ def main():
     g = truth["g"] if truth else 0.0
     eta = truth["eta"] if truth else 1.0
     max_depth = a.max_depth or ds["max_depth"] or 64
-    boundary = {"type": "null"} if eta == 1.0 else {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
     # 'rgb' values must be in [0, 1] when loaded: sigma_t = rgb * scale; the optimiser later
     # writes sigma_t / scale into the parameter (no range check there).
     scale = max(init_st)
     v0 = ds["views"][0]
     scene = mi.load_dict(
-        {
-            "type": "scene",
-            "integrator": {"type": "prbvolpath", "max_depth": max_depth, "rr_depth": a.rr_depth},
-            "light": {
-                "type": "point",
-                "position": v0["light_position"],
-                "intensity": {"type": "rgb", "value": v0["intensity"]},
-            },
-            "object": {
-                "type": mesh_type,
-                "filename": str(mesh_path),
-                "face_normals": True,
-                "bsdf": boundary,
-                "interior": {
-                    "type": "homogeneous",
-                    "sigma_t": {"type": "rgb", "value": [s / scale for s in init_st]},
-                    "scale": scale,
-                    "albedo": {"type": "rgb", "value": init_al},
-                    "phase": {"type": "isotropic"} if g == 0.0 else {"type": "hg", "g": g},
-                },
-            },
-        }
+        scene_dict("prbvolpath", max_depth, a.rr_depth, v0, mesh_type, mesh_path, eta, g, init_st, init_al, scale)
     )
     sensors = [
         mi.load_dict(
@@ -593,7 +601,7 @@ def main():
         lr=dict(log_sigma_t=a.lr_sigma_t, albedo=a.lr_albedo),
         seed=a.seed,
         integrator=dict(type="prbvolpath", max_depth=max_depth, rr_depth=a.rr_depth),
-        boundary=boundary["type"],
+        boundary="null" if eta == 1.0 else "dielectric",
         variant=a.variant,
         mitsuba_version=mi.__version__,
         drjit_version=dr.__version__,

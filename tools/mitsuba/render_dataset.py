@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from prb_optimize import LLVM_CANDIDATES, builtin_mesh, load_dataset, loaded_llvm, write_ply  # noqa: E402
+from prb_optimize import LLVM_CANDIDATES, builtin_mesh, load_dataset, loaded_llvm, scene_dict, write_ply  # noqa: E402
 from render_reference import sensor_dict  # noqa: E402
 
 
@@ -114,32 +114,12 @@ def main():
 
     g, eta = truth["g"], truth["eta"]
     max_depth = a.max_depth or ds["max_depth"] or 64
-    boundary = {"type": "null"} if eta == 1.0 else {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
-    scale = max(truth["sigma_t"])  # 'rgb' values must lie in [0, 1]: sigma_t = rgb * scale
+    scale = max(truth["sigma_t"])
     v0 = ds["views"][0]
     scene = mi.load_dict(
-        {
-            "type": "scene",
-            "integrator": {"type": "volpath", "max_depth": max_depth, "rr_depth": a.rr_depth},
-            "light": {
-                "type": "point",
-                "position": v0["light_position"],
-                "intensity": {"type": "rgb", "value": v0["intensity"]},
-            },
-            "object": {
-                "type": mesh_type,
-                "filename": str(out_mesh),
-                "face_normals": True,
-                "bsdf": boundary,
-                "interior": {
-                    "type": "homogeneous",
-                    "sigma_t": {"type": "rgb", "value": [s / scale for s in truth["sigma_t"]]},
-                    "scale": scale,
-                    "albedo": {"type": "rgb", "value": truth["albedo"]},
-                    "phase": {"type": "isotropic"} if g == 0.0 else {"type": "hg", "g": g},
-                },
-            },
-        }
+        scene_dict(
+            "volpath", max_depth, a.rr_depth, v0, mesh_type, out_mesh, eta, g, truth["sigma_t"], truth["albedo"], scale
+        )
     )
     params = mi.traverse(scene)
     k_lp, k_li = "light.position", "light.intensity.value"
