@@ -2,10 +2,11 @@
 //! parity of full lines (random, through vertices, along edges), analytic chord lengths,
 //! chi-square uniformity of the area sampler. Deterministic (fixed seeds, Pcg32).
 
-use geometry::triangle::WatertightRay;
-use geometry::{Accel, AreaSampler, Mesh, Vec3, Vec3A};
+use geometry::{Accel, AreaSampler, Mesh, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
+
+mod common;
 
 /// Test support: meshes, random directions, brute force, chi-square.
 mod support {
@@ -157,19 +158,7 @@ mod support {
         )
     }
 
-    /// (t, original triangle) of every hit with the same watertight test, sorted by (t, tri).
-    pub fn brute_all(mesh: &Mesh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Vec<(f32, u32)> {
-        let wr = WatertightRay::new(o.into(), d.into());
-        let mut v: Vec<(f32, u32)> = (0..mesh.triangle_count())
-            .filter_map(|i| {
-                let [a, b, c] = mesh.triangle(i).map(Vec3A::from);
-                wr.intersect(a, b, c, tmin, tmax)
-                    .map(|(t, ..)| (t, i as u32))
-            })
-            .collect();
-        v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        v
-    }
+    pub use super::common::brute_all;
 
     /// Pearson chi-square statistic and its p-value (survival function, `bins − 1 − constraints`
     /// degrees of freedom) for observed counts against expected probabilities.

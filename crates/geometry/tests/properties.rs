@@ -1,11 +1,13 @@
 //! Property tests (proptest) of the geometry crate: the BVH's queries against brute force on
 //! random triangle soups and closed meshes, and write → read round trips of OBJ and PLY.
 //!
-//! Each property runs proptest's default 256 cases (fixed seed per test through proptest's
-//! persistence being off: failures print their minimal input).
+//! Each property runs 256 cases from a fixed seed (the same inputs on every run); a failure
+//! prints its minimal input.
 
-use geometry::triangle::WatertightRay;
-use geometry::{Accel, Mesh, MeshWarning, Vec3, Vec3A};
+use geometry::{Accel, Mesh, MeshWarning, Vec3};
+
+mod common;
+use common::brute_all;
 use proptest::prelude::*;
 
 fn config() -> ProptestConfig {
@@ -49,10 +51,15 @@ fn soup() -> impl Strategy<Value = Mesh> {
         .prop_filter("at least one triangle", |m| !m.indices.is_empty())
 }
 
-/// A closed star-shaped mesh: an octahedron subdivided twice, each vertex at its own random
-/// radius in [0.3, 1] about a random centre.
+/// A closed star-shaped mesh: the library's unit icosphere subdivided once, each vertex at its
+/// own random radius in [0.3, 1] about a random centre.
 fn closed() -> impl Strategy<Value = Mesh> {
-    let base = subdivided_octahedron(2);
+    let base = geometry::Shape::Sphere {
+        radius: 1.0,
+        subdivisions: 1,
+    }
+    .build()
+    .expect("the unit icosphere");
     let n = base.positions.len();
     (prop::collection::vec(0.3f32..1.0, n), vec3(0.5)).prop_map(move |(radii, centre)| Mesh {
         positions: base
@@ -64,54 +71,6 @@ fn closed() -> impl Strategy<Value = Mesh> {
         normals: None,
         indices: base.indices.clone(),
     })
-}
-
-fn subdivided_octahedron(levels: u32) -> Mesh {
-    let mut pos = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 2, 4],
-        [2, 1, 4],
-        [1, 3, 4],
-        [3, 0, 4],
-        [2, 0, 5],
-        [1, 2, 5],
-        [3, 1, 5],
-        [0, 3, 5],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for [a, b, c] in tris {
-            let mut m = |i: u32, j: u32| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    pos.push(((pos[i as usize] + pos[j as usize]) * 0.5).normalize());
-                    pos.len() as u32 - 1
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    Mesh {
-        positions: pos,
-        normals: None,
-        indices: tris,
-    }
-}
-
-/// (t, triangle) of every hit of the watertight test, sorted.
-fn brute(mesh: &Mesh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Vec<(f32, u32)> {
-    let wr = WatertightRay::new(o.into(), d.into());
-    let mut v: Vec<(f32, u32)> = (0..mesh.triangle_count())
-        .filter_map(|i| {
-            let [a, b, c] = mesh.triangle(i).map(Vec3A::from);
-            wr.intersect(a, b, c, tmin, tmax)
-                .map(|(t, ..)| (t, i as u32))
-        })
-        .collect();
-    v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    v
 }
 
 /// The triangles' corner positions in order: what a round trip must keep, whatever the vertex
@@ -143,7 +102,7 @@ proptest! {
         let accel = Accel::new(mesh.clone());
         let mut hits = Vec::new();
         for (o, d, tmin, tmax) in rays {
-            let b = brute(&mesh, o, d, tmin, tmax);
+            let b = brute_all(&mesh, o, d, tmin, tmax);
             match (accel.closest(o, d, tmin, tmax), b.first()) {
                 (None, None) => {}
                 (Some(h), Some(&(t, _))) => {
@@ -183,7 +142,7 @@ proptest! {
             // Brute force: crossings of the whole line, from far behind a.
             let d = (b - a) / len;
             let far = 10.0;
-            let xs = brute(&mesh, a - d * far, d, 0.0, f32::INFINITY);
+            let xs = brute_all(&mesh, a - d * far, d, 0.0, f32::INFINITY);
             let mut inside = false;
             let mut total = 0.0f64;
             let mut prev = 0.0f64;
