@@ -1,4 +1,4 @@
-//! Boundary factors of the BSSRDF estimator (model-spec §1).
+//! Boundary factors of the BSSRDF estimator (docs/model.md §1).
 //!
 //! C = (1 − F_η(cos θ_cam)) · S_abs · Sw(w_l) · max(0, n_i·w_l) · V · I/r², with
 //! Sw(w) = (1 − F_η(cos θ_w)) / (π (1 − 2 FM1(1/η))) and FM1 the first Fresnel moment polynomial
@@ -8,7 +8,7 @@
 
 use volpath::fresnel::fresnel_dielectric;
 
-/// First Fresnel moment polynomial FM1(e) (model-spec §1).
+/// First Fresnel moment polynomial FM1(e) (docs/model.md §1).
 pub fn fresnel_moment1(e: f32) -> f32 {
     let (e2, e3, e4, e5) = (e * e, e * e * e, e * e * e * e, e * e * e * e * e);
     if e < 1.0 {

@@ -5,9 +5,9 @@
 //! ([`crate::exit`], [`crate::incidence`]), is built from half-space walks: exact for a plane lit
 //! by a distant light. On a convex surface the learned images fall off towards the terminator
 //! faster than the volumetric path tracer's, and are too bright where the camera grazes the lit
-//! surface, by amounts that grow with the curvature in mean free paths (BENCHMARKS.md, session
-//! 34). This module measures the gap where it can be computed exactly: a ball of radius R (in mean
-//! free paths, σ_t = 1) lit by a distant light.
+//! surface, by amounts that grow with the curvature in mean free paths (docs/notes/light-side.md,
+//! "The light side on convex surfaces"). This module measures the gap where it can be computed
+//! exactly: a ball of radius R (in mean free paths, σ_t = 1) lit by a distant light.
 //!
 //! * **Exact**: walks enter at the camera point x_o (the ball's north pole, outward normal +z)
 //!   along the camera direction (cosine μ_c, forward direction +x; η = 1, so unrefracted) and

@@ -1,31 +1,31 @@
 //! The differentiable learned renderer: per-pixel values and their derivatives with respect to
-//! the six medium parameters σ_t,c and α_c (c = R, G, B), model-spec §8, architecture.md §4,
+//! the six medium parameters σ_t,c and α_c (c = R, G, B), docs/model.md §8, architecture.md §4,
 //! Son et al. 2024 §4 (eq. 6–17).
 //!
-//! Channel c of the image depends only on (σ_t,c, α_c) (model-spec §1, §2), so the derivatives
+//! Channel c of the image depends only on (σ_t,c, α_c) (docs/model.md §1, §2), so the derivatives
 //! fit in two RGB images: `d_sigma_t` holds ∂I_c/∂σ_t,c in channel c and `d_albedo` holds
-//! ∂I_c/∂α_c. The pixel estimator is the one of [`crate::render`] (model-spec §7.3):
+//! ∂I_c/∂α_c. The pixel estimator is the one of [`crate::render`] (docs/model.md §7.3):
 //!
 //!   I_c ≈ (1/spp) Σ_s w_c · S_abs · (1 − F(cos θ_cam)) · L(x_i),
 //!   L(x) = Sw(w_l) · max(0, n·w_l) · V · I / r²  (without I in the code: w_c carries it),
 //!
 //! with w_c = w·I_c·[c = channel of the sample] (w the channel weight of the pixel-sampling
-//! scheme, [`crate::render::PixelSampling`]: spp/n_c stratified, 3 one-hot as model-spec A13) or
+//! scheme, [`crate::render::PixelSampling`]: spp/n_c stratified, 3 one-hot as docs/model.md A13) or
 //! w_c = I_c for a grey medium (one sample serves every channel), S_abs = 1 − Absorb(features(α)), x_i = Π(x̃),
 //! x̃ = x_o + σ_n(σ_t, α)·R·y and y = decoder(z, features). The vertex polynomials are those of
-//! the [`VertexFeatures`](crate::render::VertexFeatures) fit, kept fixed (model-spec A10); the
+//! the [`VertexFeatures`](crate::render::VertexFeatures) fit, kept fixed (docs/model.md A10); the
 //! projection direction is the detached gradient of that fixed polynomial at x̃ (A5).
 //!
 //! The shape descriptor the networks see: the fitted polynomial in units of σ_n,fit, rescaled to
 //! the current σ_n (`Poly3::rescaled`, c_m·k^(deg m − 1), k = σ_n/σ_n,fit), unless
 //! `LearnedSettings::frozen_descriptor` (SON24's fixed features). A rescaled descriptor depends on
 //! σ_t (and α) through σ_n; measured on the shipped model this term dominates ∂I/∂σ_t and has the
-//! opposite sign of the position term (BENCHMARKS.md, "σ_t and the shape descriptor"), and with
-//! it the loss landscape is that of a refit at every σ_t.
+//! opposite sign of the position term (docs/notes/recovery-recipe.md, "The descriptor follows
+//! σ_n"), and with it the loss landscape is that of a refit at every σ_t.
 //!
 //! Estimators ([`DiffMethod`]):
 //!
-//! * [`DiffMethod::Ours`] (paper §4.2–4.3, eq. 15–17; model-spec §8.1–8.2, A6): for σ_t the
+//! * [`DiffMethod::Ours`] (paper §4.2–4.3, eq. 15–17; docs/model.md §8.1–8.2, A6): for σ_t the
 //!   correlated offset samples x_i^± = Π(x_o + σ_n(σ_t ± Δ)·R·y^±) with the SAME z, channel,
 //!   projection rule and fixed polynomial, each with the full light evaluation (V, cos, Sw,
 //!   1/r²); per sample ∂C/∂σ_t ≈ (S_abs⁺·L(x_i⁺) − S_abs⁻·L(x_i⁻))·(1 − F)/(2Δ),
@@ -37,7 +37,7 @@
 //!   ∂Absorb/∂α = ∂Absorb/∂input₂₀ · d input₂₀/dα' · dα'/dα (forward-mode tangent through the
 //!   feature and absorption MLPs, [`ShapeAdaptiveModel::absorb_input_derivative_with`];
 //!   `Normalisation::d_albedo_input_d_albedo_red`; `ReducedMedium::d_albedo_red_d_albedo`).
-//! * [`DiffMethod::OursAlphaOffsets`] (model-spec A6, option): σ_t as `Ours`; α entirely by
+//! * [`DiffMethod::OursAlphaOffsets`] (docs/model.md A6, option): σ_t as `Ours`; α entirely by
 //!   offset samples, as σ_t: the networks run again with the albedo input and the descriptor at
 //!   α ± Δα (y^±, S_abs^±, z reused), x_i^± = Π(x_o + σ_n(α ± Δα)·R·y^±), and the light side
 //!   (exit law, incidence factor) at α ± Δα: ∂C/∂α = (1 − F)·(S_abs⁺·L⁺(x_i⁺) − S_abs⁻·L⁻(x_i⁻))/(2Δα).
@@ -61,7 +61,7 @@
 //! Loss mode ([`render_loss_gradient`]): with a target image T and a loss ℓ averaged over the
 //! N = 3·W·H pixel channels (L2: ℓ = (1/N) Σ (I − T)², L1: ℓ = (1/N) Σ |I − T|) the gradient
 //! ∂ℓ/∂θ = Σ_pixels ∂ℓ/∂I_c · ∂I_c/∂θ is accumulated row by row during the render (the role of
-//! the zero-valued term σ_t·D − detach(σ_t)·D of model-spec §8.1); derivative images are
+//! the zero-valued term σ_t·D − detach(σ_t)·D of docs/model.md §8.1); derivative images are
 //! kept only on request.
 //!
 //! Batched and parallel like [`crate::render`]: rows in parallel, one network batch per row,

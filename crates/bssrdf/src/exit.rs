@@ -1,14 +1,14 @@
 //! The light-side exit factor: the direction in which light leaves (by reciprocity, enters) the
 //! medium at x_i, conditioned on the direction in which the camera ray entered at x_o.
 //!
-//! The per-sample estimator of model-spec §1 ends with the light-side factor
+//! The per-sample estimator of docs/model.md §1 ends with the light-side factor
 //! Sw(w_l)·max(0, n_i·w_l) = (1 − F(cos θ_l))·cos θ_l / (π(1 − 2 FM1(1/η))): the walks that
 //! escape are assumed to leave with a (Fresnel-weighted) cosine distribution, whatever the
 //! direction they came in with. For a real medium this is not so. In a half-space of albedo
 //! α = 0.85 (η = 1, g = 0), walks entering at grazing incidence leave at grazing angles 3.9 times
 //! more often than a cosine distribution says, walks entering at normal incidence leave at
 //! grazing angles 10 % more often and along the normal 9 % less often. Low-order scattering
-//! couples the two directions (BENCHMARKS.md, "The light-side exit factor").
+//! couples the two directions (docs/notes/light-side.md, "The exit law").
 //!
 //! This module replaces the cosine law by the exit-direction density of escaped walks in a
 //! half-space of the same medium, conditioned on the entry direction:
@@ -22,9 +22,9 @@
 //! redistributes the light over exit directions and leaves the escaped energy, S_abs of the
 //! absorption network, unchanged. The half-space is exact for a plane and scale-free (it depends on
 //! α, g and η only, not on σ_t). The walks follow the physics of the training data
-//! (model-spec §5.3, `learn::walk`): analog absorption, Henyey–Greenstein phase, specular internal
-//! reflection with probability F and refraction otherwise, entry by refraction of the camera
-//! direction (conditioned on transmission, as (1 − F(cos θ_cam)) is applied separately).
+//! (docs/model.md §5 step 3, `learn::walk`): analog absorption, Henyey–Greenstein phase, specular
+//! internal reflection with probability F and refraction otherwise, entry by refraction of the
+//! camera direction (conditioned on transmission, as (1 − F(cos θ_cam)) is applied separately).
 //!
 //! [`ExitTable`] tabulates f on a grid of albedos (a spline in ln(1 − α) between them) and [`MU_BINS`] × [`MU_BINS`]
 //! cosine bins (bin averages, from histograms of [`ExitTableSettings::walks`] walks per albedo and
@@ -44,7 +44,7 @@ pub enum ExitLaw {
     /// f(α; μ_cam, μ_l) from half-space walks (this module; the default).
     #[default]
     HalfSpace,
-    /// The cosine law Sw(w_l)·cos θ_l of VKJ19 and SON24 (model-spec §1).
+    /// The cosine law Sw(w_l)·cos θ_l of VKJ19 and SON24 (docs/model.md §1).
     Cosine,
 }
 

@@ -1,5 +1,5 @@
 //! The surface constraint point cloud and the weighted least-squares cubic fit
-//! (model-spec §3.2, §3.4; VKJ19 `polynomials.cpp` fitPolynomialsImpl, `vaehelper.cpp`).
+//! (docs/model.md §3.2, §3.4; VKJ19 `polynomials.cpp` fitPolynomialsImpl, `vaehelper.cpp`).
 //!
 //! **Cloud.** `N = max(⌊2·A/ε⌋, 1024)` points sampled uniformly by area on the mesh (A = total
 //! area, ε = kernel variance of the medium channel, [`crate::medium::kernel_epsilon`]) with their
@@ -20,7 +20,7 @@
 //! 5. normal equations `(AᵀA + λ·diag(0,0,0,1,…,1)) c = Aᵀb`, λ = 1e-4 (the three linear terms are
 //!    not regularised), assembled in `f64` directly (rank-1 updates, exploiting that each gradient
 //!    row has only 10 non-zeros), solved with a static 19×19 Cholesky, SVD as fallback;
-//! 6. `quirk_c19` (model-spec §3.2 step 7, §10 A3): VKJ19 copies only the first 18 of the 19
+//! 6. `quirk_c19` (docs/model.md §3.2 step 7, §10 A3): VKJ19 copies only the first 18 of the 19
 //!    solved values into the 20-vector, so `c_19` (z³) is left 0. Set it to reproduce the data the
 //!    released networks were trained on.
 
@@ -212,7 +212,8 @@ impl Normal {
     }
 }
 
-/// An area-uniform surface point cloud with unit normals and a k-d tree over it (model-spec §3.2).
+/// An area-uniform surface point cloud with unit normals and a k-d tree over it
+/// (docs/model.md §3.2).
 pub struct ConstraintCloud {
     points: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -374,7 +375,7 @@ impl ConstraintCloud {
         n
     }
 
-    /// Weighted least-squares cubic at `p` with kernel `eps` (model-spec §3.2; see the module
+    /// Weighted least-squares cubic at `p` with kernel `eps` (docs/model.md §3.2; see the module
     /// docs): world axes, scaled coordinates `u = (q − p)/σ_n`, `c_0 = 0`; with `quirk_c19` the
     /// z³ coefficient is dropped (`c_19 = 0`).
     pub fn fit_at(&self, p: Vec3, eps: f64, quirk_c19: bool) -> Result<Poly3, FitError> {
@@ -445,7 +446,7 @@ impl ConstraintCloud {
             .collect()
     }
 
-    /// Per-vertex fits of `mesh` (model-spec §3.4, VKJ19 render-time precomputation): one
+    /// Per-vertex fits of `mesh` (docs/model.md §3.4, VKJ19 render-time precomputation): one
     /// world-axis polynomial per entry of `mesh.positions`.
     pub fn fit_vertices(
         &self,
@@ -458,7 +459,7 @@ impl ConstraintCloud {
 }
 
 /// Convenience: build the cloud of `mesh` for kernel `eps` (seeded) and fit every vertex with
-/// the same `eps` (model-spec §7.3 precomputation, one colour channel).
+/// the same `eps` (docs/model.md §7.3 precomputation, one colour channel).
 pub fn fit_mesh_vertices(
     mesh: &Mesh,
     eps: f64,
@@ -468,7 +469,7 @@ pub fn fit_mesh_vertices(
     ConstraintCloud::from_mesh(mesh, eps, seed)?.fit_vertices(mesh, eps, quirk_c19)
 }
 
-/// Barycentric interpolation of the three vertex polynomials of a triangle (model-spec §3.4):
+/// Barycentric interpolation of the three vertex polynomials of a triangle (docs/model.md §3.4):
 /// `Σ_i b_i · c^{(i)}`, treated as a polynomial centred at the interpolated point (`c_0` stays 0).
 pub fn interpolate(polys: [&Poly3; 3], bary: [f32; 3]) -> Poly3 {
     Poly3(std::array::from_fn(|k| {

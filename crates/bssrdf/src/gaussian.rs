@@ -1,5 +1,5 @@
 //! Standard normal samples by inversion: z = Φ⁻¹(u) = √2·erfinv(2u − 1) (what SON24 uses for the
-//! VAE latent, model-spec §4.1). Acklam's rational approximation (relative error < 1.2e-9) in
+//! VAE latent, docs/model.md §4.1). Acklam's rational approximation (relative error < 1.2e-9) in
 //! f64; inversion keeps stratification of the uniforms.
 
 /// Φ⁻¹(u) for u ∈ (0, 1); clamps u into [1e-12, 1 − 1e-12].

@@ -10,9 +10,10 @@
 //! 82 % of the walks entering at 60° leave ahead of the entry point (mean shift 0.64 mean free
 //! paths against a mean exit distance of 1.2), 90 % at 78°. On a curved object this is what
 //! carries light over the terminator into the dark side; without it the learned images fall off
-//! towards the terminator much faster than the volumetric path tracer's (BENCHMARKS.md, "The
-//! light's direction of incidence"). The directional dipole of Frisvad, Hachisuka and Kjeldsen
-//! (ACM TOG 34(1), 2014) addresses the same shortcoming of the classical dipole.
+//! towards the terminator much faster than the volumetric path tracer's
+//! (docs/notes/light-side.md, "The light's direction of incidence"). The directional dipole of
+//! Frisvad, Hachisuka and Kjeldsen (ACM TOG 34(1), 2014) addresses the same shortcoming of the
+//! classical dipole.
 //!
 //! # The factor
 //!

@@ -1,9 +1,9 @@
 //! # translucent-bssrdf
 //!
 //! The learned shape-adaptive BSSRDF of Vicini, Koltun and Jakob 2019 (VKJ19) as used by Son et
-//! al. 2024 (SON24), following `model-spec.md` of the design notes:
+//! al. 2024 (SON24), following `docs/model.md` of this repository (cited below as §N):
 //!
-//! * [`medium`]: reduced parameters, effective albedo, the kernel scale σ_n (model-spec §2).
+//! * [`medium`]: reduced parameters, effective albedo, the kernel scale σ_n (§2).
 //! * [`polynomial`]: the cubic implicit polynomial (20 monomials), its evaluation, gradient and
 //!   exact rotation into another frame (§3.1, §3.3).
 //! * [`fit`]: the surface point cloud with its k-d tree and the weighted least-squares cubic fit

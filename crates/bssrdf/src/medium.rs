@@ -1,11 +1,11 @@
-//! Medium parameters as the model sees them (model-spec §2): similarity-theory reduced
+//! Medium parameters as the model sees them (docs/model.md §2): similarity-theory reduced
 //! parameters, the effective-albedo remap, the kernel variance ε and the kernel scale σ_n, and the
-//! network input normalisation ([`NormStats`], model-spec §4.1).
+//! network input normalisation ([`NormStats`], docs/model.md §4.1).
 //!
 //! Everything here is per colour channel and computed in `f64` (scalar, cheap, and the derivatives
 //! are checked against finite differences).
 //!
-//! Reduced parameters (Wyman et al. 1989; model-spec §2):
+//! Reduced parameters (Wyman et al. 1989; docs/model.md §2):
 //!
 //! ```text
 //! σ_s = α σ_t,  σ_a = σ_t − σ_s,  σ_s' = (1 − g) σ_s,  σ_t' = σ_s' + σ_a,  α' = σ_s'/σ_t'
@@ -33,17 +33,17 @@ pub enum MediumError {
     NonFiniteSample { index: usize },
 }
 
-/// `1 − e^{−8}`, the constant of the effective-albedo curve (model-spec §2).
+/// `1 − e^{−8}`, the constant of the effective-albedo curve (docs/model.md §2).
 const ONE_MINUS_EXP_M8: f64 = 1.0 - 3.354_626_279_025_118_4e-4;
 
-/// Effective albedo `α_eff(a) = −ln(1 − a(1 − e^{−8})) / 8` (model-spec §2); maps [0, 1] onto
+/// Effective albedo `α_eff(a) = −ln(1 − a(1 − e^{−8})) / 8` (docs/model.md §2); maps [0, 1] onto
 /// [0, 1] monotonically. This is the albedo input of the networks (after normalisation).
 #[inline]
 pub fn effective_albedo(a: f64) -> f64 {
     -(-a * ONE_MINUS_EXP_M8).ln_1p() / 8.0
 }
 
-/// Inverse of [`effective_albedo`]: `a = (1 − e^{−8 α_eff}) / (1 − e^{−8})` (model-spec §2).
+/// Inverse of [`effective_albedo`]: `a = (1 − e^{−8 α_eff}) / (1 − e^{−8})` (docs/model.md §2).
 #[inline]
 pub fn effective_albedo_inverse(a_eff: f64) -> f64 {
     -(-8.0 * a_eff).exp_m1() / ONE_MINUS_EXP_M8
@@ -55,7 +55,7 @@ pub fn effective_albedo_derivative(a: f64) -> f64 {
     ONE_MINUS_EXP_M8 / (8.0 * (1.0 - a * ONE_MINUS_EXP_M8))
 }
 
-/// Reduced (similarity-theory) parameters of one channel (model-spec §2).
+/// Reduced (similarity-theory) parameters of one channel (docs/model.md §2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReducedMedium {
     /// σ_t, extinction.
@@ -115,18 +115,18 @@ impl ReducedMedium {
         Ok(Self::new(sigma_t, albedo, g))
     }
 
-    /// `v = 0.25 g + 0.25 α' + α_eff(α')` (model-spec §2, released formula, §10 A1).
+    /// `v = 0.25 g + 0.25 α' + α_eff(α')` (docs/model.md §2, released formula, §10 A1).
     pub fn kernel_v(&self) -> f64 {
         kernel_v(self.albedo_red, self.g)
     }
 
-    /// Kernel variance `ε = scale · 4 v² / σ_t'²` (model-spec §2, "kernelEps").
+    /// Kernel variance `ε = scale · 4 v² / σ_t'²` (docs/model.md §2, "kernelEps").
     pub fn kernel_epsilon(&self, scale: f64) -> f64 {
         let v = self.kernel_v();
         scale * 4.0 * v * v / (self.sigma_t_red * self.sigma_t_red)
     }
 
-    /// Kernel scale `σ_n = sqrt(ε) = 2 v / σ_t'` (model-spec §2; `1/σ_n` is "fitScaleFactor").
+    /// Kernel scale `σ_n = sqrt(ε) = 2 v / σ_t'` (docs/model.md §2; `1/σ_n` is "fitScaleFactor").
     pub fn sigma_n(&self) -> f64 {
         2.0 * self.kernel_v() / self.sigma_t_red
     }
@@ -138,19 +138,19 @@ impl ReducedMedium {
     }
 }
 
-/// `v = 0.25 g + 0.25 α' + α_eff(α')` from the reduced albedo α' (model-spec §2).
+/// `v = 0.25 g + 0.25 α' + α_eff(α')` from the reduced albedo α' (docs/model.md §2).
 #[inline]
 pub fn kernel_v(albedo_red: f64, g: f64) -> f64 {
     0.25 * g + 0.25 * albedo_red + effective_albedo(albedo_red)
 }
 
-/// Kernel variance `ε = scale · 4 v² / σ_t'²` for one channel (model-spec §2); `scale` is
+/// Kernel variance `ε = scale · 4 v² / σ_t'²` for one channel (docs/model.md §2); `scale` is
 /// "kernelEpsScale" (1 by default).
 pub fn kernel_epsilon(sigma_t: f64, albedo: f64, g: f64, scale: f64) -> f64 {
     ReducedMedium::new(sigma_t, albedo, g).kernel_epsilon(scale)
 }
 
-/// Kernel scale `σ_n = 2 v / σ_t'` for one channel (model-spec §2).
+/// Kernel scale `σ_n = 2 v / σ_t'` for one channel (docs/model.md §2).
 pub fn sigma_n(sigma_t: f64, albedo: f64, g: f64) -> f64 {
     ReducedMedium::new(sigma_t, albedo, g).sigma_n()
 }
@@ -180,7 +180,7 @@ pub const N_POLY: usize = 20;
 /// Number of network inputs: 20 coefficients ⊕ albedo ⊕ g ⊕ η.
 pub const N_INPUTS: usize = N_POLY + 3;
 
-/// Network input normalisation constants (model-spec §4.1): `(x − mean) · stdinv` with
+/// Network input normalisation constants (docs/model.md §4.1): `(x − mean) · stdinv` with
 /// `stdinv = 1 / sqrt(var + 0.1)`. One type serves the model file, the renderer and training:
 /// the statistics of a training set ([`NormStats::from_samples`]) are what a model stores.
 pub type NormStats = crate::nn::Normalisation;
@@ -191,7 +191,8 @@ pub struct StatSample {
     /// Light-space polynomial coefficients (`mlsPolyLS3`).
     pub coeffs_ls: [f32; N_POLY],
     /// The albedo whose effective albedo is the statistic. VKJ19 used the RAW albedo α of the
-    /// sample here (while the network is fed α_eff(α'), model-spec §4.1); pass α to reproduce that.
+    /// sample here (while the network is fed α_eff(α'), docs/model.md §4.1); pass α to reproduce
+    /// that.
     pub albedo: f64,
     /// Henyey–Greenstein g.
     pub g: f64,
@@ -237,7 +238,7 @@ impl Moments {
 }
 
 impl crate::nn::Normalisation {
-    /// Statistics over a training set (model-spec §4.1, §5 step 6): per input the mean and
+    /// Statistics over a training set (docs/model.md §4.1, §5 step 6): per input the mean and
     /// `stdinv = 1/sqrt(var + 0.1)` (population variance; an input with zero variance, i.e. all
     /// samples equal, gets var := 1, so stdinv = 1/sqrt(1.1) ≈ 0.953463). The albedo statistic is
     /// taken over `α_eff(sample.albedo)`.
@@ -279,7 +280,7 @@ impl crate::nn::Normalisation {
         })
     }
 
-    /// The 23 network inputs (model-spec §4.1):
+    /// The 23 network inputs (docs/model.md §4.1):
     /// `[(c_k − mean_k)·stdinv_k]_{k<20} ⊕ (α_eff(α') − mean)·stdinv ⊕ (g − mean)·stdinv ⊕ 2(η − 1.25)`.
     ///
     /// `coeffs_ls` are the light-space coefficients, `albedo_red` is the REDUCED albedo α'.
@@ -299,7 +300,7 @@ impl crate::nn::Normalisation {
     }
 
     /// `∂ input[20] / ∂α'` = `stdinv · α_eff'(α')` (the only input that depends on the albedo;
-    /// used for the α-gradient through S_abs, model-spec §8.2).
+    /// used for the α-gradient through S_abs, docs/model.md §8.2).
     pub fn d_albedo_input_d_albedo_red(&self, albedo_red: f64) -> f64 {
         self.eff_albedo_stdinv as f64 * effective_albedo_derivative(albedo_red)
     }
@@ -320,7 +321,7 @@ mod tests {
         assert!(ReducedMedium::try_new(1.0, 0.5, f64::NAN).is_err());
     }
 
-    /// Worked values of model-spec §2 (g = 0, printed to 5 decimals).
+    /// Worked values of docs/model.md §2 (g = 0, printed to 5 decimals).
     #[test]
     fn worked_values_of_spec_section_2() {
         let table = [

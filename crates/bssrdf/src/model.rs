@@ -154,7 +154,7 @@ pub enum ModelError {
     Son24Corrupt { path: PathBuf, reason: String },
 }
 
-/// Frame convention the model's inputs and outputs are meant for (model-spec §10 A4).
+/// Frame convention the model's inputs and outputs are meant for (docs/model.md §10 A4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum FrameConvention {
     /// VKJ19: refracted, polynomial-aligned incident direction; light-space frame (+e1, +e2,
@@ -181,7 +181,7 @@ impl FrameConvention {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModelInfo {
     /// Whether the training data dropped the z³ coefficient of the world-space fit (c_19 = 0,
-    /// model-spec §3.2 item 7); the renderer must then do the same.
+    /// docs/model.md §3.2 item 7); the renderer must then do the same.
     pub c19_quirk: bool,
     /// Frame convention of the inputs and outputs.
     pub frame_convention: FrameConvention,

@@ -1,4 +1,4 @@
-//! Batched, allocation-free MLP inference for the shape-adaptive BSSRDF (model-spec §4).
+//! Batched, allocation-free MLP inference for the shape-adaptive BSSRDF (docs/model.md §4).
 //!
 //! The model is four small fully connected networks (VKJ19; SON24 uses narrower widths):
 //!
@@ -59,7 +59,7 @@ pub const CHUNK_ROWS: usize = 1024;
 // ---------------------------------------------------------------------------------------------
 // Normalisation
 
-/// Input normalisation constants of a model (dataset statistics, model-spec §4.1).
+/// Input normalisation constants of a model (dataset statistics, docs/model.md §4.1).
 ///
 /// Inputs are `(c_k − poly_mean_k)·poly_stdinv_k` for the 20 light-space coefficients,
 /// `(α_eff − eff_albedo_mean)·eff_albedo_stdinv`, `(g − g_mean)·g_stdinv` and the fixed

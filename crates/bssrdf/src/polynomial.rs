@@ -1,8 +1,8 @@
-//! The cubic implicit polynomial of the local shape descriptor (model-spec §3.1, §3.3, §3.5).
+//! The cubic implicit polynomial of the local shape descriptor (docs/model.md §3.1, §3.3, §3.5).
 //!
 //! A [`Poly3`] holds the 20 coefficients of `p(u) = Σ_k c_k m_k(u)`, a full cubic in the three
 //! coordinates `u = (x, y, z)`. The monomials are ordered by total degree `d`, then by decreasing
-//! power of x, then decreasing power of y (VKJ19 `powerToIndex`, model-spec §3.1):
+//! power of x, then decreasing power of y (VKJ19 `powerToIndex`, docs/model.md §3.1):
 //!
 //! ```text
 //! 0:1 | 1:x 2:y 3:z | 4:x² 5:xy 6:xz 7:y² 8:yz 9:z² |
@@ -23,11 +23,12 @@ use std::ops::{Add, Mul};
 /// Number of coefficients of a full cubic in 3 variables.
 pub const N_COEFFS: usize = 20;
 
-/// Exponents `(a, b, c)` of monomial `k` = `x^a y^b z^c`, in coefficient order (model-spec §3.1).
+/// Exponents `(a, b, c)` of monomial `k` = `x^a y^b z^c`, in coefficient order
+/// (docs/model.md §3.1).
 pub const POWERS: [[u8; 3]; N_COEFFS] = build_powers();
 
 /// Coefficient index of `x^a y^b z^c` (`a + b + c ≤ 3`): `i(i+1)/2 + j + d(d+1)(d+2)/6` with
-/// `d = a+b+c`, `i = d − a`, `j = c` (model-spec §3.1).
+/// `d = a+b+c`, `i = d − a`, `j = c` (docs/model.md §3.1).
 pub const fn power_to_index(a: usize, b: usize, c: usize) -> usize {
     let d = a + b + c;
     let i = d - a;
@@ -289,7 +290,7 @@ impl Poly3 {
     }
 
     /// The same surface at another length scale: with `p` fitted in coordinates u = (q − x)/σ_fit
-    /// (unit gradient on the surface, model-spec §3.2) and k = σ/σ_fit, the polynomial in
+    /// (unit gradient on the surface, docs/model.md §3.2) and k = σ/σ_fit, the polynomial in
     /// u' = (q − x)/σ is p(k·u')/k, i.e. c'_m = c_m·k^(deg m − 1): linear terms unchanged,
     /// quadratic ×k, cubic ×k². Exact for the surface (the fit's kernel, also σ-scaled, is not
     /// re-applied: a refit at σ differs by the change of the weighting only).
@@ -400,7 +401,7 @@ impl Poly3 {
         Some(n.as_vec3())
     }
 
-    /// Exact change of coordinates (model-spec §3.3): the polynomial `p'` with
+    /// Exact change of coordinates (docs/model.md §3.3): the polynomial `p'` with
     /// `p'(u') = p(u'_1 e1 + u'_2 e2 + u'_3 e3)`.
     ///
     /// For an orthonormal frame (e1, e2, e3) expressed in the current axes, `p'` is the same
@@ -513,7 +514,7 @@ impl Poly3 {
     }
 
     /// The polynomial in the light-space frame of the incident direction `d_in`
-    /// ([`light_space_frame`]): what the network sees (`mlsPolyLS3`, model-spec §3.3).
+    /// ([`light_space_frame`]): what the network sees (`mlsPolyLS3`, docs/model.md §3.3).
     pub fn to_light_space(&self, d_in: Vec3) -> Poly3 {
         let f = light_space_frame(d_in);
         self.rotate(f.s, f.t, f.n)
@@ -565,15 +566,15 @@ fn split_cubic(p: [u8; 3]) -> (usize, usize) {
     (local_index(q), axes[2])
 }
 
-/// Light-space frame of the incident direction `d_in` (pointing INTO the medium), model-spec §3.3:
-/// `e3 = −normalize(d_in)` and `(e1, e2)` the Duff basis of `e3` ([`Frame::from_normal`]).
-/// Returned as a [`Frame`] `{ s: e1, t: e2, n: e3 }`.
+/// Light-space frame of the incident direction `d_in` (pointing INTO the medium),
+/// docs/model.md §3.3: `e3 = −normalize(d_in)` and `(e1, e2)` the Duff basis of `e3`
+/// ([`Frame::from_normal`]). Returned as a [`Frame`] `{ s: e1, t: e2, n: e3 }`.
 pub fn light_space_frame(d_in: Vec3) -> Frame {
     let e3 = (-d_in).try_normalize().unwrap_or(Vec3::Z);
     Frame::from_normal(e3)
 }
 
-/// Incident-direction alignment (model-spec §3.5, VKJ19 `adjustRayDirForPolynomialTracing`):
+/// Incident-direction alignment (docs/model.md §3.5, VKJ19 `adjustRayDirForPolynomialTracing`):
 /// rotate `d` by the rotation that maps the mesh normal `n_mesh` onto the polynomial normal
 /// `n_poly` (both normalised here; `n_poly` may be the raw `(c_1, c_2, c_3)`). The rotation has
 /// axis `n × n_p` and angle `acos(n·n_p)`; it is skipped (d returned unchanged) when

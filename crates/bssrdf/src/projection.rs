@@ -1,4 +1,4 @@
-//! Projection Π of a proposed entry point onto the mesh (model-spec §7, recommendation A5).
+//! Projection Π of a proposed entry point onto the mesh (docs/model.md §7, recommendation A5).
 //!
 //! The decoder proposes x̃ near the surface; Π moves it onto the mesh along the DETACHED gradient
 //! direction of the local polynomial at x̃ (the polynomial is an implicit surface with p < 0
@@ -18,8 +18,9 @@
 //!   our decoder's samples miss, and they cost more light at high σ_t than at low σ_t: the ratio
 //!   learned/volpath falls by 1.9 % from σ_t = 30 to 100 (mean over 36 cases; −0.4 % at reach 4,
 //!   +0.4 % at 8, +0.5 % with the unbounded VKJ19 rule). α absorbs a level, but such a slope
-//!   biases a joint σ_t, α fit low (torus: −21 % at reach 2, −9 % at reach 8). BENCHMARKS.md, "The projection's reach" (session 14) and "The
-//!   projection's reach, again" (session 17).
+//!   biases a joint σ_t, α fit low (torus: −21 % at reach 2, −9 % at reach 8).
+//!   docs/notes/light-side.md, "The projection's reach with isotropic incidence" and "The
+//!   projection's reach with directional incidence: 8σ_n".
 //! * [`ProjectionRule::Vkj19`] (Vicini et al.'s Mitsuba plugin): along ±∇p/|∇p| with distance
 //!   limit 2ε = 2σ_n² (as coded there) and, when both miss, a second, unbounded pass.
 

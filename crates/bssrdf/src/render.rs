@@ -1,9 +1,9 @@
-//! Forward rendering with the learned shape-adaptive BSSRDF (model-spec §7.3; Son et al. 2024
+//! Forward rendering with the learned shape-adaptive BSSRDF (docs/model.md §7.3; Son et al. 2024
 //! eq. 3–5).
 //!
 //! Per pixel sample: camera ray → x_o (front-facing hit, else 0); colour channel c and its weight
 //! w (the sample's value goes to channel c only, times w: the channels in turn with w = spp/n_c,
-//! or the paper's uniform channel with w = 3, model-spec A13, [`PixelSampling`]; for a grey
+//! or the paper's uniform channel with w = 3, docs/model.md A13, [`PixelSampling`]; for a grey
 //! medium, whose channels share σ_t and α, the sample serves all three channels instead); refracted incident direction d_in
 //! (η); the vertex polynomials of channel c interpolated at x_o (world axes, scaled by 1/σ_n,c);
 //! d_in aligned to the polynomial normal (§3.5); light-space frame e3 = −d_in; the 23 normalised
@@ -25,8 +25,8 @@
 //! count. Camera rays are answered by the view's per-pixel triangle lists ([`ViewRays`],
 //! [`geometry::PixelBins`]: the BVH's closest hit, bit for bit, from a few triangle tests).
 //!
-//! Descriptor scale: the vertex polynomials are fitted once (at σ_n,fit, model-spec §3.4) but the
-//! networks see them at the current σ_n: the light-space coefficients are rescaled by
+//! Descriptor scale: the vertex polynomials are fitted once (at σ_n,fit, docs/model.md §3.4) but
+//! the networks see them at the current σ_n: the light-space coefficients are rescaled by
 //! k = σ_n/σ_n,fit ([`Poly3::rescaled`]: the same surface in the new units, exact up to the
 //! change of the fit's kernel width), so a fit at the initial medium serves a whole optimisation.
 //! [`LearnedSettings::frozen_descriptor`] keeps SON24's fixed coefficients instead.
@@ -34,7 +34,7 @@
 //! Switches: [`LearnedSettings::planar_features`] replaces the shape descriptor by the plane
 //! p = u_z and projects along −n(x_o) (the "planar" ablation); the model's
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
-//! unrefracted camera direction, outputs in the shading frame of x_o), see model-spec A4.
+//! unrefracted camera direction, outputs in the shading frame of x_o), see docs/model.md A4.
 
 use geometry::{Accel, Frame, Hit, PixelBins};
 use glam::Vec3;
@@ -88,7 +88,7 @@ pub struct LearnedSettings {
     pub projection: ProjectionRule,
     /// Planar-features ablation: plane descriptor p = u_z, projection along −n(x_o).
     pub planar_features: bool,
-    /// Frame convention to use instead of the model's own (A/B comparisons, model-spec A4).
+    /// Frame convention to use instead of the model's own (A/B comparisons, docs/model.md A4).
     pub frames: Option<FrameConvention>,
     /// Keep the shape descriptor exactly as fitted (SON24) instead of rescaling it to the
     /// current σ_n ([`Poly3::rescaled`] with k = σ_n/σ_n,fit); the default rescales.
@@ -161,7 +161,7 @@ impl<'a> ViewRays<'a> {
     }
 }
 
-/// σ_n per channel (model-spec §2) with range checks.
+/// σ_n per channel (docs/model.md §2) with range checks.
 pub(crate) fn channel_sigma_n(m: &Medium) -> Result<[f32; 3], RenderError> {
     let mut out = [0.0; 3];
     for c in 0..3 {

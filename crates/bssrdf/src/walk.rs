@@ -1,8 +1,8 @@
-//! Random walks inside the fitted cubic polynomial surface (model-spec §5 step 3; VKJ19
+//! Random walks inside the fitted cubic polynomial surface (docs/model.md §5 step 3; VKJ19
 //! `sss_particle_tracer.cpp`, `render.cpp` sampleVolpathPoly3D).
 //!
 //! The medium is the set `{x : p((x − x_in)/σ_n) < 0}` of the polynomial `p` fitted at the entry
-//! point `x_in` (scaled coordinates, world axes, model-spec §3.2). Positions are kept in `f64`
+//! point `x_in` (scaled coordinates, world axes, docs/model.md §3.2). Positions are kept in `f64`
 //! relative to `x_in`, in world units.
 //!
 //! **Boundary intersection** (exact, not VKJ19's ray marching): along the ray `u(s) = a + s d`
@@ -44,7 +44,7 @@ pub const MAX_BOUNCES: u32 = 10_000;
 /// Longest boundary search along one ray, in world units (VKJ19: 500 marching steps of 0.1).
 pub const MAX_DISTANCE: f64 = 50.0;
 
-/// Medium of a walk (original, not reduced, parameters; model-spec §2).
+/// Medium of a walk (original, not reduced, parameters; docs/model.md §2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WalkMedium {
     /// Extinction σ_t (1/world unit).
@@ -253,7 +253,7 @@ impl WalkSurface {
         let u = r * self.inv_sigma_n;
         let [x, y, z] = u.to_array();
         let c = &self.c;
-        // ∂/∂x, ∂/∂y, ∂/∂z of the 20 monomials, written out (ordering of model-spec §3.1).
+        // ∂/∂x, ∂/∂y, ∂/∂z of the 20 monomials, written out (ordering of docs/model.md §3.1).
         let gx = c[1]
             + 2.0 * c[4] * x
             + c[5] * y

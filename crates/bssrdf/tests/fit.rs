@@ -1,4 +1,5 @@
-//! Tests of the constraint cloud and the weighted least-squares cubic fit (model-spec §3.2, §3.4).
+//! Tests of the constraint cloud and the weighted least-squares cubic fit
+//! (docs/model.md §3.2, §3.4).
 //!
 //! Analytic surfaces whose exact implicit function is a quadratic (sphere, cylinder, plane) must
 //! be recovered: the fitted zero set passes through held-out surface points and its gradient is
@@ -84,7 +85,7 @@ fn zero_set_error(
     out
 }
 
-/// Dense reference: rows and weights exactly as written in model-spec §3.2.
+/// Dense reference: rows and weights exactly as written in docs/model.md §3.2.
 fn reference_fit(cloud: &ConstraintCloud, p: Vec3, eps: f64) -> [f64; N_COEFFS] {
     let sigma_n = eps.sqrt();
     let pd = p.as_dvec3();

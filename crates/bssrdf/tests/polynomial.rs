@@ -1,5 +1,5 @@
 //! Tests of the cubic polynomial: evaluation, gradients, exact rotation, light-space frame and
-//! incident-direction alignment (model-spec §3.1, §3.3, §3.5).
+//! incident-direction alignment (docs/model.md §3.1, §3.3, §3.5).
 
 use bssrdf::polynomial::{
     N_COEFFS, POWERS, Poly3, align_direction, light_space_frame, monomial_gradients,
@@ -266,7 +266,7 @@ fn poly_normal() {
     assert!((n - Vec3::new(0.6, 0.0, 0.8)).length() < 1e-6);
 }
 
-/// Alignment maps n_mesh onto n_poly and keeps the angle of d to the normal (model-spec §3.5).
+/// Alignment maps n_mesh onto n_poly and keeps the angle of d to the normal (docs/model.md §3.5).
 #[test]
 fn align_direction_rotates_mesh_normal_onto_poly_normal() {
     let mut rng = Pcg64::seed_from_u64(7);

@@ -42,10 +42,10 @@ pub struct NoiseBenchArgs {
     #[arg(long, value_delimiter = ',', default_value = "0.4,1")]
     pub scales: Vec<f32>,
     /// Extinction σ_t per channel (1/unit).
-    #[arg(long, value_parser = parse_rgb, default_value = "45,65,85")]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "45,65,85")]
     pub sigma_t: [f32; 3],
     /// Albedo per channel.
-    #[arg(long, value_parser = parse_rgb, default_value = "0.85,0.92,0.96")]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "0.85,0.92,0.96")]
     pub albedo: [f32; 3],
     /// Views per scene.
     #[arg(long, default_value_t = 4)]

@@ -1,7 +1,7 @@
 //! `translucent bench plane`: the learned models against directly simulated random walks on a
 //! half-space (issue #4 acceptance 2, "distribution check on a plane").
 //!
-//! For each albedo (g = 0, η = 1, σ_t = 1 — the model is scale-invariant, model-spec §2) and
+//! For each albedo (g = 0, η = 1, σ_t = 1 — the model is scale-invariant, docs/model.md §2) and
 //! incidence angle, random walks in the half-space below the plane p = u_z
 //! (`learn::walk::random_walk`, the exact physics of the training data) give the absorbed fraction
 //! and the radial distribution of exit points r/σ_n around the entry point. Each model gets the
@@ -16,17 +16,17 @@
 //! isolates how the networks respond to curvature from the fit and the mesh. Curved training
 //! configurations are cylinder-like (the meshes are scaled per axis), so spheres probe the
 //! networks outside their training distribution; `bench spread` compares them with their own
-//! held-out data instead (BENCHMARKS.md, session 29).
+//! held-out data instead (docs/notes/decoder-training.md, "The decoder is the cause").
 //!
 //! On a sphere the exit distance is measured along the surface (the great-circle distance
 //! R·θ from the entry point), for the walks' exits and for the model's proposals alike. The
 //! proposals are first moved onto the sphere as the renderer's projection Π moves them: along
 //! ∇p, which on a sphere is the radial line through its centre, with the renderer's default
 //! reach of [`DEFAULT_MAX_DIST_SCALE`]·σ_n; a proposal farther from the surface is a miss
-//! (reported, left out of the histogram). On the plane this is r = |(y₁, y₂)| as before. (Until
-//! session 28 the sphere's histograms used the distance from the normal axis, r = |(u_x, u_y)|,
-//! of unprojected proposals: every exit on the far side of the ball then piled up at r ≤ R, and
-//! proposals beyond R were counted where no exit can lie.)
+//! (reported, left out of the histogram). On the plane this is r = |(y₁, y₂)|. (The distance
+//! from the normal axis, r = |(u_x, u_y)|, of unprojected proposals would not do on a sphere:
+//! every exit on the far side of the ball would pile up at r ≤ R, and proposals beyond R would
+//! be counted where no exit can lie.)
 
 use std::path::PathBuf;
 

@@ -8,12 +8,15 @@
 //!
 //! * the decorrelated loss L = Σ (I₁ − T)(I₂ − T) over the views' pixels, an unbiased estimate
 //!   of Σ (E[I] − T)²: a plain L2 of one render adds the render's own variance, which grows as
-//!   σ_t falls and would put the minimum at the truth by itself (BENCHMARKS.md, session 16);
+//!   σ_t falls and would put the minimum at the truth by itself
+//!   (docs/notes/learned-model-bias.md, "The model's own loss minimum on the torus, and the
+//!   descriptor's refit");
 //! * the brightness ratio Σ ½(I₁ + I₂) / Σ T.
 //!
 //! A renderer that agrees with the targets has its minimum at scale 1. `--entry-sampler walks`
 //! replaces the decoder by the walks it imitates ([`bssrdf::render::EntrySampler`]), so the two
-//! scans separate the decoder's share of the error from the rest of the model (session 29).
+//! scans separate the decoder's share of the error from the rest of the model
+//! (docs/notes/decoder-training.md, "The decoder is the cause").
 //! Writes `OUT/loss-scan.csv`.
 //!
 //! **Where the error lives.** `--grazing-cos C` sorts every pixel by the surface point its

@@ -228,12 +228,12 @@ pub struct LearnedArgs {
     #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
     pub projection: String,
     /// Reach of the `son24` projection in units of σ_n (SON24's scripts: 2; ours: 8, measured in
-    /// BENCHMARKS.md). Proposals farther than this from the mesh along the polynomial gradient
-    /// are invalid samples (value 0).
+    /// docs/notes/light-side.md). Proposals farther than this from the mesh along the polynomial
+    /// gradient are invalid samples (value 0).
     #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
     /// Frame convention of features and outputs: the model's own (default), `vkj19` or
-    /// `son24-compat` (model-spec A4).
+    /// `son24-compat` (docs/model.md A4).
     #[arg(long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
     pub frames: String,
     /// Keep the polynomial descriptor exactly as fitted while σ_t, α change (SON24) instead of
@@ -262,7 +262,7 @@ pub struct LearnedArgs {
     pub entry_sampler: String,
     /// Light side's curvature correction: `ball` (the light term times exact/model of walks in
     /// balls at the camera point's curvature, bssrdf::curvature; default; for media with g = 0
-    /// and η = 1, otherwise none) or `none` (the half-space light side of sessions 13–33).
+    /// and η = 1, otherwise none) or `none` (the half-space light side without the correction).
     #[arg(long, default_value = "ball", value_parser = ["none", "ball"])]
     pub light_curvature: String,
     /// How a pixel's samples are spread over the colour channels: `stratified` (the channels

@@ -54,7 +54,7 @@ pub struct RigArgs {
     #[arg(long, default_value = "0.8,0.8,0")]
     pub light_offset: String,
     /// Point-light radiant intensity in W/sr (one value or R,G,B); irradiance I/r².
-    #[arg(long, default_value = "12", value_parser = parse_rgb)]
+    #[arg(long, default_value = "12", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub intensity: [f32; 3],
 }
 
@@ -130,13 +130,13 @@ impl RigArgs {
 #[derive(Args, Clone)]
 pub struct MediumArgs {
     /// Extinction σ_t in 1/unit (one value or R,G,B).
-    #[arg(long, value_parser = parse_rgb, default_value = "60,45,35")]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "60,45,35")]
     pub sigma_t: [f32; 3],
     /// Single-scattering albedo α in [0, 1) (one value or R,G,B).
-    #[arg(long, value_parser = parse_rgb, default_value = "0.95,0.9,0.85")]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "0.95,0.9,0.85")]
     pub albedo: [f32; 3],
     /// Henyey–Greenstein anisotropy g in (−1, 1).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub g: f32,
     /// Relative index of refraction (1 = index-matched boundary, the paper's data).
     #[arg(long, default_value_t = 1.0)]
@@ -179,7 +179,7 @@ pub fn house_rig(views: usize, res: u32, light: RigLight, elevation_deg: (f32, f
     }
 }
 
-/// The paper's kind of data (model-spec §8.3): views all around, ONE fixed point light.
+/// The paper's kind of data (docs/model.md §8.3): views all around, ONE fixed point light.
 pub fn paper_rig(views: usize, res: u32) -> Rig {
     house_rig(
         views,

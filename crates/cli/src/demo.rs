@@ -3,8 +3,8 @@
 //! with the volumetric path tracer, then recovers σ_t and α from the images with the learned
 //! BSSRDF and the paper's gradient estimator (`translucent optimize`, method `ours`), corrects the
 //! estimate's bias by one parametric-bootstrap step (`optimize --bias-correction`; the learned
-//! model's own loss minimum lies below the true σ_t, BENCHMARKS.md), prints truth against both
-//! estimates and writes the convergence plots and re-renders.
+//! model's own loss minimum lies below the true σ_t, docs/notes/learned-model-bias.md), prints
+//! truth against both estimates and writes the convergence plots and re-renders.
 
 use std::path::PathBuf;
 
@@ -70,7 +70,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         }
     }
     let medium = random_medium(a.seed);
-    // One fixed light for all views, as in the paper's data (model-spec §8.3): the views from
+    // One fixed light for all views, as in the paper's data (docs/model.md §8.3): the views from
     // the unlit side see light that crossed the object, the strongest σ_t signal.
     let rig = paper_rig(a.views, a.res);
     rig.validate("demo")?;

@@ -4,7 +4,7 @@
 //! 1. Datasets: each built-in shape of `--shapes` × `--media` hidden media drawn from the paper's
 //!    ranges (σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel; medium k is the same for every shape),
 //!    rendered by our volumetric path tracer: `--views` cameras on a sphere of radius 2 around the
-//!    object, one fixed point light for all views (the paper's data, model-spec §8.3).
+//!    object, one fixed point light for all views (the paper's data, docs/model.md §8.3).
 //! 2. Recovery: `translucent optimize` with each method of `--methods` from σ_t = 50, α = 0.5
 //!    (`--iterations`, `--spp`), and `--inits` random initialisations on one case
 //!    (`--inits-case`, default the first; Fig. 7). With `--bias-correction` every run, the

@@ -24,10 +24,10 @@ pub struct GradcheckArgs {
     #[arg(long, default_value_t = 0)]
     pub view: usize,
     /// σ_t at which to differentiate (default: the dataset's truth).
-    #[arg(long, value_parser = parse_rgb)]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true)]
     pub sigma_t: Option<[f32; 3]>,
     /// α at which to differentiate (default: the dataset's truth).
-    #[arg(long, value_parser = parse_rgb)]
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true)]
     pub albedo: Option<[f32; 3]>,
     /// Methods (comma-separated; `fd` is the reference and is always added).
     #[arg(long, value_delimiter = ',', default_value = "ours,naive")]

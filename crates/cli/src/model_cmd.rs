@@ -232,7 +232,7 @@ struct PlaneCase {
     decode: [f32; 3],
 }
 
-/// Effective albedo α_eff(a) = −ln(1 − a(1 − e⁻⁸))/8 (model-spec §2).
+/// Effective albedo α_eff(a) = −ln(1 − a(1 − e⁻⁸))/8 (docs/model.md §2).
 fn eff_albedo(a: f64) -> f64 {
     -(1.0 - a * (1.0 - (-8.0f64).exp())).ln() / 8.0
 }

@@ -64,10 +64,10 @@ pub struct OptimizeArgs {
     #[arg(long, default_value_t = 0.01, value_name = "FLOOR")]
     pub view_weight_floor: f64,
     /// Initial σ_t (1/unit; one value or R,G,B).
-    #[arg(long, default_value = "50", value_parser = parse_rgb)]
+    #[arg(long, default_value = "50", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_sigma_t: [f32; 3],
     /// Initial albedo (one value or R,G,B).
-    #[arg(long, default_value = "0.5", value_parser = parse_rgb)]
+    #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
     /// Learning rate on ln σ_t (or on σ_t/100 with --scaled-sigma-t).
     #[arg(long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
@@ -494,31 +494,75 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
             shown_u = uncertainty.as_ref().map(|u| u.corrected(&estimate, &shown));
         }
     }
-    // The reported medium, rendered by the volumetric path tracer, against the targets.
-    let consistency = (a.consistency_views > 0).then(|| {
-        let n = ds.views.len();
-        let k = a.consistency_views.min(n);
-        let views: Vec<inverse::consistency::CheckView> = (0..k)
-            .map(|i| i * n / k)
-            .map(|v| inverse::consistency::CheckView {
+    // The reported medium, rendered by the volumetric path tracer, against the targets; and
+    // the tracer's own sensitivity along the σ_t valley on the same views.
+    let n = ds.views.len();
+    let k = a.consistency_views.min(n);
+    let check_views: Vec<(usize, inverse::consistency::CheckView)> = (0..k)
+        .map(|i| i * n / k)
+        .map(|v| {
+            let view = inverse::consistency::CheckView {
                 camera: &ds.views[v].camera,
                 light: &ds.views[v].light,
                 target: images[v],
                 index: opt.config().view_subset.as_ref().map_or(v, |s| s[v]),
-            })
-            .collect();
-        let spp = ds.render.spp.unwrap_or(64);
+            };
+            (v, view)
+        })
+        .collect();
+    let check_spp = ds.render.spp.unwrap_or(64);
+    let consistency = (k > 0).then(|| {
+        let views: Vec<_> = check_views.iter().map(|(_, v)| *v).collect();
         let pb = progress(0, "consistency (volumetric path tracer)");
         let c = inverse::consistency::check(
             &accel,
             &shown.medium(&base),
             &views,
-            spp,
+            check_spp,
             a.seed ^ 0xC0_5157,
         );
         pb.finish_and_clear();
         c
     });
+    let sensitivity = uncertainty.as_ref().and_then(|u| {
+        // The checked views whose learned bread the intervals measured.
+        let (views, breads): (Vec<_>, Vec<_>) = check_views
+            .iter()
+            .filter_map(|(v, view)| {
+                let bread = u.view_bread.iter().find(|(i, _)| i == v)?.1;
+                Some((*view, bread))
+            })
+            .unzip();
+        if views.is_empty() {
+            return None;
+        }
+        let pb = progress(
+            0,
+            "sensitivity along the σ_t valley (volumetric path tracer)",
+        );
+        let s = inverse::sensitivity::measure(
+            &accel,
+            &shown.medium(&base),
+            &views,
+            &breads,
+            inverse::sensitivity::valley_slope(&u.bread()),
+            check_spp,
+            a.seed ^ 0x5E_4517,
+        );
+        pb.finish_and_clear();
+        Some(s)
+    });
+    if let (Some(u), Some(s)) = (&shown_u, &sensitivity) {
+        let widened = u.with_sensitivity(&shown, s);
+        if let serde_json::Value::Object(m) = widened.to_json() {
+            result
+                .as_object_mut()
+                .expect("result.json is an object")
+                .extend(m);
+        }
+        result["sensitivity"] = serde_json::to_value(s)?;
+        shown_u = Some(widened);
+    }
     let problems = inverse::health::assess(
         opt.history(),
         &shown,
@@ -536,6 +580,20 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         for line in report::interval_lines(&shown, u) {
             println!("  {line}");
         }
+    }
+    if let Some(s) = &sensitivity {
+        println!(
+            "  sensitivity to σ_t along the σ_t–α valley (volumetric path tracer, {} views): the \
+             images curve ({:.2}, {:.2}, {:.2})× as much as the learned model says; the intervals \
+             widen by √ρ = ({:.2}, {:.2}, {:.2})",
+            s.views.len(),
+            s.volpath[0] / s.learned[0],
+            s.volpath[1] / s.learned[1],
+            s.volpath[2] / s.learned[2],
+            s.ratio[0].sqrt(),
+            s.ratio[1].sqrt(),
+            s.ratio[2].sqrt()
+        );
     }
     if let Some(c) = &consistency {
         println!(
@@ -637,6 +695,13 @@ fn rerender(
         let index = opt.config().view_subset.as_ref().map_or(i, |s| s[i]);
         write_view(&dir, &format!("view_{index:03}"), img, t, exposure)?;
     }
+    // The first four views at a glance: targets above, re-renders below.
+    let k = imgs.len().min(targets.len()).min(4);
+    let overview = Image::grid(
+        &[targets[..k].iter().collect(), imgs[..k].iter().collect()],
+        2,
+    );
+    overview.write_png(&dir.join("overview.png"), exposure, true)?;
     Ok(())
 }
 

@@ -5,7 +5,8 @@
 //! the rendered medium as its truth, the renderer in its `render` block; DATASET.md). Rendering a
 //! dataset's truth with `--method learned --as-dataset` gives targets that the learned model
 //! explains exactly: an optimisation on them measures the estimator and the optimiser alone,
-//! without the model's error against the volumetric path tracer (BENCHMARKS.md, session 34).
+//! without the model's error against the volumetric path tracer (docs/notes/light-side.md, "The
+//! light side on convex surfaces").
 
 use std::path::PathBuf;
 

@@ -1,5 +1,5 @@
 //! `translucent train …`: make training data with our random walks and train the learned BSSRDF
-//! (model-spec §5–§6).
+//! (docs/model.md §5–§6).
 //!
 //! * `train data --out DIR`: `DIR/train.tlsamples` and `DIR/val.tlsamples` (validation from other
 //!   meshes than training).
@@ -23,9 +23,9 @@ use crate::train_fit::run_fit;
 #[derive(Subcommand)]
 pub enum TrainCommand {
     /// Generate training data: random walks inside the polynomial fitted at random entry points
-    /// of random procedural shapes (and given meshes), with random media (model-spec §5).
+    /// of random procedural shapes (and given meshes), with random media (docs/model.md §5).
     Data(DataArgs),
-    /// Train the conditional VAE and the absorption network on generated data (model-spec §6).
+    /// Train the conditional VAE and the absorption network on generated data (docs/model.md §6).
     Fit(FitArgs),
     /// Generate data and train with the recipe of the shipped model (`models/`): the CVAE with
     /// the defaults of `train fit`, then the energy-score fine-tuning of its decoder.
@@ -55,10 +55,10 @@ pub struct DataArgs {
     /// Also draw base shapes from these meshes (OBJ/PLY), besides the procedural families.
     #[arg(long = "mesh")]
     pub meshes_in: Vec<PathBuf>,
-    /// Fit without VKJ19's c_19 = 0 quirk (model-spec §3.2; the renderer follows the model).
+    /// Fit without VKJ19's c_19 = 0 quirk (docs/model.md §3.2; the renderer follows the model).
     #[arg(long)]
     pub no_c19_quirk: bool,
-    /// Uniform mesh scale after normalisation to extent 1 (model-spec §5: 20). Smaller values
+    /// Uniform mesh scale after normalisation to extent 1 (docs/model.md §5: 20). Smaller values
     /// give more strongly curved surfaces in units of the kernel σ_n.
     #[arg(long, default_value_t = 20.0)]
     pub mesh_scale: f32,
@@ -99,7 +99,7 @@ pub struct FitArgs {
     /// Global-norm gradient clipping threshold.
     #[arg(long, default_value_t = 100.0)]
     pub clip: f32,
-    /// Weight of the mean squared position error in the loss (model-spec §6: 100). Read as a
+    /// Weight of the mean squared position error in the loss (docs/model.md §6: 100). Read as a
     /// Gaussian decoder, weight w means an output noise of σ² = 3/(2w) per dimension (units of
     /// σ_n²), the finest detail of the exit distribution the VAE is asked to resolve.
     #[arg(long, default_value_t = 100.0)]
@@ -114,7 +114,7 @@ pub struct FitArgs {
     /// Checkpoint every N steps.
     #[arg(long, default_value_t = 5000)]
     pub checkpoint_every: u64,
-    /// Objective: `cvae` (model-spec §6) or `energy` (the energy score of the decoder's
+    /// Objective: `cvae` (docs/model.md §6) or `energy` (the energy score of the decoder's
     /// proposals against the walks' exits, plus the absorption term: fits the exit distribution
     /// directly; `learn::energy`). `energy` is meant as a fine-tuning stage after `cvae`
     /// (`--init`).
@@ -181,7 +181,8 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
 }
 
 /// The fine-tuning stage of the shipped recipe: the energy objective from the CVAE's model in
-/// `cvae.out`, on the same data and seed (settings measured in BENCHMARKS.md, session 30).
+/// `cvae.out`, on the same data and seed (settings measured in docs/notes/decoder-training.md,
+/// "The energy score: the decoder fitted as a distribution").
 pub fn energy_stage(cvae: &FitArgs, out: PathBuf) -> FitArgs {
     FitArgs {
         out,

@@ -1,4 +1,4 @@
-//! `translucent train fit`: train the learned BSSRDF on generated data (model-spec §6) and
+//! `translucent train fit`: train the learned BSSRDF on generated data (docs/model.md §6) and
 //! write the model, its loss curves and history; `--resume` continues a run bit-identically.
 
 use std::path::Path;

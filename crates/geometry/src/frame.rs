@@ -1,6 +1,6 @@
 //! Orthonormal frames. [`Frame::from_normal`] is the branchless basis of Duff et al. 2017,
 //! "Building an Orthonormal Basis, Revisited" (JCGT 6(1)), used everywhere the model spec asks for
-//! a "Duff basis" (model-spec §3.3).
+//! a "Duff basis" (docs/model.md §3.3).
 
 use glam::Vec3;
 

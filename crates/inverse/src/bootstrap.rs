@@ -3,8 +3,9 @@
 //! The learned BSSRDF is an approximation of the light transport that made the images (the
 //! volumetric path tracer, or the real world), so the minimum of the image loss under the learned
 //! model does not lie at the true medium: the recovery F(images) has a systematic error, a bias
-//! b(θ) = F(V(θ)) − θ that depends smoothly on the medium θ (BENCHMARKS.md: every σ_t of the
-//! accuracy experiment ends 9–35 % low, by an amount that depends on the shape, not on the noise).
+//! b(θ) = F(V(θ)) − θ that depends smoothly on the medium θ (docs/notes/bias-correction.md: with
+//! decoder v1 every σ_t of the accuracy experiment ended 9–35 % low, by an amount that depends on
+//! the shape, not on the noise).
 //!
 //! The parametric bootstrap (Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, §10.6;
 //! in econometrics "indirect inference", Gouriéroux, Monfort & Renault 1993) estimates that bias

@@ -22,7 +22,8 @@
 //!
 //! A recovery is *inconsistent* when a channel's mean ratio over the views is off by more than
 //! [`RATIO_TOLERANCE`] or its q exceeds [`Q_TOLERANCE`] (the numbers are chosen so that the
-//! suite's cases recovered within a few percent pass; BENCHMARKS.md, "Robustness").
+//! suite's cases recovered within a few percent pass; BENCHMARKS.md, "Robustness on data we did
+//! not tune on").
 
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
@@ -66,6 +67,7 @@ impl Consistency {
 }
 
 /// One view to check: camera, light, target image, and its index in the dataset.
+#[derive(Clone, Copy)]
 pub struct CheckView<'a> {
     pub camera: &'a Camera,
     pub light: &'a PointLight,

@@ -2,7 +2,7 @@
 //! (Son et al. 2024 §5): parameters and their parameterisation ([`params`]), the Adam loop with
 //! checkpoints ([`optimize`]), its reports ([`report`]), the uncertainty of an estimate from the
 //! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
-//! ([`consistency`]) and the parametric-bootstrap bias correction of a recovered medium
+//! ([`consistency`]), the tracer's own sensitivity along the σ_t valley ([`sensitivity`]) and the parametric-bootstrap bias correction of a recovered medium
 //! ([`bootstrap`]). The gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
@@ -12,4 +12,5 @@ pub mod health;
 pub mod optimize;
 pub mod params;
 pub mod report;
+pub mod sensitivity;
 pub mod uncertainty;

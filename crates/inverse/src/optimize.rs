@@ -1,4 +1,4 @@
-//! Multi-view inverse rendering with the learned BSSRDF (Son et al. 2024 §5; model-spec §8.3,
+//! Multi-view inverse rendering with the learned BSSRDF (Son et al. 2024 §5; docs/model.md §8.3,
 //! A10–A12): Adam on the medium parameters with the gradient of the image loss from
 //! [`bssrdf::diff::render_loss_gradient`].
 //!
@@ -93,7 +93,7 @@ pub struct OptimizeConfig {
     #[serde(with = "loss_name")]
     pub loss: Loss,
     /// Decorrelated gradient: ∂ℓ/∂I from one render and ∂I/∂θ from another with independent
-    /// samples (DLW22's two-buffer estimator, model-spec A11). The single-render product
+    /// samples (DLW22's two-buffer estimator, docs/model.md A11). The single-render product
     /// 2(I − T)·∂I/∂θ is biased by Cov(I, ∂I/∂θ); this one is not.
     #[serde(default)]
     pub two_renders: bool,
@@ -135,7 +135,8 @@ pub struct OptimizeConfig {
     /// Albedo first: for this many initial iterations σ_t stays at its initial value (zero
     /// gradient, no Adam moment), and only α moves. From σ_t = 50, α = 0.5 the images start far
     /// too dark; the joint gradient then pulls σ_t down (darker as σ_t grows) while α climbs,
-    /// and Adam's memory of those steps keeps σ_t low (BENCHMARKS.md, "Albedo first").
+    /// and Adam's memory of those steps keeps σ_t low (docs/notes/recovery-recipe.md, "Albedo
+    /// first").
     #[serde(default)]
     pub albedo_warmup: u32,
     /// Normalise each view's loss, per channel, by the loss of a black image against its target
@@ -315,10 +316,10 @@ impl OptimizeConfig {
     }
 
     /// The recovery's defaults from `init`, shared by `optimize`, `demo` and `experiment`: the
-    /// budget of model-spec A12 (`ours`, 300 iterations, 32 spp, 1 view, L2, lr 0.015 and 0.02,
-    /// ×0.85 every 50 iterations) with the settings that measured best (BENCHMARKS.md,
-    /// "Recovery defaults"): Adam on ln σ_t, the decorrelated two-render gradient, and α alone
-    /// for the first 30 iterations.
+    /// budget of docs/model.md A12 (`ours`, 300 iterations, 32 spp, 1 view, L2, lr 0.015 and
+    /// 0.02, ×0.85 every 50 iterations) with the settings that measured best
+    /// (docs/notes/recovery-recipe.md, "Conclusions"): Adam on ln σ_t, the decorrelated
+    /// two-render gradient, and α alone for the first 30 iterations.
     pub fn new(init: Params) -> Self {
         Self {
             method: DiffMethod::Ours,
@@ -558,6 +559,10 @@ impl<'a> Optimizer<'a> {
         let cov = add_covariances(acc.covariance(s.model_brightness_sd), spread);
         let images = add_covariances(acc.covariance(0.0), spread);
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
+        u.view_bread = (0..k)
+            .map(|i| i * n / k)
+            .zip(acc.view_breads().iter().copied())
+            .collect();
         if c.params.fix_sigma_t {
             u.sigma_t = [None; 3];
             u.sd_ln_sigma_t = [None; 3];

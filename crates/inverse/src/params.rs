@@ -1,5 +1,5 @@
-//! The optimised medium parameters and their parameterisation (Son et al. 2024 §5; model-spec
-//! §8.3, A12–A13).
+//! The optimised medium parameters and their parameterisation (Son et al. 2024 §5;
+//! docs/model.md §8.3, A12–A13).
 //!
 //! The optimiser sees six unconstrained numbers u = (u_σ,R, u_σ,G, u_σ,B, u_α,R, u_α,G, u_α,B):
 //!
@@ -10,7 +10,7 @@
 //!
 //! then clamped after every step: α ∈ [ALBEDO_MIN, ALBEDO_MAX] (the paper's (0, 0.99995)),
 //! σ_t ≥ SIGMA_T_MIN. A monochrome run shares one value per kind over the channels (the gradient is
-//! the channel mean, model-spec A13); a fixed parameter keeps its value (zero gradient).
+//! the channel mean, docs/model.md A13); a fixed parameter keeps its value (zero gradient).
 
 use scene::Medium;
 use serde::{Deserialize, Serialize};

@@ -36,7 +36,13 @@
 //! from A⁻¹BA⁻¹ + C_opt alone (without the model-error terms) has σ_t's upper bound at most
 //! [`DETERMINED_SIGMA_T_RATIO`] times its lower one, or α's half-width at most
 //! [`DETERMINED_ALBEDO_HALF_WIDTH`]. The reported interval itself includes the model's error.
+//!
+//! All of this takes the loss's curvature from the learned model. Where the model is more
+//! curved along the σ_t–α valley than the images are, [`Uncertainty::with_sensitivity`]
+//! widens the intervals by the volumetric path tracer's measured curvature along that valley
+//! ([`crate::sensitivity`]); *determined* is decided after that widening.
 
+use crate::sensitivity::Sensitivity;
 use scene::Image;
 use serde::{Deserialize, Serialize};
 
@@ -44,6 +50,9 @@ use serde::{Deserialize, Serialize};
 pub const Z95: f64 = 1.959_963_984_540_054;
 /// σ_t counts as determined when hi/lo of its 95 % interval is at most this (about ±10 %).
 pub const DETERMINED_SIGMA_T_RATIO: f64 = 1.2;
+/// The widest standard deviation of ln σ_t that [`Uncertainty::with_sensitivity`] widens to:
+/// a 95 % interval of a factor 10 either way.
+pub const WIDEST_SD_LN_SIGMA_T: f64 = std::f64::consts::LN_10 / Z95;
 /// α counts as determined when the half-width of its 95 % interval is at most this.
 pub const DETERMINED_ALBEDO_HALF_WIDTH: f64 = 0.02;
 
@@ -81,6 +90,8 @@ pub struct Accumulator {
     g: Vec<[[f64; 2]; 3]>,
     /// Σ_p J_p I_p per channel (the direction of a common brightness error).
     ji: [[f64; 2]; 3],
+    /// Each view's share of A, in the order the views were added.
+    view_a: Vec<[[f64; 3]; 3]>,
 }
 
 /// One view's derivative renders at the estimate: value and ∂I/∂σ_t, ∂I/∂α images of two
@@ -115,12 +126,13 @@ impl Accumulator {
     /// factors from different estimates (no Monte Carlo covariance between them).
     pub fn add_rows(&mut self, rows: impl Iterator<Item = (usize, [[f64; 2]; 2], [f64; 2], f64)>) {
         let mut g = [[0.0; 2]; 3];
+        let mut view_a = [[0.0; 3]; 3];
         for (c, [j1, j2], [v1, v2], t) in rows {
             let res = 0.5 * (v1 + v2) - t;
             if !(res.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
                 continue;
             }
-            let a = &mut self.a[c];
+            let a = &mut view_a[c];
             a[0] += j1[0] * j2[0];
             a[1] += 0.5 * (j1[0] * j2[1] + j1[1] * j2[0]);
             a[2] += j1[1] * j2[1];
@@ -129,7 +141,19 @@ impl Accumulator {
                 self.ji[c][k] += 0.5 * (j1[k] * v2 + j2[k] * v1);
             }
         }
+        for c in 0..3 {
+            for k in 0..3 {
+                self.a[c][k] += view_a[c][k];
+            }
+        }
         self.g.push(g);
+        self.view_a.push(view_a);
+    }
+
+    /// Each added view's share of A per channel, [a00, a01, a11] in (ln σ_t, α), in the order
+    /// the views were added.
+    pub fn view_breads(&self) -> &[[[f64; 3]; 3]] {
+        &self.view_a
     }
 
     /// The covariance A⁻¹BA⁻¹ + s_b²·d dᵀ per channel in (ln σ_t, α) as [c00, c01, c11]
@@ -234,6 +258,10 @@ pub struct Uncertainty {
     /// Its part from the images and the optimiser alone (no model-error allowance).
     #[serde(skip)]
     pub images: [Option<[f64; 3]>; 3],
+    /// The learned model's Gauss–Newton A of each view used: (target index, [a00, a01, a11]
+    /// per channel in (ln σ_t, α)).
+    #[serde(skip)]
+    pub view_bread: Vec<(usize, [[f64; 3]; 3])>,
 }
 
 impl Uncertainty {
@@ -289,6 +317,7 @@ impl Uncertainty {
             views,
             covariance: cov,
             images,
+            view_bread: Vec::new(),
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
                      error, the spread of the last iterates"
                 .into(),
@@ -325,19 +354,80 @@ impl Uncertainty {
             "{}; bias-corrected: twice that covariance plus the correction's square",
             self.method
         );
-        for c in 0..3 {
-            if self.sigma_t[c].is_none() {
-                u.sigma_t[c] = None;
-                u.sd_ln_sigma_t[c] = None;
-                u.determined_sigma_t[c] = false;
-            }
-            if self.albedo[c].is_none() {
-                u.albedo[c] = None;
-                u.sd_albedo[c] = None;
-                u.determined_albedo[c] = false;
+        u.keep_from(self);
+        u
+    }
+
+    /// The learned model's A summed over the views used, per channel.
+    pub fn bread(&self) -> [[f64; 3]; 3] {
+        let mut a = [[0.0; 3]; 3];
+        for (_, v) in &self.view_bread {
+            for c in 0..3 {
+                for k in 0..3 {
+                    a[c][k] += v[c][k];
+                }
             }
         }
+        a
+    }
+
+    /// The intervals around `at` (this uncertainty's centre) once the images' own sensitivity
+    /// along the σ_t valley is known ([`crate::sensitivity`]).
+    ///
+    /// In the coordinates x = ln σ_t, y = α − s·x, with s the valley's slope dα/d ln σ_t
+    /// (−a01/a11 of the learned model's A), the Gauss–Newton bread is diagonal: x is σ_t
+    /// with α refitted. Where the volumetric path tracer's images curve a factor ρ less along
+    /// x than the learned model's, a covariance C(x, y) becomes D C D with D = diag(√ρ, 1): the
+    /// profile variance of ln σ_t grows by ρ, that of y stays. This applies to the part of the
+    /// covariance the images and the optimiser make (so *determined* follows); the allowances
+    /// for the model's error (its brightness error, the bias correction's size) are measured
+    /// magnitudes, not curvatures, and are added unchanged. The widening stops where the
+    /// images' interval of σ_t spans a factor of 10 either way ([`WIDEST_SD_LN_SIGMA_T`]):
+    /// beyond that a linearised interval says no more than "not determined".
+    pub fn with_sensitivity(&self, at: &crate::params::Params, s: &Sensitivity) -> Self {
+        let images: [Option<[f64; 3]>; 3] = std::array::from_fn(|c| {
+            self.images[c].map(|m| {
+                // No wider than WIDEST_SD_LN_SIGMA_T by the widening itself.
+                let room = (WIDEST_SD_LN_SIGMA_T.powi(2) / m[0]).max(1.0);
+                let rho = if room.is_finite() {
+                    s.ratio[c].min(room)
+                } else {
+                    s.ratio[c]
+                };
+                along_valley(m, s.slope[c], rho)
+            })
+        });
+        // The model-error allowances (cov − images) are magnitudes, not curvatures: they stay.
+        let cov = std::array::from_fn(|c| match (self.covariance[c], self.images[c], images[c]) {
+            (Some(m), Some(old), Some(new)) => {
+                Some(std::array::from_fn(|k| m[k] - old[k] + new[k]))
+            }
+            (m, _, _) => m,
+        });
+        let mut u = Self::new(at.sigma_t, at.albedo, cov, images, self.views);
+        u.method = format!(
+            "{}; widened along the σ_t valley by the volumetric path tracer's sensitivity",
+            self.method
+        );
+        u.keep_from(self);
         u
+    }
+
+    /// Keeps `from`'s missing intervals missing (a fixed parameter) and its views' breads.
+    fn keep_from(&mut self, from: &Self) {
+        for c in 0..3 {
+            if from.sigma_t[c].is_none() {
+                self.sigma_t[c] = None;
+                self.sd_ln_sigma_t[c] = None;
+                self.determined_sigma_t[c] = false;
+            }
+            if from.albedo[c].is_none() {
+                self.albedo[c] = None;
+                self.sd_albedo[c] = None;
+                self.determined_albedo[c] = false;
+            }
+        }
+        self.view_bread = from.view_bread.clone();
     }
 
     /// `result.json`'s `interval95` and `determined` fields.
@@ -360,6 +450,25 @@ impl Uncertainty {
             },
         })
     }
+}
+
+/// The covariance m = [c00, c01, c11] in (ln σ_t, α) with the profile variance of ln σ_t
+/// along the valley of slope `slope` = dα/d ln σ_t scaled by `ratio`
+/// ([`Uncertainty::with_sensitivity`]).
+pub fn along_valley(m: [f64; 3], slope: f64, ratio: f64) -> [f64; 3] {
+    let [c00, c01, c11] = m;
+    // C(x, y) with y = α − s·x.
+    let (xx, xy, yy) = (
+        c00,
+        c01 - slope * c00,
+        c11 - 2.0 * slope * c01 + slope * slope * c00,
+    );
+    let (xx, xy) = (ratio * xx, ratio.sqrt() * xy);
+    [
+        xx,
+        xy + slope * xx,
+        yy + 2.0 * slope * xy + slope * slope * xx,
+    ]
 }
 
 /// Adds two per-channel covariances (a missing one stays missing).
@@ -481,5 +590,81 @@ mod tests {
         assert_eq!(u.determined_sigma_t, [true, false, false]);
         assert_eq!(u.determined_albedo, [true, false, false]);
         assert_eq!(u.albedo[1].unwrap()[1], 1.0);
+    }
+
+    /// Along a valley the widening scales the profile variance of ln σ_t (its variance with α
+    /// refitted, 1/(uᵀAu) for a Fisher covariance A⁻¹) by ρ and leaves α's conditional
+    /// variance at fixed ln σ_t unchanged; ρ = 1 changes nothing. A narrow interval turns
+    /// undetermined when ρ is large, a fixed parameter keeps no interval.
+    #[test]
+    fn widening_along_the_valley() {
+        // A of J = (2, 1) plus a little curvature across the valley.
+        let a = [4.0 + 0.1, 2.0, 1.0 + 0.1];
+        let det = a[0] * a[2] - a[1] * a[1];
+        let c = [a[2] / det, -a[1] / det, a[0] / det];
+        let slope = -a[1] / a[2];
+        let same = along_valley(c, slope, 1.0);
+        for k in 0..3 {
+            assert!((same[k] - c[k]).abs() < 1e-12 * c[k].abs().max(1.0));
+        }
+        let rho = 9.0;
+        let w = along_valley(c, slope, rho);
+        // Profile variance of ln σ_t = c00; conditional variance of α = c11 − c01²/c00.
+        assert!((w[0] - rho * c[0]).abs() < 1e-9 * w[0]);
+        let cond = |m: [f64; 3]| m[2] - m[1] * m[1] / m[0];
+        assert!((cond(w) - cond(c)).abs() < 1e-9 * cond(c));
+        // The same as the Fisher covariance of A with its profile curvature divided by ρ.
+        let p = a[0] - a[1] * a[1] / a[2];
+        let a2 = [a[0] - (1.0 - 1.0 / rho) * p, a[1], a[2]];
+        let det2 = a2[0] * a2[2] - a2[1] * a2[1];
+        let c2 = [a2[2] / det2, -a2[1] / det2, a2[0] / det2];
+        for k in 0..3 {
+            assert!((w[k] - c2[k]).abs() < 1e-9 * c2[k].abs(), "{w:?} {c2:?}");
+        }
+
+        let narrow = Some([0.02f64.powi(2), 0.0, 0.001f64.powi(2)]);
+        let mut u = Uncertainty::new([50.0; 3], [0.95; 3], [narrow; 3], [narrow; 3], 8);
+        u.sigma_t[2] = None;
+        let at = crate::params::Params {
+            sigma_t: [50.0; 3],
+            albedo: [0.95; 3],
+        };
+        let s = Sensitivity {
+            slope: [0.0; 3],
+            step: [0.1; 3],
+            learned: [1.0; 3],
+            volpath: [1.0, 0.01, 0.01],
+            volpath_se: [0.0; 3],
+            ratio: [1.0, 100.0, 100.0],
+            views: vec![0],
+            spp: 16,
+        };
+        let w = u.with_sensitivity(&at, &s);
+        assert_eq!(w.determined_sigma_t, [true, false, false]);
+        // An interval already wider than a factor 10 either way is not widened further; one
+        // close to it only up to it.
+        let wide = Some([2.0f64.powi(2), 0.0, 0.001f64.powi(2)]);
+        let near = Some([1.0f64.powi(2), 0.0, 0.001f64.powi(2)]);
+        let v = Uncertainty::new(
+            [50.0; 3],
+            [0.95; 3],
+            [wide, near, narrow],
+            [wide, near, narrow],
+            8,
+        )
+        .with_sensitivity(
+            &at,
+            &Sensitivity {
+                ratio: [100.0; 3],
+                ..s.clone()
+            },
+        );
+        assert!((v.sd_ln_sigma_t[0].unwrap() - 2.0).abs() < 1e-12);
+        assert!((v.sd_ln_sigma_t[1].unwrap() - WIDEST_SD_LN_SIGMA_T).abs() < 1e-12);
+        assert!((v.sd_ln_sigma_t[2].unwrap() - 0.2).abs() < 1e-12);
+        assert_eq!(w.sigma_t[0], u.sigma_t[0]);
+        let [lo, hi] = w.sigma_t[1].unwrap();
+        assert!((hi / lo - (2.0 * Z95 * 0.2f64).exp()).abs() < 1e-9);
+        assert!(w.sigma_t[2].is_none());
     }
 }

@@ -1,4 +1,4 @@
-//! The training objective of the shape-adaptive BSSRDF (model-spec §6) and its exact gradient
+//! The training objective of the shape-adaptive BSSRDF (docs/model.md §6) and its exact gradient
 //! with respect to every parameter of the model: feature MLP (shared), absorption MLP, decoder
 //! and encoder.
 //!
@@ -50,7 +50,7 @@ pub struct Widths {
 }
 
 impl Widths {
-    /// Son et al.'s light model (model-spec §4.2): F = 32,32; A 16; D 32,32; E 32,32.
+    /// Son et al.'s light model (docs/model.md §4.2): F = 32,32; A 16; D 32,32; E 32,32.
     pub fn son24() -> Self {
         Self {
             feature: vec![32, 32],
@@ -78,7 +78,7 @@ impl Widths {
         })
     }
 
-    /// VKJ19's model (model-spec §4.1): F = 64,64,64; A 32; D 64,64,64; E 64,64,64.
+    /// VKJ19's model (docs/model.md §4.1): F = 64,64,64; A 32; D 64,64,64; E 64,64,64.
     pub fn vkj19() -> Self {
         Self {
             feature: vec![64, 64, 64],
@@ -123,7 +123,7 @@ impl Widths {
     }
 }
 
-/// Loss weights (model-spec §6).
+/// Loss weights (docs/model.md §6).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LossWeights {
     /// Weight of the mean (over 3 dimensions) squared position error.

@@ -1,4 +1,4 @@
-//! Training data generation (model-spec §5; VKJ19 `datapipeline.py`, `sss_particle_tracer.cpp`).
+//! Training data generation (docs/model.md §5; VKJ19 `datapipeline.py`, `sss_particle_tracer.cpp`).
 //!
 //! **Meshes.** Mesh `i` (global index `first_mesh + i`, seeded by `hash(seed, i)`) is a random base
 //! shape — one of our procedural families ([`Shape`]) with random parameters, or one of
@@ -50,7 +50,7 @@ pub const GENERATOR_VERSION: &str =
 const PURPOSE_MESH: u64 = 1;
 const PURPOSE_CLOUD: u64 = 2;
 
-/// Distribution parameters of meshes and media (model-spec §5).
+/// Distribution parameters of meshes and media (docs/model.md §5).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamRanges {
     /// Lower clamp of the reduced albedo α' (0.05).
@@ -105,7 +105,7 @@ pub struct DataConfig {
     pub path_attempts: usize,
     /// Master seed.
     pub seed: u64,
-    /// Drop the fitted z³ coefficient (model-spec §3.2 quirk; true for comparability).
+    /// Drop the fitted z³ coefficient (docs/model.md §3.2 quirk; true for comparability).
     pub quirk_c19: bool,
     /// Whether the procedural families are in the base-shape pool.
     pub procedural: bool,
@@ -301,7 +301,7 @@ fn random_shape(rng: &mut Sampler) -> Shape {
     }
 }
 
-/// Random mesh `index` (model-spec §5 "Meshes").
+/// Random mesh `index` (docs/model.md §5 "Meshes").
 fn build_mesh(cfg: &DataConfig, index: u64) -> Result<(Mesh, MeshSummary), DataError> {
     let mut rng = Sampler::new(cfg.seed, index, 0, PURPOSE_MESH);
     let n_proc = if cfg.procedural { 5 } else { 0 };

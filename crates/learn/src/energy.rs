@@ -1,11 +1,12 @@
 //! The energy-score objective of the decoder ("engression"): the learned exit distribution
 //! fitted as a distribution, not through the VAE's reconstruction bound.
 //!
-//! The CVAE objective of model-spec §6 trains the decoder through the encoder: its position term
+//! The CVAE objective of docs/model.md §6 trains the decoder through the encoder: its position term
 //! asks the decoder to reconstruct the target from the target's own latent code. At render time
 //! the decoder is fed z ~ N(0, I₄) instead, and nothing in that objective compares the pushforward
 //! of N(0, I₄) with the walks' exit distribution directly. Ours measured too wide in the core and
-//! short in the tail on its own held-out data (BENCHMARKS.md, session 29).
+//! short in the tail on its own held-out data (docs/notes/decoder-training.md, "The decoder is
+//! the cause").
 //!
 //! This objective compares the two distributions directly, with the same decoder D(z, f) and
 //! z ~ N(0, I₄) as at render time. For a training row with features f and exit x, it draws m ≥ 2
@@ -20,7 +21,7 @@
 //! So the core and the tail are both matched, each as far as the network can.
 //!
 //! The loss of a batch is the mean of w_es·ES_i + w_abs·(A_i − p_i)² (the absorption term of
-//! model-spec §6, so the shared feature MLP keeps serving the absorption network). The encoder
+//! docs/model.md §6, so the shared feature MLP keeps serving the absorption network). The encoder
 //! is not used; its parameters receive zero gradient and stay in the model file.
 //!
 //! **Gradient.** With δ = ∂L/∂·, B rows, u(v) = v/|v|:
@@ -46,7 +47,7 @@ use crate::cvae::{
 pub struct EnergyWeights {
     /// Weight of the energy score (units of σ_n).
     pub energy: f32,
-    /// Weight of the squared absorption error (model-spec §6: 5000).
+    /// Weight of the squared absorption error (docs/model.md §6: 5000).
     pub absorption: f32,
 }
 

@@ -1,4 +1,4 @@
-//! Training of the learned shape-adaptive BSSRDF (model-spec §5–§6): training data made by our
+//! Training of the learned shape-adaptive BSSRDF (docs/model.md §5–§6): training data made by our
 //! own random walks, the conditional VAE + absorption network trained with a hand-written
 //! backward pass on the same `gemm`-based MLP code that inference uses, Adam, checkpoints.
 //!
@@ -9,7 +9,7 @@
 //!   fit, absorption probability; parallel and seeded.
 //! * [`samplefile`]: the documented binary samples file with its header.
 //! * [`mlp_grad`]: backward pass of dense layers and MLPs on `gemm`.
-//! * [`cvae`]: the losses of model-spec §6 and their gradients for the whole model.
+//! * [`cvae`]: the losses of docs/model.md §6 and their gradients for the whole model.
 //! * [`energy`]: the energy-score objective of the decoder (engression), a fine-tuning stage
 //!   that fits the decoder's exit distribution directly.
 //! * [`optim`]: Adam with staircase decay and global-norm clipping.

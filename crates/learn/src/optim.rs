@@ -1,5 +1,5 @@
 //! Adam (Kingma & Ba 2015) with a staircase learning-rate decay and global-norm gradient
-//! clipping (model-spec §6).
+//! clipping (docs/model.md §6).
 //!
 //! With g the (clipped) gradient at step t (1-based):
 //! m ← β₁m + (1−β₁)g, v ← β₂v + (1−β₂)g², θ ← θ − lr_t · m̂/(√v̂ + ε) with m̂ = m/(1−β₁ᵗ),
@@ -30,7 +30,7 @@ pub struct AdamConfig {
 }
 
 impl Default for AdamConfig {
-    /// VKJ19's settings (model-spec §6): lr 2e-4, ×0.8 every 100k steps, floor lr/8, clip 100.
+    /// VKJ19's settings (docs/model.md §6): lr 2e-4, ×0.8 every 100k steps, floor lr/8, clip 100.
     fn default() -> Self {
         Self {
             lr: 2e-4,

@@ -47,7 +47,7 @@ pub fn write_history(
     let fig = Figure::new(
         vec![
             Panel {
-                title: "loss (model-spec §6)".into(),
+                title: "loss (docs/model.md §6)".into(),
                 x_label: "step".into(),
                 y_label: "loss".into(),
                 log_y: true,

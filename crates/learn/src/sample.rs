@@ -1,10 +1,10 @@
-//! One training sample (model-spec §5 step 5), the fixed-size record of the samples file.
+//! One training sample (docs/model.md §5 step 5), the fixed-size record of the samples file.
 
 use bssrdf::nn::N_POLY;
 
 /// One exit sample of a random walk together with its configuration.
 ///
-/// Light space (LS, model-spec §3.3) is the Duff frame of `e3 = −in_dir` at the entry point;
+/// Light space (LS, docs/model.md §3.3) is the Duff frame of `e3 = −in_dir` at the entry point;
 /// `poly_ls` are the fitted polynomial's coefficients rotated into it (scaled coordinates, units
 /// of σ_n), `out_ls` is `R_LSᵀ(out_pos − in_pos)/σ_n`, the training target of the VAE (§6).
 /// All medium parameters are the ORIGINAL (not reduced) ones; the network inputs are computed
@@ -26,7 +26,7 @@ pub struct Sample {
     pub eta: f32,
     /// Probability that a walk of this configuration is absorbed (absorbed / attempts).
     pub absorption_prob: f32,
-    /// σ_n of the medium (world units), model-spec §2.
+    /// σ_n of the medium (world units), docs/model.md §2.
     pub sigma_n: f32,
     /// Entry point (world).
     pub in_pos: [f32; 3],

@@ -1,4 +1,4 @@
-//! The binary samples file (training data of model-spec §5–§6).
+//! The binary samples file (training data of docs/model.md §5–§6).
 //!
 //! Layout (all integers little-endian):
 //!

@@ -1,4 +1,4 @@
-//! The training loop of the learned BSSRDF (model-spec §6): data preparation and input
+//! The training loop of the learned BSSRDF (docs/model.md §6): data preparation and input
 //! normalisation, deterministic mini-batches, Adam steps, validation, atomic checkpoints and
 //! bit-identical resume.
 //!
@@ -84,7 +84,7 @@ pub struct TrainConfig {
     pub steps: u64,
     /// Adam optimiser and learning-rate schedule.
     pub adam: AdamConfig,
-    /// Loss weights (model-spec §6).
+    /// Loss weights (docs/model.md §6).
     pub weights: LossWeights,
     /// Seed of the initialisation, the batch order and the VAE noise.
     pub seed: u64,
@@ -92,7 +92,7 @@ pub struct TrainConfig {
     pub eval_every: u64,
     /// Write a checkpoint every this many steps.
     pub checkpoint_every: u64,
-    /// The objective (model-spec §6's CVAE, or the energy score of [`crate::energy`]).
+    /// The objective (the CVAE of docs/model.md §6, or the energy score of [`crate::energy`]).
     #[serde(default)]
     pub objective: Objective,
 }
@@ -101,7 +101,7 @@ pub struct TrainConfig {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum Objective {
-    /// The conditional VAE of model-spec §6 (weights: [`TrainConfig::weights`]).
+    /// The conditional VAE of docs/model.md §6 (weights: [`TrainConfig::weights`]).
     #[default]
     Cvae,
     /// The energy score of the decoder's proposals against the exits plus the absorption term
@@ -169,7 +169,7 @@ fn reduced_albedo(s: &Sample) -> f64 {
     ReducedMedium::new(s.sigma_t as f64, s.albedo as f64, s.g as f64).albedo_red
 }
 
-/// Input statistics of a training set (model-spec §4.1, over α_eff(α'); see the module doc).
+/// Input statistics of a training set (docs/model.md §4.1, over α_eff(α'); see the module doc).
 pub fn normalisation_of(samples: &[Sample]) -> Result<Normalisation, TrainError> {
     let stats: Vec<StatSample> = samples
         .iter()

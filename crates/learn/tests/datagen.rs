@@ -1,4 +1,4 @@
-//! Tests of the training-data generator (model-spec §5): the exact ray/cubic intersection, the
+//! Tests of the training-data generator (docs/model.md §5): the exact ray/cubic intersection, the
 //! random walk inside the fitted polynomial, an analytic half-space reference (Chandrasekhar's
 //! H-function), determinism, and the samples file.
 

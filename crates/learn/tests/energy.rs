@@ -245,8 +245,9 @@ fn worst_quantile_errors(m: &ShapeAdaptiveModel, label: &str) -> (f64, f64) {
 /// network's approximation error after 8,000 steps: 12 % up to q = 0.9 and 30 % at q = 0.99,
 /// where the exponential tail is thinnest in the data. A model with the wrong scale law (the
 /// quantiles of an input ±1 away: a factor 0.61 or 1.65) fails both. The CVAE misses by far more
-/// (core too wide, tail too short, as the shipped model did on the walks: BENCHMARKS.md,
-/// session 29): the assertion is that the energy objective's worst error is under half of it.
+/// (core too wide, tail too short, as the shipped model did on the walks:
+/// docs/notes/decoder-training.md, "The decoder is the cause"): the assertion is that the energy
+/// objective's worst error is under half of it.
 #[test]
 fn energy_training_fits_the_core_and_the_tail() {
     let config = TrainConfig {

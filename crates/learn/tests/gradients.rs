@@ -1,4 +1,4 @@
-//! Gradients of the training code (model-spec §6) against an independent **f64** reference.
+//! Gradients of the training code (docs/model.md §6) against an independent **f64** reference.
 //!
 //! The reference is a separate f64
 //! implementation written with plain loops that reads the model's parameters through the flat

@@ -64,6 +64,35 @@ impl Image {
         out
     }
 
+    /// The images of `rows` tiled row by row (each row left to right), `gap` black pixels
+    /// between tiles; every tile keeps its size and the grid is as large as its largest row
+    /// and its rows' tallest tiles.
+    pub fn grid(rows: &[Vec<&Image>], gap: u32) -> Image {
+        let row_w = |r: &Vec<&Image>| {
+            r.iter().map(|i| i.width).sum::<u32>() + gap * r.len().saturating_sub(1) as u32
+        };
+        let row_h = |r: &Vec<&Image>| r.iter().map(|i| i.height).max().unwrap_or(0);
+        let width = rows.iter().map(row_w).max().unwrap_or(0);
+        let height =
+            rows.iter().map(row_h).sum::<u32>() + gap * rows.len().saturating_sub(1) as u32;
+        let mut out = Image::new(width, height);
+        let mut y0 = 0;
+        for r in rows {
+            let mut x0 = 0;
+            for img in r {
+                for y in 0..img.height {
+                    let dst = (y0 + y) as usize * width as usize + x0 as usize;
+                    let src = y as usize * img.width as usize;
+                    out.data[dst..dst + img.width as usize]
+                        .copy_from_slice(&img.data[src..src + img.width as usize]);
+                }
+                x0 += img.width + gap;
+            }
+            y0 += row_h(r) + gap;
+        }
+        out
+    }
+
     /// Per-channel mean.
     pub fn mean(&self) -> [f64; 3] {
         let mut m = [0.0f64; 3];

@@ -61,7 +61,8 @@ pub enum SpawnOffset {
     /// Mitsuba 3.9.1: 9.99·10⁻⁵ at |p| = 0.125). A ray entering the medium skips a sliver of that
     /// thickness, so every path starts about 10⁻⁴ deeper and its light is attenuated by roughly
     /// exp(−σ_t·10⁻⁴/cos θ_light) more: Mitsuba's renders of the reference sphere are 0.9–2.2 %
-    /// darker than exact single scattering and 0.1–0.7 % darker in total (BENCHMARKS.md). For
+    /// darker than exact single scattering and 0.1–0.7 % darker in total
+    /// (docs/notes/tracer-mitsuba-agreement.md, "Our +0.1–0.7 %: Mitsuba's ray offset"). For
     /// like-for-like comparisons with Mitsuba only.
     Mitsuba,
 }

@@ -3,7 +3,7 @@
 //! p(cos θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), with θ the angle between the propagation
 //! direction before and after scattering (g > 0 = forward scattering). Sampling inverts the CDF:
 //! cos θ = (1 + g² − ((1 − g²)/(1 − g + 2g u))²)/(2g) (isotropic 1 − 2u when |g| < 1e-3), as in
-//! model-spec §5 and pbrt-v4. Sampling is exact, so the sample weight p/pdf is 1.
+//! docs/model.md §5 and pbrt-v4. Sampling is exact, so the sample weight p/pdf is 1.
 
 use geometry::Frame;
 use glam::Vec3;

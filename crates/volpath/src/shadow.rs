@@ -26,10 +26,10 @@
 //! `Exact` reads ℓ from the light's per-direction triangle lists when the renderer built them
 //! ([`geometry::LightBins`]: the same value as the BVH's, bit for bit, from a few triangle tests).
 //!
-//! Measured on the Mitsuba reference sphere (BENCHMARKS.md): with the lists `Exact` renders as
-//! many paths per second as `Tracked` (before them `Tracked` rendered 1.25–1.3× more), and its
-//! variance per path is 1.4–1.5× lower, so `Exact` is the default; `Tracked` is what Mitsuba 3
-//! runs, for like-for-like comparisons.
+//! Measured on the Mitsuba reference sphere (docs/notes/tracer-speed.md, "Shadow rays through the
+//! light's triangle lists"): with the lists `Exact` renders as many paths per second as `Tracked`
+//! (before them `Tracked` rendered 1.25–1.3× more), and its variance per path is 1.4–1.5× lower,
+//! so `Exact` is the default; `Tracked` is what Mitsuba 3 runs, for like-for-like comparisons.
 
 use geometry::{Accel, LightBins, bvh::offset_origin};
 use glam::Vec3;
@@ -40,7 +40,7 @@ use crate::rng::Sampler;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ShadowTransmittance {
     /// Closed-form exp(−σ_t ℓ) from the exact inside length (one all-hits query). The default:
-    /// the least noise per second of render time (measured in BENCHMARKS.md).
+    /// the least noise per second of render time (measured in docs/notes/tracer-speed.md).
     #[default]
     Exact,
     /// Delta tracking with the smallest extinction as the sampling rate (Mitsuba 3's scheme):

@@ -1,7 +1,8 @@
 //! Per-render constants of the derivative estimators: the offset scales σ_n(σ_t ± Δ) and
 //! σ_n(α ± Δα) with their descriptor scales k = σ_n/σ_n,fit (Son et al. 2024, eq. 15–17; the
-//! descriptor follows σ_n, BENCHMARKS.md session 8), ∂σ_n/∂σ_t and the albedo input's derivative
-//! for `naive`, and the two perturbed scenes per parameter for `fd`.
+//! descriptor follows σ_n, docs/notes/recovery-recipe.md, "The descriptor follows σ_n"),
+//! ∂σ_n/∂σ_t and the albedo input's derivative for `naive`, and the two perturbed scenes per
+//! parameter for `fd`.
 
 use super::*;
 

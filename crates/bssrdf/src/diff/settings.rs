@@ -78,7 +78,7 @@ named_option!(DiffMethod, UnknownMethod);
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffSettings {
     pub method: DiffMethod,
-    /// Relative σ_t offset: Δ = `delta_rel`·σ_t,c (model-spec A7; default 0.02). Used by the
+    /// Relative σ_t offset: Δ = `delta_rel`·σ_t,c (docs/model.md A7; default 0.02). Used by the
     /// offset samples and by `Fd`.
     pub delta_rel: f32,
     /// Absolute α offset Δα of `OursAlphaOffsets` and `Fd` (default 0.01), reduced where needed

@@ -1,4 +1,4 @@
-//! Unit tests of the polynomial module: term ordering (model-spec table), monomials, rescaling.
+//! Unit tests of the polynomial module: term ordering (docs/model.md §3.1), monomials, rescaling.
 
 use super::*;
 

@@ -59,7 +59,7 @@ impl LightCurvature {
 impl LearnedScene<'_> {
     /// The light-side exit law D(w_l) per steradian-cosine and ∂D/∂α_c for channel `c`, camera
     /// cosine `mu_cam` and light cosine `cos_l`: f(α_c; μ_cam, cos_l)/π ([`crate::exit`]) or
-    /// the cosine law's Sw(w_l) (model-spec §1; no α dependence).
+    /// the cosine law's Sw(w_l) (docs/model.md §1; no α dependence).
     #[inline]
     pub(crate) fn exit_law(&self, c: usize, mu_cam: f32, cos_l: f32) -> (f32, f32) {
         match &self.exit {
@@ -112,7 +112,7 @@ impl LearnedScene<'_> {
 }
 
 /// The (unnormalised, detached) projection direction and the side value at the proposed point
-/// `x_t` of sample `p` (model-spec A5): the gradient and value of the fixed interpolated
+/// `x_t` of sample `p` (docs/model.md A5): the gradient and value of the fixed interpolated
 /// polynomial at `(x_t − x_o)/σ_n,fit`, or (n_o, 1) with planar features.
 #[inline]
 pub(crate) fn projection_gradient(scene: &LearnedScene, p: &Pending, x_t: Vec3) -> (Vec3, f32) {

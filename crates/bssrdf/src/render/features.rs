@@ -1,4 +1,4 @@
-//! The shape descriptor's inputs: per-vertex polynomials of each channel (model-spec §3.4),
+//! The shape descriptor's inputs: per-vertex polynomials of each channel (docs/model.md §3.4),
 //! optionally with their σ_n-derivative beyond the rescaling ([`VertexFeatures::fit_with_derivative`]).
 
 use geometry::Accel;
@@ -9,7 +9,7 @@ use crate::fit::ConstraintCloud;
 use crate::polynomial::Poly3;
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
-/// (model-spec §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
+/// (docs/model.md §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
 #[derive(Clone, Debug)]
 pub struct VertexFeatures {
     /// `polys[c][v]`: channel c, vertex v.

@@ -9,7 +9,7 @@
 //!
 //! with weights w_s that make it unbiased. Two schemes ([`PixelSampling`]):
 //!
-//! * [`PixelSampling::OneHot`] (model-spec A13, the paper): c_s uniform and independent per
+//! * [`PixelSampling::OneHot`] (docs/model.md A13, the paper): c_s uniform and independent per
 //!   sample, w_s = 3. The number of samples a channel gets is binomial(spp, 1/3), which adds a
 //!   relative variance of 2/spp per pixel on top of the BSSRDF's own (the "chromatic speckle").
 //! * [`PixelSampling::Stratified`] (default): the channels take turns, c_s = (s + o) mod 3 with
@@ -37,8 +37,8 @@ pub enum PixelSampling {
     /// Owen-scrambled Sobol jitter and latents (module docs).
     #[default]
     Stratified,
-    /// A uniformly random channel per sample with weight 3 and independent latents (model-spec
-    /// A13; the paper's scheme).
+    /// A uniformly random channel per sample with weight 3 and independent latents
+    /// (docs/model.md A13; the paper's scheme).
     OneHot,
 }
 

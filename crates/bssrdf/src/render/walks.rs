@@ -2,8 +2,8 @@
 //! was trained to imitate.
 //!
 //! The VAE decoder is trained on the exits of random walks inside the cubic fitted at the entry
-//! point (model-spec §5, [`crate::walk`]); at render time it proposes y = Decoder(z, f), in light
-//! space and units of σ_n, and the absorption network gives S_abs = 1 − Absorb. With
+//! point (docs/model.md §5, [`crate::walk`]); at render time it proposes y = Decoder(z, f), in
+//! light space and units of σ_n, and the absorption network gives S_abs = 1 − Absorb. With
 //! [`EntrySampler::Walks`] the proposal is instead the exit of a walk in the SAME descriptor the
 //! networks see (the light-space cubic at the current σ_n, [`LearnedScene::descriptor_at`]),
 //! started at the origin along −e₃ (the aligned incident direction) with the medium in units of
@@ -12,12 +12,13 @@
 //! while S_abs still comes from the absorption network: the decoder is replaced, nothing else.
 //!
 //! This is a diagnostic of the decoder's fidelity, not the paper's method: it isolates what the
-//! decoder's approximation costs in the images and in the recovered parameters (BENCHMARKS.md,
-//! session 29). Correlated offsets (Son et al. 2024, eq. 15–17) stay correlated: every sample
-//! keeps its own random stream, so the walks at σ_n(σ_t ± Δ) repeat the same random numbers in
-//! the rescaled descriptor. The `naive` estimator needs ∂y/∂σ through the decoder and is not
-//! available with walks. A sample whose walks never exit (after [`MAX_TRIES`]) proposes NaN,
-//! which [`crate::render::place_and_project`] treats as an invalid sample (value 0).
+//! decoder's approximation costs in the images and in the recovered parameters
+//! (docs/notes/decoder-training.md, "The decoder is the cause"). Correlated offsets (Son et al.
+//! 2024, eq. 15–17) stay correlated: every sample keeps its own random stream, so the walks at
+//! σ_n(σ_t ± Δ) repeat the same random numbers in the rescaled descriptor. The `naive` estimator
+//! needs ∂y/∂σ through the decoder and is not available with walks. A sample whose walks never
+//! exit (after [`MAX_TRIES`]) proposes NaN, which [`crate::render::place_and_project`] treats as
+//! an invalid sample (value 0).
 
 use glam::Vec3;
 use volpath::rng::Sampler;

@@ -276,6 +276,9 @@ pub struct Outcome {
     pub determined_sigma_t: [bool; 3],
     pub consistency_ratio: [f64; 3],
     pub consistency_l2: [f64; 3],
+    /// The volumetric path tracer's curvature along the σ_t–α valley over the learned model's,
+    /// per channel (`result.json`'s `sensitivity`; below 1 the model is surer than the images).
+    pub valley_curvature: [f64; 3],
     pub status: String,
     pub seconds_per_iteration: f64,
     /// The learned model's own error on this case: its render of the truth against the
@@ -340,6 +343,13 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
         determined_sigma_t: std::array::from_fn(|c| determined[c].as_bool().unwrap_or(false)),
         consistency_ratio: rgb(&v["consistency"]["mean_ratio"]),
         consistency_l2: rgb(&v["consistency"]["l2_over_noise"]),
+        valley_curvature: {
+            let (t, m) = (
+                rgb(&v["sensitivity"]["volpath"]),
+                rgb(&v["sensitivity"]["learned"]),
+            );
+            std::array::from_fn(|c| t[c] / m[c])
+        },
         status: v["status"].as_str().unwrap_or("?").to_string(),
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
         model_ratio: [f64::NAN; 3],
@@ -689,11 +699,11 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
     );
     let _ = writeln!(
         md,
-        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | model at truth ÷ targets | status | s/it |"
+        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut csv = String::from(
-        "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,model_ratio,status,seconds_per_iteration\n",
+        "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration\n",
     );
     let f3 = |v: [f64; 3], s: f64, p: usize| {
         format!(
@@ -709,7 +719,7 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
         let cov = o.covered();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} |",
+            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} |",
             o.case.name,
             o.targets.name(),
             o.rep,
@@ -728,6 +738,9 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
             o.consistency_l2[0],
             o.consistency_l2[1],
             o.consistency_l2[2],
+            o.valley_curvature[0],
+            o.valley_curvature[1],
+            o.valley_curvature[2],
             o.model_ratio[0],
             o.model_ratio[1],
             o.model_ratio[2],
@@ -738,7 +751,7 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
             let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{},{:.4}",
+                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4}",
                 o.case.name,
                 o.case.capture.name(),
                 o.case.mfp,
@@ -762,6 +775,7 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
                 cov[1][c],
                 o.consistency_ratio[c],
                 o.consistency_l2[c],
+                o.valley_curvature[c],
                 o.model_ratio[c],
                 o.status,
                 o.seconds_per_iteration

@@ -69,6 +69,7 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
         "checkpoint.json",
         "final/view_000.png",
         "final/view_000_diff.png",
+        "final/overview.png",
     ] {
         assert!(d.join("o").join(f).exists(), "missing {f}");
     }
@@ -639,6 +640,7 @@ fn flash_capture_says_sigma_t_is_not_determined() {
             "σ_t is NOT determined",
             "light beside or behind the object",
             "consistency",
+            "sensitivity to σ_t along the σ_t–α valley",
         ],
     );
     let res = read_json(&d.join("o/result.json"));
@@ -654,6 +656,8 @@ fn flash_capture_says_sigma_t_is_not_determined() {
     );
     assert!(res["status"].is_string(), "{res}");
     assert!(res["consistency"]["mean_ratio"].is_array(), "{res}");
+    let ratio = res["sensitivity"]["ratio"].as_array().unwrap();
+    assert!(ratio.iter().all(|r| r.as_f64().unwrap() >= 1.0), "{res}");
     assert_eq!(res["complete"], true);
 }
 
@@ -696,6 +700,9 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
             let v: f64 = f[col(name)].parse().unwrap();
             assert!(v.is_finite() && v > 0.0, "{name} in {row}");
         }
+        // The tracer's curvature along the valley is a noisy estimate: finite, of any sign.
+        let v: f64 = f[col("valley_curvature")].parse().unwrap();
+        assert!(v.is_finite(), "valley_curvature in {row}");
     }
     for capture in ["flash", "fixed", "turntable", "backlit"] {
         assert!(
@@ -768,4 +775,18 @@ fn multi_start_runs_from_the_best_start() {
         assert!((init - chosen).abs() <= 1e-5 * chosen, "{init} vs {chosen}");
     }
     assert!(d.join("o/starts/starts.json").exists());
+}
+
+/// Negative numbers reach our own checks rather than the argument parser: a negative initial
+/// σ_t is a domain error naming the field, and a negative anisotropy is accepted where it is
+/// valid.
+#[test]
+fn negative_numbers_reach_the_domain_checks() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "8", &["--g", "-0.3"]);
+    let ds = read_json(&d.join("ds/dataset.json"));
+    assert!(ds.to_string().contains("-0.3"), "{ds}");
+    let bad = fails(d, &[&TINY_OPTIMIZE[..], &["--init-sigma-t", "-5"]].concat());
+    assert_stderr_has(&bad, &["init.sigma_t", "-5", "must be positive"]);
 }

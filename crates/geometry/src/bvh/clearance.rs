@@ -31,7 +31,7 @@
 //! (a 1 cm object 100 m from the origin) gets no skips, only the BVH.
 //!
 //! Cost: `CELLS_PER_AXIS³` bytes at most (256 KiB), built in a few milliseconds; a query reads
-//! one byte. Measured in BENCHMARKS.md ("The clearance grid").
+//! one byte. Measured in docs/notes/tracer-speed.md ("A clearance grid for short queries").
 
 use glam::{DVec3, Vec3, Vec3A};
 

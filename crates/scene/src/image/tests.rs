@@ -351,3 +351,26 @@ fn srgb_oetf_endpoints() {
     assert!((im.auto_exposure() - 0.25).abs() < 1e-6);
     assert_eq!(Image::new(3, 3).auto_exposure(), 1.0);
 }
+
+/// Tiles land where the grid puts them, gaps stay black, ragged rows leave the rest black.
+#[test]
+fn grid_tiles_rows_with_gaps() {
+    let a = ramp(3, 2);
+    let b = ramp(2, 3);
+    let g = Image::grid(&[vec![&a, &b], vec![&b]], 1);
+    assert_eq!((g.width, g.height), (3 + 1 + 2, 3 + 1 + 3));
+    for y in 0..2 {
+        for x in 0..3 {
+            assert_eq!(g.get(x, y), a.get(x, y));
+        }
+    }
+    for y in 0..3 {
+        for x in 0..2 {
+            assert_eq!(g.get(4 + x, y), b.get(x, y));
+            assert_eq!(g.get(x, 4 + y), b.get(x, y));
+        }
+        assert_eq!(g.get(3, y), [0.0; 3], "gap column");
+    }
+    assert_eq!(g.get(0, 2), [0.0; 3], "below the shorter tile");
+    assert_eq!(g.get(5, 5), [0.0; 3], "right of the shorter row");
+}
