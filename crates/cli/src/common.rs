@@ -211,65 +211,70 @@ pub enum Method {
     Learned,
 }
 
+/// The `--help` heading of the options a user rarely needs: the defaults are the measured best.
+pub const RESEARCH_OPTIONS: &str = "Research options (the defaults are the measured best)";
+/// The `--help` heading of the learned BSSRDF's options.
+pub const LEARNED_OPTIONS: &str = "Learned BSSRDF options (the defaults are the measured best)";
+
 /// Options of the learned BSSRDF, shared by the commands that render.
 #[derive(clap::Args, Clone, Debug)]
 pub struct LearnedArgs {
     /// Model file (translucent safetensors format) for `--method learned`; default: the model
     /// shipped in `models/` (built into the binary). Files are written by `translucent train` or
     /// `translucent model import-son24`.
-    #[arg(long)]
+    #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub model: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
     /// goes along −n(x_o).
-    #[arg(long)]
+    #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub planar_features: bool,
     /// Projection rule: `son24` (bounded, `--max-dist-scale`·σ_n + 0.01, single pass) or `vkj19`
     /// (2σ_n², then unbounded).
-    #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "son24", value_parser = ["son24", "vkj19"])]
     pub projection: String,
     /// Reach of the `son24` projection in units of σ_n (SON24's scripts: 2; ours: 8, measured in
     /// docs/notes/light-side.md). Proposals farther than this from the mesh along the polynomial
     /// gradient are invalid samples (value 0).
-    #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = parse_reach, allow_hyphen_values = true)]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
     /// Frame convention of features and outputs: the model's own (default), `vkj19` or
     /// `son24-compat` (docs/model.md A4).
-    #[arg(long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
     pub frames: String,
     /// Keep the polynomial descriptor exactly as fitted while σ_t, α change (SON24) instead of
     /// rescaling it to the current σ_n (c_m·k^(deg−1), k = σ_n/σ_n,fit; the default). Only
     /// matters when the features were fitted at another medium (optimize).
-    #[arg(long)]
+    #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub frozen_descriptor: bool,
     /// Trace camera rays through the BVH instead of the per-pixel triangle lists of the view
     /// (the reference path: identical images, slower).
-    #[arg(long)]
+    #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub bvh_camera_rays: bool,
     /// Light-side exit law: `half-space` (the exit direction of half-space walks of the medium,
     /// conditioned on the camera direction; default) or `cosine` (Sw·cos θ_l of VKJ19/SON24).
-    #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
     pub exit_law: String,
     /// Light-side incidence: `directional` (light that enters obliquely leaves mostly ahead of
     /// its entry point, by half-space walks; default) or `isotropic` (no dependence on the
     /// light's azimuth, as VKJ19/SON24).
-    #[arg(long, default_value = "directional", value_parser = ["directional", "isotropic"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "directional", value_parser = ["directional", "isotropic"])]
     pub incidence: String,
     /// Where the entry points come from: `decoder` (the model's VAE decoder, the paper's method;
     /// default) or `walks` (random walks in the same local cubic, conditioned on escape: the
     /// distribution the decoder was trained to imitate; a diagnostic of the decoder, slower at
     /// low albedo, not available with `--method naive`).
-    #[arg(long, default_value = "decoder", value_parser = ["decoder", "walks"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "decoder", value_parser = ["decoder", "walks"])]
     pub entry_sampler: String,
     /// Light side's curvature correction: `ball` (the light term times exact/model of walks in
     /// balls at the camera point's curvature, bssrdf::curvature; default; for media with g = 0
     /// and η = 1, otherwise none) or `none` (the half-space light side without the correction).
-    #[arg(long, default_value = "ball", value_parser = ["none", "ball"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "ball", value_parser = ["none", "ball"])]
     pub light_curvature: String,
     /// How a pixel's samples are spread over the colour channels: `stratified` (the channels
     /// take turns, each gets spp/3 samples placed by a scrambled Sobol sequence over film
     /// jitter and latent; default) or `one-hot` (a random channel per sample, weight 3: the
     /// paper's scheme, noisier on coloured media).
-    #[arg(long, default_value = "stratified", value_parser = ["stratified", "one-hot"])]
+    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "stratified", value_parser = ["stratified", "one-hot"])]
     pub pixel_sampling: String,
 }
 

@@ -42,11 +42,11 @@ pub struct OptimizeArgs {
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss: l2 or l1.
-    #[arg(long, default_value = "l2", value_parser = ["l2", "l1"])]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value = "l2", value_parser = ["l2", "l1"])]
     pub loss: String,
     /// The single-render gradient 2(I − T)·∂I/∂θ (the paper's; biased by the covariance of I and
     /// ∂I/∂θ) instead of the default: ∂ℓ/∂I from one render and ∂I/∂θ from an independent one.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub single_render: bool,
     /// (The default; accepted for older scripts.)
     #[arg(long, hide = true, conflicts_with = "single_render")]
@@ -54,14 +54,14 @@ pub struct OptimizeArgs {
     /// The two renders of the gradient as a full value render and a full derivative render at
     /// --spp each, instead of two derivative renders at half of --spp each (the default: as
     /// unbiased, at the cost of one render).
-    #[arg(long, conflicts_with = "single_render")]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, conflicts_with = "single_render")]
     pub full_renders: bool,
     /// Normalise each view's loss, per channel, by the loss of a black image against its target,
     /// so that dim views (light that crossed the object) count as much as bright ones.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub normalize_views: bool,
     /// With --normalize-views: no view weighs more than 1/FLOOR times an average view.
-    #[arg(long, default_value_t = 0.01, value_name = "FLOOR")]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 0.01, value_name = "FLOOR")]
     pub view_weight_floor: f64,
     /// Initial σ_t (1/unit; one value or R,G,B).
     #[arg(long, default_value = "50", value_parser = parse_rgb, allow_negative_numbers = true)]
@@ -70,50 +70,50 @@ pub struct OptimizeArgs {
     #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
     /// Learning rate on ln σ_t (or on σ_t/100 with --scaled-sigma-t).
-    #[arg(long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
     pub lr_sigma_t: f32,
     /// Learning rate on α.
-    #[arg(long, default_value_t = OptimizeConfig::default().lr_albedo)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_albedo)]
     pub lr_albedo: f32,
     /// Learning-rate decay factor.
-    #[arg(long, default_value_t = OptimizeConfig::default().decay)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay)]
     pub decay: f32,
     /// Iterations between decays.
-    #[arg(long, default_value_t = OptimizeConfig::default().decay_every)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay_every)]
     pub decay_every: u32,
     /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub scaled_sigma_t: bool,
     /// (The default; accepted for older scripts.)
     #[arg(long, hide = true, conflicts_with = "scaled_sigma_t")]
     pub log_sigma_t: bool,
     /// Albedo first: keep σ_t at its initial value for this many initial iterations (at most a
     /// third of the run) while α converges.
-    #[arg(long, default_value_t = OptimizeConfig::default().albedo_warmup)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().albedo_warmup)]
     pub albedo_warmup: u32,
     /// One σ_t and one α for all channels.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub monochrome: bool,
     /// Keep σ_t at its initial value.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub fix_sigma_t: bool,
     /// Keep α at its initial value.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub fix_albedo: bool,
     /// Refit the polynomial features every K iterations (0: once, at the initial parameters).
-    #[arg(long, default_value_t = 0)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 0)]
     pub refit_every: u32,
     /// Also fit the polynomial's σ_n-derivative at every fit, so that the descriptor at another
     /// σ_n (in the value and in the σ_t offsets) follows a refit, not only the rescaling. Three
     /// fits instead of one; use with --refit-every.
-    #[arg(long)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub fit_derivative: bool,
     /// Relative offset Δ/σ_t of the correlated offset samples.
-    #[arg(long, default_value_t = OptimizeConfig::default().delta_rel)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().delta_rel)]
     pub delta_rel: f32,
     /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples, O(Δ²) bias,
     /// a third less work) or `sample` (an unperturbed sample of its own).
-    #[arg(long, default_value = "offset-mean")]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value = "offset-mean")]
     pub primal: Primal,
     /// Fit only these views of the dataset (indices, e.g. `0,3,5`; default: all). The
     /// re-renders and the bias correction use the same views; `--resume` keeps the run's own.
@@ -130,7 +130,7 @@ pub struct OptimizeArgs {
     #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
     pub uncertainty_views: usize,
     /// Samples per pixel of the interval renders.
-    #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
     pub uncertainty_spp: u32,
     /// Views re-rendered at the estimate by the volumetric path tracer (twice, at the dataset's
     /// samples per pixel) to check that the estimate reproduces the images without the learned
@@ -168,11 +168,11 @@ pub struct IterationArgs {
     #[arg(long, default_value_t = OptimizeConfig::default().spp)]
     pub spp: u32,
     /// Views rendered per iteration (drawn at random).
-    #[arg(long, default_value_t = OptimizeConfig::default().views_per_iter)]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().views_per_iter)]
     pub views_per_iter: usize,
     /// Render a random N×N crop of each chosen view per iteration instead of the whole image
     /// (the paper's released optimiser; clamped to the image size).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub crop: Option<u32>,
 }
 
@@ -582,14 +582,22 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         }
     }
     if let Some(s) = &sensitivity {
+        let rel = |c: usize| {
+            format!(
+                "{:.2} ± {:.2}",
+                s.volpath[c] / s.learned[c],
+                2.0 * s.volpath_se[c] / s.learned[c]
+            )
+        };
         println!(
             "  sensitivity to σ_t along the σ_t–α valley (volumetric path tracer, {} views): the \
-             images curve ({:.2}, {:.2}, {:.2})× as much as the learned model says; the intervals \
-             widen by √ρ = ({:.2}, {:.2}, {:.2})",
+             images curve ({}, {}, {})× as much as the learned model says (± two standard \
+             errors); the intervals widen by up to √ρ = ({:.2}, {:.2}, {:.2}) from the lower \
+             end, to at most a factor 10 either way",
             s.views.len(),
-            s.volpath[0] / s.learned[0],
-            s.volpath[1] / s.learned[1],
-            s.volpath[2] / s.learned[2],
+            rel(0),
+            rel(1),
+            rel(2),
             s.ratio[0].sqrt(),
             s.ratio[1].sqrt(),
             s.ratio[2].sqrt()

@@ -348,7 +348,8 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
                 rgb(&v["sensitivity"]["volpath"]),
                 rgb(&v["sensitivity"]["learned"]),
             );
-            std::array::from_fn(|c| t[c] / m[c])
+            // No learned curvature in the checked views: nothing to compare.
+            std::array::from_fn(|c| if m[c] > 0.0 { t[c] / m[c] } else { f64::NAN })
         },
         status: v["status"].as_str().unwrap_or("?").to_string(),
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),

@@ -43,10 +43,10 @@ pub struct BiasCorrectionArgs {
     /// Steps of the iterated correction: step k renders at the previous corrected medium
     /// θ_{k−1}, recovers θ̂_k from it and moves to θ_k = θ_{k−1} + θ̂ − θ̂_k; a bias of constant
     /// slope s shrinks by −s per step. Each step costs one volumetric render and one recovery.
-    #[arg(long, default_value_t = inverse::bootstrap::DEFAULT_STEPS, value_parser = clap::value_parser!(u32).range(1..=8))]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = inverse::bootstrap::DEFAULT_STEPS, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub bias_correction_steps: u32,
     /// Samples per pixel of the simulated images (default: the dataset's own, else 64).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_parser = clap::value_parser!(u32).range(1..))]
     pub bias_correction_spp: Option<u32>,
 }
 

@@ -700,10 +700,26 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
             let v: f64 = f[col(name)].parse().unwrap();
             assert!(v.is_finite() && v > 0.0, "{name} in {row}");
         }
-        // The tracer's curvature along the valley is a noisy estimate: finite, of any sign.
+        // The tracer's curvature along the valley over the model's: a noisy estimate of any
+        // sign, NaN where the model's derivative images in the checked views are all zero.
         let v: f64 = f[col("valley_curvature")].parse().unwrap();
-        assert!(v.is_finite(), "valley_curvature in {row}");
+        assert!(!v.is_infinite(), "valley_curvature in {row}");
     }
+    let measured = rows
+        .iter()
+        .filter(|r| {
+            let f: Vec<&str> = r.split(',').collect();
+            f[col("valley_curvature")]
+                .parse::<f64>()
+                .unwrap()
+                .is_finite()
+        })
+        .count();
+    assert!(
+        measured > rows.len() / 2,
+        "{measured} of {} rows measured",
+        rows.len()
+    );
     for capture in ["flash", "fixed", "turntable", "backlit"] {
         assert!(
             rows.iter().filter(|r| r.contains(capture)).count() == 9,
