@@ -2,11 +2,13 @@
 //! renderer with the shipped model at known parameters, the inverse loop started far away must
 //! bring the error down substantially; a checkpointed run resumes bit-identically.
 
+mod common;
+
 use std::path::Path;
 
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::{LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, render_image};
-use geometry::{Accel, Shape, Vec3};
+use geometry::{Accel, Vec3};
 use inverse::optimize::{Checkpoint, OptimizeConfig, Optimizer, TargetView};
 use inverse::params::Params;
 use scene::{Camera, Image, Medium, PointLight};
@@ -25,13 +27,7 @@ struct Setup {
 }
 
 fn setup() -> Setup {
-    let accel = Accel::new(
-        Shape::from_name("sphere")
-            .unwrap()
-            .scaled(0.5)
-            .build()
-            .unwrap(),
-    );
+    let accel = common::sphere(0.5);
     let model = shipped();
     let truth = Medium {
         sigma_t: [60.0; 3],

@@ -3,7 +3,9 @@
 //! measurement agree within their standard errors (Σ D² alone would not: its noise bias falls
 //! as 1/spp); α at its bound measures along σ_t alone.
 
-use geometry::{Accel, Shape, Vec3};
+mod common;
+
+use geometry::{Accel, Vec3};
 use inverse::consistency::CheckView;
 use inverse::sensitivity::{Sensitivity, measure};
 use scene::{Camera, Image, Medium, PointLight};
@@ -16,13 +18,7 @@ struct Setup {
 }
 
 fn setup() -> Setup {
-    let accel = Accel::new(
-        Shape::from_name("sphere")
-            .unwrap()
-            .scaled(0.5)
-            .build()
-            .unwrap(),
-    );
+    let accel = common::sphere(0.5);
     let eye = Vec3::new(0.0, 0.0, 2.0);
     Setup {
         accel,
