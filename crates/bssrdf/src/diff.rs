@@ -197,6 +197,13 @@ fn run(
     keep_images: bool,
     progress: Option<&ProgressBar>,
 ) -> Result<LossGradient, RenderError> {
+    if ds.method == DiffMethod::Ad {
+        return Err(RenderError::Estimator(
+            "`ad` is the volumetric path tracer's derivative; the learned model's estimators are \
+             ours, ours-alpha-offsets, naive and fd"
+                .into(),
+        ));
+    }
     let consts = Consts::new(scene, ds)?;
     let (w, h) = (view.camera.width, view.camera.height);
     let rows: Vec<RowResult> = (0..h)
@@ -326,7 +333,7 @@ fn diff_row(
         DiffMethod::OursAlphaOffsets => 4,
         _ if !k.moving => 0,
         DiffMethod::Ours | DiffMethod::Naive => 2,
-        DiffMethod::Fd => unreachable!(),
+        DiffMethod::Fd | DiffMethod::Ad => unreachable!(),
     };
     // The value from the σ_t offset pair: no unperturbed sample to place (module docs).
     let pair_primal = ds.primal == Primal::OffsetMean
@@ -470,7 +477,7 @@ fn diff_row(
                 }
                 _ => 0.0,
             },
-            DiffMethod::Fd => unreachable!(),
+            DiffMethod::Fd | DiffMethod::Ad => unreachable!(),
         };
         let d_a = if ds.method == DiffMethod::OursAlphaOffsets {
             // Every α-dependence by the offset pair at α ± Δα (same z): networks, σ_n and the

@@ -79,6 +79,8 @@ pub enum RenderError {
     Fit(#[from] FitError),
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
+    #[error("derivative estimator: {0}")]
+    Estimator(String),
 }
 
 /// Settings of the learned renderer.

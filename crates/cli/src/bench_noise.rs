@@ -20,7 +20,11 @@
 //! Gradient variance: the loss gradient of an `optimize` iteration with its default settings
 //! (`ours`, two renders, `--grad-spp` samples per pixel) on view 0 against the volpath render, at
 //! the truth, over `--grad-seeds` iterations (each its own random numbers); per parameter the
-//! variance over iterations times the time of one evaluation, relative to the first scheme.
+//! variance over iterations times the time of one evaluation, relative to the first scheme. The
+//! last gradient row is the volumetric path tracer's: the same split-sample loss gradient from
+//! two of its derivative renders (`volpath::render_derivatives`, each path differentiated
+//! analytically) at half of `--grad-spp` each, i.e. the iteration of a volumetric
+//! differentiable recovery.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -299,44 +303,107 @@ fn gradient_noise(
         let t0 = Instant::now();
         for k in 0..a.grad_seeds {
             let r = opt.gradient(k, &truth)?;
-            g.push([
-                r.d_sigma_t[0],
-                r.d_sigma_t[1],
-                r.d_sigma_t[2],
-                r.d_albedo[0],
-                r.d_albedo[1],
-                r.d_albedo[2],
-            ]);
+            g.push(six(r.d_sigma_t, r.d_albedo));
         }
         let t = t0.elapsed().as_secs_f64() / a.grad_seeds as f64;
-        let n = g.len() as f64;
-        let var: [f64; 6] = std::array::from_fn(|i| {
-            let m = g.iter().map(|v| v[i]).sum::<f64>() / n;
-            g.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)
-        });
-        let vt: Vec<String> = match first {
-            None => vec!["1.00".into(); 6],
-            Some((v0, t0)) => (0..6)
-                .map(|i| format!("{:.2}", v0[i] * t0 / (var[i] * t)))
-                .collect(),
-        };
-        println!(
-            "{:<22} {:<18} {:>7.2}   gradient variance·time, first scheme over this (σ_t R G B, α R G B): {}",
-            case.name,
-            format!("∇ {}", scheme_name(scheme)),
-            t,
-            vt.join(" ")
-        );
-        writeln!(
-            csv,
-            "{},{},{t:.4},{}",
-            case.name,
-            scheme_name(scheme),
-            var.map(|v| format!("{v:.6e}")).join(",")
-        )?;
+        let var = variances(&g);
+        gradient_row(case, scheme_name(scheme), var, t, first, csv)?;
         if first.is_none() {
             first = Some((var, t));
         }
     }
+    let (var, t) = volpath_gradient_variance(a, case, accel, view, target)?;
+    gradient_row(case, "volpath", var, t, first, csv)
+}
+
+/// σ_t R G B, α R G B in one array.
+fn six(d_sigma_t: [f64; 3], d_albedo: [f64; 3]) -> [f64; 6] {
+    std::array::from_fn(|i| if i < 3 { d_sigma_t[i] } else { d_albedo[i - 3] })
+}
+
+/// Per component, the variance of the gradients `g` over iterations.
+fn variances(g: &[[f64; 6]]) -> [f64; 6] {
+    let n = g.len() as f64;
+    std::array::from_fn(|i| {
+        let m = g.iter().map(|v| v[i]).sum::<f64>() / n;
+        g.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)
+    })
+}
+
+/// Prints and writes one gradient row: variance·time of `first` over this one's.
+fn gradient_row(
+    case: &Case,
+    name: &str,
+    var: [f64; 6],
+    t: f64,
+    first: Option<([f64; 6], f64)>,
+    csv: &mut std::fs::File,
+) -> Result<()> {
+    let vt: Vec<String> = match first {
+        None => vec!["1.00".into(); 6],
+        Some((v0, t0)) => (0..6)
+            .map(|i| format!("{:.2}", v0[i] * t0 / (var[i] * t)))
+            .collect(),
+    };
+    println!(
+        "{:<22} {:<18} {:>7.2}   gradient variance·time, first scheme over this (σ_t R G B, α R G B): {}",
+        case.name,
+        format!("∇ {name}"),
+        t,
+        vt.join(" ")
+    );
+    writeln!(
+        csv,
+        "{},{name},{t:.4},{}",
+        case.name,
+        var.map(|v| format!("{v:.6e}")).join(",")
+    )?;
     Ok(())
+}
+
+/// The variance over `--grad-seeds` iterations of the volumetric path tracer's split-sample
+/// loss gradient on one view at the truth (σ_t R G B, α R G B), and the seconds of one
+/// evaluation.
+fn volpath_gradient_variance(
+    a: &NoiseBenchArgs,
+    case: &Case,
+    accel: &geometry::Accel,
+    view: &scene::ViewDesc,
+    target: &Image,
+) -> Result<([f64; 6], f64)> {
+    use bssrdf::diff::{DiffImages, Loss};
+    use volpath::rng::hash_key;
+    let settings = VolpathSettings::default();
+    let mut scene = volpath::VolpathScene {
+        accel,
+        medium: case.medium,
+        light: Some(view.light),
+        environment: None,
+        light_bins: None,
+    };
+    let lists = volpath::shadow_lists(&scene, &settings);
+    scene.light_bins = lists.as_ref();
+    let render = |spp: u32, seed: u64| {
+        let rs = volpath::RenderSettings { spp, seed, view: 0 };
+        let d = volpath::render_derivatives(&scene, &settings, &view.camera, &rs, None);
+        DiffImages {
+            value: d.value,
+            d_sigma_t: d.d_sigma_t,
+            d_albedo: d.d_albedo,
+        }
+    };
+    let half = (a.grad_spp / 2).max(1);
+    let mut g: Vec<[f64; 6]> = Vec::new();
+    let t0 = Instant::now();
+    for k in 0..a.grad_seeds as u64 {
+        let da = render(half, hash_key(&[a.seed, k]));
+        let db = render(
+            a.grad_spp.saturating_sub(half).max(1),
+            hash_key(&[a.seed, k, 0xB]),
+        );
+        let r = inverse::optimize::split_sample_gradient(&da, &db, target, Loss::L2);
+        g.push(six(r.d_sigma_t, r.d_albedo));
+    }
+    let t = t0.elapsed().as_secs_f64() / a.grad_seeds.max(1) as f64;
+    Ok((variances(&g), t))
 }

@@ -62,6 +62,8 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
 /// Timing of a render.
 pub struct RenderReport {
     pub images: Vec<Image>,
+    /// ∂I/∂σ_t and ∂I/∂α of every view (empty unless asked for).
+    pub derivatives: Vec<[Image; 2]>,
     pub seconds_per_view: Vec<f64>,
 }
 
@@ -74,9 +76,25 @@ pub fn render_views(
     seed: u64,
     settings: &VolpathSettings,
 ) -> RenderReport {
+    render_views_with(accel, medium, views, spp, seed, settings, false)
+}
+
+/// [`render_views`], with each view's derivatives with respect to σ_t and α when `derivatives`
+/// ([`volpath::render_derivatives`]: the same images, plus the analytic derivative of each
+/// path).
+pub fn render_views_with(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    settings: &VolpathSettings,
+    derivatives: bool,
+) -> RenderReport {
     let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
     let pb = progress(rows, "volpath");
     let mut images = Vec::with_capacity(views.len());
+    let mut grads = Vec::new();
     let mut secs = Vec::with_capacity(views.len());
     // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
     let mut lists: Option<LightBins> = None;
@@ -98,12 +116,19 @@ pub fn render_views(
             view: i as u64,
         };
         let t0 = Instant::now();
-        images.push(render_image(&scene, settings, &v.camera, &rs, Some(&pb)));
+        if derivatives {
+            let d = volpath::render_derivatives(&scene, settings, &v.camera, &rs, Some(&pb));
+            images.push(d.value);
+            grads.push([d.d_sigma_t, d.d_albedo]);
+        } else {
+            images.push(render_image(&scene, settings, &v.camera, &rs, Some(&pb)));
+        }
         secs.push(t0.elapsed().as_secs_f64());
     }
     pb.finish_and_clear();
     RenderReport {
         images,
+        derivatives: grads,
         seconds_per_view: secs,
     }
 }
@@ -219,9 +244,11 @@ pub const LEARNED_OPTIONS: &str = "Learned BSSRDF options (the defaults are the 
 /// Options of the learned BSSRDF, shared by the commands that render.
 #[derive(clap::Args, Clone, Debug)]
 pub struct LearnedArgs {
-    /// Model file (translucent safetensors format) for `--method learned`; default: the model
-    /// shipped in `models/` (built into the binary). Files are written by `translucent train` or
-    /// `translucent model import-son24`.
+    /// The forward model: `learned` (the learned BSSRDF shipped in `models/`, built into the
+    /// binary; the default), a learned model file (translucent safetensors format, written by
+    /// `translucent train` or `translucent model import-son24`; `shipped` names the built-in
+    /// one), or `volpath` (the volumetric path tracer: in `optimize` the volumetric baseline, in
+    /// `render` the same as `--method volpath`).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub model: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
@@ -389,6 +416,15 @@ impl LearnedArgs {
         }
     }
 
+    /// Which forward model `--model` names: the volumetric path tracer for `volpath`, the
+    /// learned BSSRDF otherwise.
+    pub fn kind(&self) -> inverse::forward::ModelKind {
+        match &self.model {
+            Some(p) if p.as_os_str() == "volpath" => inverse::forward::ModelKind::Volpath,
+            _ => inverse::forward::ModelKind::Learned,
+        }
+    }
+
     /// The model shipped in `models/` (see `models/MODEL_CARD.md`), built into the binary and
     /// validated like a file.
     pub fn shipped_model() -> Result<bssrdf::nn::ShapeAdaptiveModel> {
@@ -403,12 +439,17 @@ impl LearnedArgs {
 pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v2.safetensors";
 static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v2.safetensors");
 
-/// Loads a `--model` value: a file, or `shipped` for the built-in model.
+/// Loads a `--model` value: a file, or `shipped` (or `learned`) for the built-in model.
+/// `volpath` is not a learned model: commands that need one say so.
 pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
-    if path.as_os_str() == "shipped" {
-        return LearnedArgs::shipped_model();
+    match path.as_os_str().to_str() {
+        Some("shipped" | "learned") => LearnedArgs::shipped_model(),
+        Some("volpath") => anyhow::bail!(
+            "--model volpath: the volumetric path tracer is not a learned model; this command \
+             needs one (a model file, or `shipped`)"
+        ),
+        _ => Ok(bssrdf::model::load(path)?),
     }
-    Ok(bssrdf::model::load(path)?)
 }
 
 /// Render every view with the learned BSSRDF (vertex features fitted once for `medium`).
@@ -421,6 +462,23 @@ pub fn render_views_learned(
     model: &bssrdf::nn::ShapeAdaptiveModel,
     settings: bssrdf::render::LearnedSettings,
 ) -> Result<RenderReport> {
+    render_views_learned_with(accel, medium, views, spp, seed, model, settings, false)
+}
+
+/// [`render_views_learned`], with each view's derivatives with respect to σ_t and α by the
+/// paper's estimator (`ours`: correlated σ_t offset samples, α by differentiating the absorption)
+/// when `derivatives`.
+#[allow(clippy::too_many_arguments)]
+pub fn render_views_learned_with(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    model: &bssrdf::nn::ShapeAdaptiveModel,
+    settings: bssrdf::render::LearnedSettings,
+    derivatives: bool,
+) -> Result<RenderReport> {
     let t0 = Instant::now();
     let features =
         bssrdf::render::VertexFeatures::fit(accel, medium, model.info().c19_quirk, seed)?;
@@ -432,6 +490,7 @@ pub fn render_views_learned(
     let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
     let pb = progress(rows, "learned");
     let mut images = Vec::with_capacity(views.len());
+    let mut grads = Vec::new();
     let mut secs = Vec::with_capacity(views.len());
     for (i, v) in views.iter().enumerate() {
         let rs = RenderSettings {
@@ -440,18 +499,26 @@ pub fn render_views_learned(
             view: i as u64,
         };
         let t0 = Instant::now();
-        images.push(bssrdf::render::render_image(
-            &scene,
-            &v.camera,
-            &v.light,
-            &rs,
-            Some(&pb),
-        )?);
+        if derivatives {
+            let ds = bssrdf::diff::DiffSettings::default();
+            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, &rs, &ds, Some(&pb))?;
+            images.push(d.value);
+            grads.push([d.d_sigma_t, d.d_albedo]);
+        } else {
+            images.push(bssrdf::render::render_image(
+                &scene,
+                &v.camera,
+                &v.light,
+                &rs,
+                Some(&pb),
+            )?);
+        }
         secs.push(t0.elapsed().as_secs_f64());
     }
     pb.finish_and_clear();
     Ok(RenderReport {
         images,
+        derivatives: grads,
         seconds_per_view: secs,
     })
 }

@@ -362,7 +362,7 @@ pub(crate) fn run_args(
     init: Params,
 ) -> OptimizeArgs {
     let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    o.method = method.to_string();
+    o.method = Some(method.to_string());
     o.budget = a.budget;
     o.scaled_sigma_t = a.scaled_sigma_t;
     o.albedo_warmup = a.albedo_warmup;

@@ -11,8 +11,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use bssrdf::diff::{DiffMethod, Loss, Primal};
-use bssrdf::render::{LearnedScene, RenderSettings, render_image};
+use bssrdf::render::RenderSettings;
 use clap::Args;
+use inverse::forward::ModelKind;
 use inverse::optimize::{Checkpoint, OptimizeConfig, Optimizer, TargetView};
 use inverse::params::{ParamSpec, Parameterisation, Params};
 use inverse::report;
@@ -36,9 +37,14 @@ pub struct OptimizeArgs {
     /// Output folder.
     #[arg(long, default_value = "out/optimize")]
     pub out: PathBuf,
-    /// Gradient estimator: ours, ours-alpha-offsets, naive or fd.
-    #[arg(long, default_value = "ours")]
-    pub method: String,
+    /// Gradient estimator of the model (`--model`): for the learned BSSRDF ours (default),
+    /// ours-alpha-offsets, naive or fd; for `volpath` ad (default).
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
+    /// semantics; the default of `dataset`). Set it to the dataset's own when that differs.
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 32)]
+    pub max_depth: u32,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss: l2 or l1.
@@ -187,13 +193,30 @@ impl OptimizeArgs {
     }
 }
 
+impl OptimizeArgs {
+    /// The estimator's name: `--method`, or the model's default.
+    pub fn estimator(&self) -> String {
+        self.method.clone().unwrap_or_else(|| {
+            self.learned.kind().estimators()[0].name().to_string()
+        })
+    }
+}
+
 pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
-    let method: DiffMethod = a.method.parse()?;
+    let model = a.learned.kind();
+    let method: DiffMethod = match &a.method {
+        Some(m) => m.parse()?,
+        None => model.estimators()[0],
+    };
     let mut c = OptimizeConfig::new(Params {
         sigma_t: a.init_sigma_t.map(|v| v as f64),
         albedo: a.init_albedo.map(|v| v as f64),
     });
+    c.model = model;
     c.method = method;
+    if model == ModelKind::Volpath {
+        c.volpath_max_depth = Some(a.max_depth);
+    }
     c.iterations = a.budget.iterations;
     c.spp = a.budget.spp;
     c.views_per_iter = a.budget.views_per_iter;
@@ -348,7 +371,21 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         accel.mesh().triangle_count(),
         t0.elapsed().as_secs_f64() * 1e3
     );
-    let model = a.learned.load_model()?;
+    // The volumetric model has no networks; the optimiser's interface still takes the
+    // learned model's, unused.
+    let model = match a.learned.kind() {
+        ModelKind::Volpath => {
+            if let Some(d) = ds.render.max_depth.filter(|d| *d != a.max_depth) {
+                tracing::warn!(
+                    "the dataset was rendered with maximum depth {d}, the model traces to \
+                     --max-depth {}; pass --max-depth {d} to match it",
+                    a.max_depth
+                );
+            }
+            crate::common::LearnedArgs::shipped_model()?
+        }
+        ModelKind::Learned => a.learned.load_model()?,
+    };
     let images: Vec<&Image> = ds
         .views
         .iter()
@@ -472,7 +509,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         truth.as_ref(),
         &a.out.join("convergence.png"),
     )?;
-    rerender(a, &opt, &ds, &estimate, &base)?;
+    rerender(a, &opt, &ds, &estimate)?;
     let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
     let (mut shown, mut shown_u) = (estimate, uncertainty.clone());
@@ -524,34 +561,40 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         pb.finish_and_clear();
         c
     });
-    let sensitivity = uncertainty.as_ref().and_then(|u| {
-        // The checked views whose learned bread the intervals measured.
-        let (views, breads): (Vec<_>, Vec<_>) = check_views
-            .iter()
-            .filter_map(|(v, view)| {
-                let bread = u.view_bread.iter().find(|(i, _)| i == v)?.1;
-                Some((*view, bread))
-            })
-            .unzip();
-        if views.is_empty() {
-            return None;
-        }
-        let pb = progress(
-            0,
-            "sensitivity along the σ_t valley (volumetric path tracer)",
-        );
-        let s = inverse::sensitivity::measure(
-            &accel,
-            &shown.medium(&base),
-            &views,
-            &breads,
-            inverse::sensitivity::valley_slope(&u.bread()),
-            check_spp,
-            a.seed ^ 0x5E_4517,
-        );
-        pb.finish_and_clear();
-        Some(s)
-    });
+    // The tracer's own curvature against the learned model's: nothing to check when the
+    // tracer is the model.
+    let learned_model = opt.config().model == ModelKind::Learned;
+    let sensitivity = uncertainty
+        .as_ref()
+        .filter(|_| learned_model)
+        .and_then(|u| {
+            // The checked views whose learned bread the intervals measured.
+            let (views, breads): (Vec<_>, Vec<_>) = check_views
+                .iter()
+                .filter_map(|(v, view)| {
+                    let bread = u.view_bread.iter().find(|(i, _)| i == v)?.1;
+                    Some((*view, bread))
+                })
+                .unzip();
+            if views.is_empty() {
+                return None;
+            }
+            let pb = progress(
+                0,
+                "sensitivity along the σ_t valley (volumetric path tracer)",
+            );
+            let s = inverse::sensitivity::measure(
+                &accel,
+                &shown.medium(&base),
+                &views,
+                &breads,
+                inverse::sensitivity::valley_slope(&u.bread()),
+                check_spp,
+                a.seed ^ 0x5E_4517,
+            );
+            pb.finish_and_clear();
+            Some(s)
+        });
     if let (Some(u), Some(s)) = (&shown_u, &sensitivity) {
         let widened = u.with_sensitivity(&shown, s);
         if let serde_json::Value::Object(m) = widened.to_json() {
@@ -666,22 +709,11 @@ fn print_estimate(est: &Params, truth: Option<&Params>) {
 }
 
 /// Re-renders every view at the estimate next to its target, with error images.
-fn rerender(
-    a: &OptimizeArgs,
-    opt: &Optimizer,
-    ds: &Dataset,
-    est: &Params,
-    base: &Medium,
-) -> Result<()> {
+fn rerender(a: &OptimizeArgs, opt: &Optimizer, ds: &Dataset, est: &Params) -> Result<()> {
     let dir = a.out.join("final");
     std::fs::create_dir_all(&dir)?;
-    let medium = est.medium(base);
     // The first views only, to keep the end of a run short.
     let n = ds.views.len().min(8);
-    let (mesh, warnings) = ds.load_mesh()?;
-    let accel = build_accel(mesh, &warnings, "re-render");
-    let model = a.learned.load_model()?;
-    let scene = LearnedScene::new(&accel, &model, opt.features(), medium, a.learned.settings())?;
     let mut imgs = Vec::new();
     for (i, v) in ds.views.iter().take(n).enumerate() {
         let rs = RenderSettings {
@@ -689,7 +721,7 @@ fn rerender(
             seed: a.seed ^ 0xF1AA_1000,
             view: i as u64,
         };
-        imgs.push(render_image(&scene, &v.camera, &v.light, &rs, None)?);
+        imgs.push(opt.render(est, &v.camera, &v.light, &rs)?);
     }
     let targets: Vec<Image> = ds
         .views

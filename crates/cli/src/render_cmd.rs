@@ -1,6 +1,13 @@
 //! `translucent render SCENE`: render every view of a scene file with the volumetric path tracer
 //! into `OUT/view_XXX.exr` + `.png`.
 //!
+//! With `--derivatives` each view also gets `view_XXX_d_sigma_t` and `view_XXX_d_albedo` (EXR,
+//! and a false-colour PNG: red > 0, blue < 0, one symmetric range per parameter over all views):
+//! ∂I/∂σ_t and ∂I/∂α of channel c with respect to that channel's parameter. The volumetric
+//! path tracer differentiates each of its paths analytically (`volpath::derivative`), and its
+//! image is the plain render, bit for bit; the learned BSSRDF uses the paper's estimator
+//! (`ours`), whose image is the mean of its σ_t offset samples.
+//!
 //! With `--as-dataset` the output is a dataset folder instead (`dataset.json` beside the images,
 //! the rendered medium as its truth, the renderer in its `render` block; DATASET.md). Rendering a
 //! dataset's truth with `--method learned --as-dataset` gives targets that the learned model
@@ -16,8 +23,8 @@ use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
-    LearnedArgs, Method, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, render_views,
-    render_views_learned, write_outputs,
+    LearnedArgs, Method, ShadowArg, SpawnOffsetArg, build_accel, check_output_free,
+    render_views_learned_with, render_views_with, write_outputs,
 };
 
 #[derive(Args)]
@@ -57,6 +64,10 @@ pub struct RenderArgs {
     /// 10⁻⁴ spawn offset, for like-for-like comparisons with its renders).
     #[arg(long, value_enum, default_value_t)]
     pub spawn_offset: SpawnOffsetArg,
+    /// Also write each view's derivatives with respect to σ_t and α (`view_XXX_d_sigma_t`,
+    /// `view_XXX_d_albedo`: EXR and a false-colour PNG).
+    #[arg(long)]
+    pub derivatives: bool,
     /// Write a dataset folder (`dataset.json` + images; the rendered medium is its truth) that
     /// `optimize --dataset`, `compare` and `bench loss-scan` read.
     #[arg(long)]
@@ -77,6 +88,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .map(|i| format!("view_{i:03}"))
         .collect();
     check_output_free(&a.out, &names, a.overwrite)?;
+    let derivative_names: Vec<[String; 2]> = names
+        .iter()
+        .map(|n| [format!("{n}_d_sigma_t"), format!("{n}_d_albedo")])
+        .collect();
+    if a.derivatives {
+        check_output_free(&a.out, &derivative_names.concat(), a.overwrite)?;
+    }
     if a.as_dataset && !a.overwrite && a.out.join("dataset.json").exists() {
         bail!(
             "{} already holds a dataset; pass --overwrite to replace it",
@@ -100,14 +118,26 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         spawn_offset: a.spawn_offset.into(),
         ..Default::default()
     };
-    let (rep, renderer) = match a.method {
+    let method = match a.learned.kind() {
+        inverse::forward::ModelKind::Volpath => Method::Volpath,
+        inverse::forward::ModelKind::Learned => a.method,
+    };
+    let (rep, renderer) = match method {
         Method::Volpath => (
-            render_views(&accel, &desc.medium, views, spp, seed, &settings),
+            render_views_with(
+                &accel,
+                &desc.medium,
+                views,
+                spp,
+                seed,
+                &settings,
+                a.derivatives,
+            ),
             "volpath".to_string(),
         ),
         Method::Learned => {
             let model = a.learned.load_model()?;
-            let rep = render_views_learned(
+            let rep = render_views_learned_with(
                 &accel,
                 &desc.medium,
                 views,
@@ -115,6 +145,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 seed,
                 &model,
                 a.learned.settings(),
+                a.derivatives,
             )?;
             (rep, format!("learned BSSRDF ({})", a.learned.describe()))
         }
@@ -138,6 +169,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     } else {
         write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
     }
+    if a.derivatives {
+        write_derivatives(&a.out, &derivative_names, &rep.derivatives, a.overwrite)?;
+    }
     let total: f64 = rep.seconds_per_view.iter().sum();
     println!(
         "rendered {} view(s) at {spp} spp in {total:.2} s ({:.3} s/view) -> {}",
@@ -148,6 +182,33 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     for (n, img) in names.iter().zip(&rep.images) {
         let m = img.mean();
         println!("  {n}: mean RGB = ({:.5}, {:.5}, {:.5})", m[0], m[1], m[2]);
+    }
+    Ok(())
+}
+
+/// Writes each view's two derivative images as EXR and as false-colour PNG, one colour range
+/// per parameter over all views (the largest of the views' 99th percentiles of |∂I|).
+fn write_derivatives(
+    dir: &std::path::Path,
+    names: &[[String; 2]],
+    derivatives: &[[scene::Image; 2]],
+    overwrite: bool,
+) -> Result<()> {
+    let zero = |i: &scene::Image| scene::Image::new(i.width, i.height);
+    let mut range = [0.0f32; 2];
+    for d in derivatives {
+        for k in 0..2 {
+            let (_, r) = scene::Image::false_colour_diff_with_range(&d[k], &zero(&d[k]), None)?;
+            range[k] = range[k].max(r);
+        }
+    }
+    for (names, d) in names.iter().zip(derivatives) {
+        for k in 0..2 {
+            d[k].write_exr(&dir.join(format!("{}.exr", names[k])), overwrite)?;
+            let (fc, _) =
+                scene::Image::false_colour_diff_with_range(&d[k], &zero(&d[k]), Some(range[k]))?;
+            fc.write_png(&dir.join(format!("{}.png", names[k])), 1.0, overwrite)?;
+        }
     }
     Ok(())
 }

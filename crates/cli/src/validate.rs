@@ -183,6 +183,7 @@ fn render_equal_time(
     let per_view = t0.elapsed().as_secs_f64() / views.len() as f64;
     let report = RenderReport {
         images: renders.iter().map(Progressive::image).collect(),
+        derivatives: Vec::new(),
         seconds_per_view: vec![per_view; views.len()],
     };
     (report, renders[0].spp())

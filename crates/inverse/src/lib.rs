@@ -1,5 +1,6 @@
 //! Multi-view inverse rendering of homogeneous translucent media with the learned BSSRDF
-//! (Son et al. 2024 §5): parameters and their parameterisation ([`params`]), the Adam loop with
+//! (Son et al. 2024 §5) or, as the volumetric baseline, the volumetric path tracer: the forward
+//! models behind one interface ([`forward`]), parameters and their parameterisation ([`params`]), the Adam loop with
 //! checkpoints ([`optimize`]), its reports ([`report`]), the uncertainty of an estimate from the
 //! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
 //! ([`consistency`]), the tracer's own sensitivity along the σ_t valley ([`sensitivity`]) and the parametric-bootstrap bias correction of a recovered medium
@@ -8,6 +9,7 @@
 
 pub mod bootstrap;
 pub mod consistency;
+pub mod forward;
 pub mod health;
 pub mod optimize;
 pub mod params;

@@ -16,20 +16,18 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use bssrdf::diff::{
-    DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal, render_diff_view,
-    render_loss_gradient,
-};
+use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal};
 use bssrdf::nn::ShapeAdaptiveModel;
-use bssrdf::render::{
-    LearnedScene, LearnedSettings, RenderSettings, VertexFeatures, ViewRays, render_image_view,
-};
+use bssrdf::render::{LearnedSettings, RenderSettings};
 use geometry::Accel;
 use learn::optim::{Adam, AdamConfig, AdamState};
 use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 use volpath::rng::{Sampler, hash_key};
 
+use crate::forward::learned::Learned;
+use crate::forward::volpath::Volpath;
+use crate::forward::{ForwardModel, ModelKind};
 use crate::params::{ParamSpec, Params};
 use crate::uncertainty::{
     Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances, iterate_covariance,
@@ -75,7 +73,15 @@ pub enum InverseError {
 /// Settings of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OptimizeConfig {
-    /// Gradient estimator.
+    /// The forward model ([`crate::forward`]). (Left out of the JSON when it is the learned
+    /// model, so runs written before the option compare equal.)
+    #[serde(default, skip_serializing_if = "ModelKind::is_default")]
+    pub model: ModelKind,
+    /// The volumetric path tracer's maximum depth (Mitsuba `volpath` semantics) when it is the
+    /// model: the dataset's own. `None` with the learned model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volpath_max_depth: Option<u32>,
+    /// Gradient estimator (one of the model's, [`ModelKind::estimators`]).
     #[serde(with = "method_name")]
     pub method: DiffMethod,
     /// Iterations.
@@ -113,7 +119,7 @@ pub struct OptimizeConfig {
     pub decay_every: u32,
     /// Refit the vertex polynomials every this many iterations (0: never).
     pub refit_every: u32,
-    /// Also fit dR/d ln σ_n at every fit ([`VertexFeatures::fit_with_derivative`]), so that the
+    /// Also fit dR/d ln σ_n at every fit ([`bssrdf::render::VertexFeatures::fit_with_derivative`]), so that the
     /// descriptor at another σ_n, in the value and in the σ_t offsets, follows a refit to first
     /// order and not only the rescaling.
     #[serde(default)]
@@ -260,6 +266,10 @@ impl OptimizeConfig {
         if self.views_per_iter == 0 || self.spp == 0 {
             return Err("views per iteration and spp must be at least 1".into());
         }
+        self.model.check_estimator(self.method)?;
+        if self.volpath_max_depth == Some(0) {
+            return Err("volpath_max_depth = 0: the tracer needs a depth of at least 1".into());
+        }
         if self.views_per_iter > MAX_VIEWS_PER_ITER {
             return Err(format!(
                 "views_per_iter = {} is above the limit of {MAX_VIEWS_PER_ITER}",
@@ -322,6 +332,8 @@ impl OptimizeConfig {
     /// two-render gradient, and α alone for the first 30 iterations.
     pub fn new(init: Params) -> Self {
         Self {
+            model: ModelKind::Learned,
+            volpath_max_depth: None,
             method: DiffMethod::Ours,
             iterations: 300,
             spp: 32,
@@ -403,11 +415,9 @@ pub struct IterationGradient {
 /// A run in progress.
 pub struct Optimizer<'a> {
     config: OptimizeConfig,
-    accel: &'a Accel,
-    model: &'a ShapeAdaptiveModel,
+    forward: Box<dyn ForwardModel + 'a>,
     base: Medium,
     targets: Vec<TargetView<'a>>,
-    features: VertexFeatures,
     adam: Adam,
     u: Vec<f32>,
     history: Vec<IterationRecord>,
@@ -419,7 +429,9 @@ mod checkpoint;
 pub use checkpoint::Checkpoint;
 
 impl<'a> Optimizer<'a> {
-    /// A new run. `base` supplies g and η (the parameters come from `config.init`).
+    /// A new run. `base` supplies g and η (the parameters come from `config.init`); `config.model`
+    /// chooses the forward model over `accel` (`model` is the learned model's networks, unused
+    /// by the others).
     pub fn new(
         config: OptimizeConfig,
         accel: &'a Accel,
@@ -435,26 +447,25 @@ impl<'a> Optimizer<'a> {
         init_medium
             .validate("initial parameters")
             .map_err(|e| InverseError::Invalid(e.to_string()))?;
-        let features = fit_features(accel, &init_medium, model, &config)?;
+        let mut forward = forward_model(&config, accel, model);
+        forward.prepare(&init_medium)?;
         let u = config.params.encode(&config.init);
         let adam = Adam::new(u.len(), adam_config(&config));
         let parts = Parts {
-            features,
+            forward,
             adam,
             u,
             history: Vec::new(),
         };
-        Ok(Self::assemble(config, accel, model, base, targets, parts))
+        Ok(Self::assemble(config, base, targets, parts))
     }
 
     /// The run from its configuration, inputs and state.
     fn assemble(
         config: OptimizeConfig,
-        accel: &'a Accel,
-        model: &'a ShapeAdaptiveModel,
         base: Medium,
         targets: Vec<TargetView<'a>>,
-        p: Parts,
+        p: Parts<'a>,
     ) -> Self {
         let images: Vec<&Image> = targets.iter().map(|t| t.image).collect();
         let weights = view_weights(
@@ -466,11 +477,9 @@ impl<'a> Optimizer<'a> {
         Self {
             weights,
             config,
-            accel,
-            model,
+            forward: p.forward,
             base,
             targets,
-            features: p.features,
             adam: p.adam,
             u: p.u,
             history: p.history,
@@ -497,9 +506,16 @@ impl<'a> Optimizer<'a> {
         &self.config
     }
 
-    /// The vertex features in use.
-    pub fn features(&self) -> &VertexFeatures {
-        &self.features
+    /// The image of one view rendered by the run's forward model at `p` (no derivatives).
+    pub fn render(
+        &self,
+        p: &Params,
+        camera: &Camera,
+        light: &PointLight,
+        rs: &RenderSettings,
+    ) -> Result<Image, InverseError> {
+        let at = self.forward.at(p.medium(&self.base))?;
+        at.view(camera, light).value(rs)
     }
 
     /// The uncertainty of the current parameters from the target images
@@ -509,33 +525,21 @@ impl<'a> Optimizer<'a> {
     pub fn uncertainty(&self, s: &UncertaintySettings) -> Result<Uncertainty, InverseError> {
         let c = &self.config;
         let p = self.params();
-        let scene = LearnedScene::new(
-            self.accel,
-            self.model,
-            &self.features,
-            p.medium(&self.base),
-            c.learned,
-        )?;
-        let ds = DiffSettings {
-            method: c.method,
-            delta_rel: c.delta_rel,
-            primal: c.primal,
-            ..DiffSettings::default()
-        };
+        let at = self.forward.at(p.medium(&self.base))?;
         let n = self.targets.len();
         let k = s.views.clamp(1, n);
         let mut acc = Accumulator::default();
         for i in 0..k {
             let v = i * n / k;
             let t = &self.targets[v];
-            let view = ViewRays::new(&scene, t.camera, t.light);
+            let view = at.view(t.camera, t.light);
             let render = |stream: u64| {
                 let rs = RenderSettings {
                     spp: s.spp.max(1),
                     seed: hash_key(&[c.seed, 0x5A4D_0000, stream]),
                     view: v as u64,
                 };
-                render_diff_view(&scene, &view, &rs, &ds, None)
+                view.derivatives(&rs)
             };
             let (a, b) = (render(1)?, render(2)?);
             acc.add_view(
@@ -581,14 +585,7 @@ impl<'a> Optimizer<'a> {
     /// at the current parameters followed by the Adam step.
     pub fn gradient(&self, k: u32, p: &Params) -> Result<IterationGradient, InverseError> {
         let c = &self.config;
-        let medium = p.medium(&self.base);
-        let scene = LearnedScene::new(self.accel, self.model, &self.features, medium, c.learned)?;
-        let ds = DiffSettings {
-            method: c.method,
-            delta_rel: c.delta_rel,
-            primal: c.primal,
-            ..DiffSettings::default()
-        };
+        let at = self.forward.at(p.medium(&self.base))?;
         let mut rng = Sampler::new(c.seed, 0x0AD1_0E55, k as u64, 0);
         let n = self.targets.len() as u32;
         let views: Vec<usize> = (0..c.views_per_iter)
@@ -639,22 +636,10 @@ impl<'a> Optimizer<'a> {
                     seed: hash_key(&[c.seed, k as u64, 0xB]),
                     ..rs
                 };
-                let view = ViewRays::new(&scene, t.camera, t.light);
-                let da = render_diff_view(&scene, &view, &rs_a, &ds, None)?;
-                let db = render_diff_view(&scene, &view, &rs_b, &ds, None)?;
-                let ab = decorrelated_gradient(&da.value, &db, t.image, c.loss);
-                let ba = decorrelated_gradient(&db.value, &da, t.image, c.loss);
-                LossGradient {
-                    loss: 0.5 * (ab.loss + ba.loss),
-                    loss_channels: std::array::from_fn(|ch| {
-                        0.5 * (ab.loss_channels[ch] + ba.loss_channels[ch])
-                    }),
-                    d_sigma_t: std::array::from_fn(|ch| {
-                        0.5 * (ab.d_sigma_t[ch] + ba.d_sigma_t[ch])
-                    }),
-                    d_albedo: std::array::from_fn(|ch| 0.5 * (ab.d_albedo[ch] + ba.d_albedo[ch])),
-                    images: None,
-                }
+                let view = at.view(t.camera, t.light);
+                let da = view.derivatives(&rs_a)?;
+                let db = view.derivatives(&rs_b)?;
+                split_sample_gradient(&da, &db, t.image, c.loss)
             } else if c.two_renders {
                 // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
                 // ∂I/∂θ: two renders, independent samples (no covariance bias).
@@ -663,14 +648,13 @@ impl<'a> Optimizer<'a> {
                     ..rs
                 };
                 // One set of camera rays (the view's triangle lists) for both renders.
-                let view = ViewRays::new(&scene, t.camera, t.light);
-                let i1 = render_image_view(&scene, &view, &rs, None)?;
-                let d2 = render_diff_view(&scene, &view, &rs_b, &ds, None)?;
+                let view = at.view(t.camera, t.light);
+                let i1 = view.value(&rs)?;
+                let d2 = view.derivatives(&rs_b)?;
                 decorrelated_gradient(&i1, &d2, t.image, c.loss)
             } else {
-                render_loss_gradient(
-                    &scene, t.camera, t.light, &rs, &ds, t.image, c.loss, false, None,
-                )?
+                at.view(t.camera, t.light)
+                    .loss_gradient(&rs, t.image, c.loss)?
             };
             if let Some(what) = non_finite_part(&g) {
                 return Err(InverseError::NonFinite {
@@ -709,7 +693,7 @@ impl<'a> Optimizer<'a> {
         let p = self.params();
         let c = &self.config;
         if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
-            self.features = fit_features(self.accel, &p.medium(&self.base), self.model, c)?;
+            self.forward.prepare(&p.medium(&self.base))?;
         }
         let IterationGradient {
             loss,
@@ -792,9 +776,38 @@ fn non_finite_part(g: &LossGradient) -> Option<String> {
     })
 }
 
+/// The loss gradient of two independent derivative renders `a` and `b` (each with half of the
+/// samples): ∂ℓ/∂θ = ½[∂ℓ/∂I(I_a)·∂I_b/∂θ + ∂ℓ/∂I(I_b)·∂I_a/∂θ] and ℓ = ½[ℓ(I_a) + ℓ(I_b)].
+/// Each half pairs a loss derivative with derivative images of independent samples, so the
+/// product has no covariance bias, at the cost of one render at the full sample count (the
+/// default of [`OptimizeConfig::new`]). Any forward model's derivative images serve.
+pub fn split_sample_gradient(
+    a: &DiffImages,
+    b: &DiffImages,
+    target: &Image,
+    loss: Loss,
+) -> LossGradient {
+    let ab = decorrelated_gradient(&a.value, b, target, loss);
+    let ba = decorrelated_gradient(&b.value, a, target, loss);
+    LossGradient {
+        loss: 0.5 * (ab.loss + ba.loss),
+        loss_channels: std::array::from_fn(|ch| {
+            0.5 * (ab.loss_channels[ch] + ba.loss_channels[ch])
+        }),
+        d_sigma_t: std::array::from_fn(|ch| 0.5 * (ab.d_sigma_t[ch] + ba.d_sigma_t[ch])),
+        d_albedo: std::array::from_fn(|ch| 0.5 * (ab.d_albedo[ch] + ba.d_albedo[ch])),
+        images: None,
+    }
+}
+
 /// The decorrelated loss gradient: ℓ and ∂ℓ/∂I from the render `i1`, ∂I/∂θ from the derivative
 /// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ.
-fn decorrelated_gradient(i1: &Image, d2: &DiffImages, target: &Image, loss: Loss) -> LossGradient {
+pub(crate) fn decorrelated_gradient(
+    i1: &Image,
+    d2: &DiffImages,
+    target: &Image,
+    loss: Loss,
+) -> LossGradient {
     let mut g = LossGradient {
         loss: 0.0,
         loss_channels: [0.0; 3],
@@ -820,8 +833,8 @@ fn decorrelated_gradient(i1: &Image, d2: &DiffImages, target: &Image, loss: Loss
 }
 
 /// The state of a run (what a fresh start and a resume provide differently).
-struct Parts {
-    features: VertexFeatures,
+struct Parts<'a> {
+    forward: Box<dyn ForwardModel + 'a>,
     adam: Adam,
     u: Vec<f32>,
     history: Vec<IterationRecord>,
@@ -844,17 +857,33 @@ fn adam_parts(o: &Optimizer) -> AdamState {
     o.adam.state()
 }
 
-/// The vertex features at `medium`, with the σ_n-derivative when the config asks for it.
-pub(crate) fn fit_features(
-    accel: &Accel,
-    medium: &Medium,
-    model: &ShapeAdaptiveModel,
+/// The forward model `config.model` over `accel`, not yet prepared (`model`: the learned
+/// model's networks).
+pub(crate) fn forward_model<'a>(
     config: &OptimizeConfig,
-) -> Result<VertexFeatures, InverseError> {
-    let quirk = model.info().c19_quirk;
-    Ok(if config.fit_derivative {
-        VertexFeatures::fit_with_derivative(accel, medium, quirk, config.seed)?
-    } else {
-        VertexFeatures::fit(accel, medium, quirk, config.seed)?
-    })
+    accel: &'a Accel,
+    model: &'a ShapeAdaptiveModel,
+) -> Box<dyn ForwardModel + 'a> {
+    match config.model {
+        ModelKind::Learned => Box::new(Learned::new(
+            accel,
+            model,
+            config.learned,
+            DiffSettings {
+                method: config.method,
+                delta_rel: config.delta_rel,
+                primal: config.primal,
+                ..DiffSettings::default()
+            },
+            config.fit_derivative,
+            config.seed,
+        )),
+        ModelKind::Volpath => Box::new(Volpath::new(
+            accel,
+            volpath::VolpathSettings {
+                max_depth: config.volpath_max_depth.unwrap_or(32),
+                ..volpath::VolpathSettings::default()
+            },
+        )),
+    }
 }

@@ -14,38 +14,40 @@
 //!   learned curvature   k_L = uᵀ A u = a00 + 2 s a01 + s² a11, summed over the checked views;
 //!   the tracer's        k_V = Σ_p (∂I_p/∂u)²,
 //!
-//! estimated without bias from two independent pairs of renders at θ ± δu (common random
-//! numbers within a pair): with D¹ = I(θ + δu; seed 1) − I(θ − δu; seed 1) and D² the same with
-//! seed 2, E[D¹_p D²_p] = (E D_p)², so k̂_V = Σ_p D¹_p D²_p / (2δ)² (unbiased for the central
-//! difference, whose error in ∂I/∂u is O(δ²)). Its standard error is at most
-//! √(Σ_p (D¹_p D²_p)²) / (2δ)² (the second moment bounds the variance). The ratio used is
+//! estimated without bias from two independent renders with derivatives
+//! ([`volpath::render_derivatives`], the analytic derivative of each path): with
+//! J_p = σ_t ∂I_p/∂σ_t + s ∂I_p/∂α = ∂I_p/∂u from seed 1 and seed 2, E[J¹_p J²_p] = (E J_p)², so
+//! k̂_V = Σ_p J¹_p J²_p (Σ J² alone would add each pixel's variance). Its standard error is at
+//! most √(Σ_p (J¹_p J²_p)²) (the second moment bounds the variance). The ratio used is
 //! ρ = k_L / (k̂_V − 2·se), at least 1 and at most [`MAX_RATIO`]: the lower end of the tracer's
 //! curvature, so a valley the tracer cannot tell from flat widens the interval the most.
 //! [`crate::uncertainty::Uncertainty::with_sensitivity`] multiplies the profile variance of
 //! ln σ_t by ρ.
+//!
+//! Measured against the central differences this replaced (two pairs of renders at θ ± δu,
+//! δ = 0.1 in ln σ_t): half the renders, no step (which had to shrink where α neared 1, and
+//! the noise with it), and standard errors 2–35× smaller on the robustness suite's cases
+//! (docs/notes/uncertainty.md, item 5).
 
 use crate::consistency::CheckView;
 use geometry::Accel;
 use scene::{Image, Medium};
 use serde::{Deserialize, Serialize};
-use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists};
+use volpath::{RenderSettings, VolpathScene, VolpathSettings, shadow_lists};
 
-/// δ: the half-step along u, in ln σ_t (±10 % in σ_t).
-pub const STEP: f64 = 0.1;
 /// The largest widening of the ln σ_t variance (its standard deviation × 10).
 pub const MAX_RATIO: f64 = 100.0;
-/// α stays inside [ALBEDO_MARGIN, 1 − ALBEDO_MARGIN] at the two ends of the step (δ shrinks).
-const ALBEDO_MARGIN: f64 = 1e-3;
+/// Where α lies this close to 0 or 1 the direction is σ_t alone (the valley would leave [0, 1]).
+pub const ALBEDO_MARGIN: f64 = 1e-3;
 
 /// The measured sensitivity along the σ_t valley, per channel (module docs).
 ///
-/// Where α lies at its bound the direction is σ_t alone (`slope` 0 in that channel).
+/// Where α lies at its bound ([`ALBEDO_MARGIN`]) the direction is σ_t alone (`slope` 0 in that
+/// channel).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sensitivity {
     /// s: dα/d ln σ_t along the valley.
     pub slope: [f64; 3],
-    /// δ per channel (smaller than [`STEP`] where α would leave (0, 1)).
-    pub step: [f64; 3],
     /// k_L, the learned model's curvature along u over the checked views.
     pub learned: [f64; 3],
     /// k̂_V, the volumetric path tracer's, over the same views.
@@ -81,55 +83,15 @@ pub fn measure(
     seed: u64,
 ) -> Sensitivity {
     assert_eq!(views.len(), breads.len(), "one bread per view");
-    // δ shrinks where α would leave (0, 1); where that leaves less than a tenth of the step
-    // (α at its bound), the direction is σ_t alone.
-    let mut slope = slope;
-    let step: [f64; 3] = std::array::from_fn(|c| {
-        let (a, s) = (medium.albedo[c] as f64, slope[c].abs());
-        let room = (a - ALBEDO_MARGIN).min(1.0 - ALBEDO_MARGIN - a).max(0.0);
-        if s * STEP <= room {
-            STEP
-        } else if room >= 0.1 * s * STEP {
-            room / s
+    let slope: [f64; 3] = std::array::from_fn(|c| {
+        let a = medium.albedo[c] as f64;
+        if (ALBEDO_MARGIN..=1.0 - ALBEDO_MARGIN).contains(&a) {
+            slope[c]
         } else {
-            slope[c] = 0.0;
-            STEP
+            0.0
         }
     });
-    let shifted = |sign: f64| Medium {
-        sigma_t: std::array::from_fn(|c| {
-            (medium.sigma_t[c] as f64 * (sign * step[c]).exp()) as f32
-        }),
-        albedo: std::array::from_fn(|c| {
-            (medium.albedo[c] as f64 + sign * step[c] * slope[c]) as f32
-        }),
-        ..*medium
-    };
-    let (plus, minus) = (shifted(1.0), shifted(-1.0));
-    let settings = VolpathSettings::default();
-    let mut sums = ProductSums::default();
-    for v in views {
-        let render = |m: &Medium, s: u64| {
-            let mut scene = VolpathScene {
-                accel,
-                medium: *m,
-                light: Some(*v.light),
-                environment: None,
-                light_bins: None,
-            };
-            let lists = shadow_lists(&scene, &settings);
-            scene.light_bins = lists.as_ref();
-            let rs = RenderSettings {
-                spp,
-                seed: s,
-                view: v.index as u64,
-            };
-            render_image(&scene, &settings, v.camera, &rs, None)
-        };
-        let pair = |s: u64| [render(&plus, s), render(&minus, s)];
-        let ([p1, m1], [p2, m2]) = (pair(seed), pair(seed + 1));
-        sums.add(&p1, &m1, &p2, &m2);
-    }
+    let (volpath, volpath_se) = tracer_curvature(accel, medium, views, slope, spp, seed);
     let learned: [f64; 3] = std::array::from_fn(|c| {
         let s = slope[c];
         breads
@@ -140,19 +102,61 @@ pub fn measure(
             })
             .sum()
     });
-    let d2 = step.map(|d| 4.0 * d * d);
-    let volpath: [f64; 3] = std::array::from_fn(|c| sums.product[c] / d2[c]);
-    let volpath_se: [f64; 3] = std::array::from_fn(|c| sums.square[c].sqrt() / d2[c]);
     Sensitivity {
         ratio: std::array::from_fn(|c| widening(learned[c], volpath[c], volpath_se[c])),
         slope,
-        step,
         learned,
         volpath,
         volpath_se,
         views: views.iter().map(|v| v.index).collect(),
         spp,
     }
+}
+
+/// The tracer's curvature k̂_V along the valleys of slope `slope` at `medium` from its
+/// derivative images ([`volpath::render_derivatives`]): two independent renders per view give
+/// J¹_p, J²_p with J = σ_t ∂I/∂σ_t + s ∂I/∂α = ∂I/∂u, and k̂_V = Σ_p J¹_p J²_p is unbiased
+/// for Σ_p (∂I_p/∂u)² (E[J¹J²] = (E J)²), with no step and no finite-difference error. Returns
+/// (k̂_V, its standard error bound √Σ(J¹J²)²) per channel.
+pub fn tracer_curvature(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[CheckView],
+    slope: [f64; 3],
+    spp: u32,
+    seed: u64,
+) -> ([f64; 3], [f64; 3]) {
+    let settings = VolpathSettings::default();
+    let mut sums = ProductSums::default();
+    for v in views {
+        let mut scene = VolpathScene {
+            accel,
+            medium: *medium,
+            light: Some(*v.light),
+            environment: None,
+            light_bins: None,
+        };
+        let lists = shadow_lists(&scene, &settings);
+        scene.light_bins = lists.as_ref();
+        let along = |s: u64| {
+            let rs = RenderSettings {
+                spp,
+                seed: s,
+                view: v.index as u64,
+            };
+            let d = volpath::render_derivatives(&scene, &settings, v.camera, &rs, None);
+            let mut j = d.d_sigma_t;
+            for (j, da) in j.data.iter_mut().zip(&d.d_albedo.data) {
+                for c in 0..3 {
+                    j[c] =
+                        (medium.sigma_t[c] as f64 * j[c] as f64 + slope[c] * da[c] as f64) as f32;
+                }
+            }
+            j
+        };
+        sums.add(&along(seed), &along(seed + 1));
+    }
+    (sums.product, sums.square.map(f64::sqrt))
 }
 
 /// ρ from the learned curvature `learned` and the tracer's `volpath` ± `se` (module docs).
@@ -167,8 +171,7 @@ pub fn widening(learned: f64, volpath: f64, se: f64) -> f64 {
     (learned / low).clamp(1.0, MAX_RATIO)
 }
 
-/// Σ_p D¹_p D²_p and Σ_p (D¹_p D²_p)² per channel over the pixels where all four renders are
-/// finite.
+/// Σ_p J¹_p J²_p and Σ_p (J¹_p J²_p)² per channel over the pixels where both are finite.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ProductSums {
     pub product: [f64; 3],
@@ -176,13 +179,11 @@ pub struct ProductSums {
 }
 
 impl ProductSums {
-    /// Adds one view: renders at θ + δu and θ − δu with seed 1 (`p1`, `m1`) and seed 2.
-    pub fn add(&mut self, p1: &Image, m1: &Image, p2: &Image, m2: &Image) {
-        for i in 0..p1.data.len() {
+    /// Adds one view: its derivative images along u from two independent renders.
+    pub fn add(&mut self, j1: &Image, j2: &Image) {
+        for (a, b) in j1.data.iter().zip(&j2.data) {
             for c in 0..3 {
-                let d1 = p1.data[i][c] as f64 - m1.data[i][c] as f64;
-                let d2 = p2.data[i][c] as f64 - m2.data[i][c] as f64;
-                let x = d1 * d2;
+                let x = a[c] as f64 * b[c] as f64;
                 if x.is_finite() {
                     self.product[c] += x;
                     self.square[c] += x * x;
@@ -202,12 +203,12 @@ mod tests {
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 
-    /// Images I(θ ± δ) = b + (±δ)·g per pixel plus independent noise: k̂_V estimates Σ g²
-    /// without the noise's bias (Σ D² alone would add 2·Var per pixel), within 3 of its
-    /// standard errors, and the standard error bounds the estimate's spread over 200 trials.
+    /// Derivative images J = g + independent noise per pixel: k̂_V estimates Σ g² without the
+    /// noise's bias (Σ J² alone would add Var per pixel), within 3 of its standard errors, and
+    /// the standard error bounds the estimate's spread over 200 trials.
     #[test]
-    fn the_product_of_two_pairs_is_unbiased_for_the_squared_derivative() {
-        let (n, delta, noise) = (2000usize, 0.1, 0.05);
+    fn the_product_of_two_renders_is_unbiased_for_the_squared_derivative() {
+        let (n, noise) = (2000usize, 0.5);
         let mut rng = Sampler::new(7, 8, 9, 10);
         let g: Vec<f64> = (0..n)
             .map(|i| 0.2 + 0.1 * ((i % 13) as f64 / 13.0))
@@ -217,21 +218,17 @@ mod tests {
         let mut ses = Vec::new();
         for _ in 0..200 {
             let mut img = || {
-                let mut p = Image::new(n as u32, 1);
-                let mut m = Image::new(n as u32, 1);
+                let mut j = Image::new(n as u32, 1);
                 for i in 0..n {
-                    let e = [gauss(&mut rng), gauss(&mut rng)].map(|e| (noise * e) as f32);
-                    p.data[i] = [(1.0 + delta * g[i]) as f32 + e[0]; 3];
-                    m.data[i] = [(1.0 - delta * g[i]) as f32 + e[1]; 3];
+                    j.data[i] = [(g[i] + noise * gauss(&mut rng)) as f32; 3];
                 }
-                (p, m)
+                j
             };
-            let ((p1, m1), (p2, m2)) = (img(), img());
+            let (j1, j2) = (img(), img());
             let mut s = ProductSums::default();
-            s.add(&p1, &m1, &p2, &m2);
-            let d2 = 4.0 * delta * delta;
-            estimates.push(s.product[0] / d2);
-            ses.push(s.square[0].sqrt() / d2);
+            s.add(&j1, &j2);
+            estimates.push(s.product[0]);
+            ses.push(s.square[0].sqrt());
         }
         let k = estimates.len() as f64;
         let mean = estimates.iter().sum::<f64>() / k;
@@ -241,7 +238,7 @@ mod tests {
             (mean - truth).abs() < 3.0 * se_mean,
             "mean {mean} truth {truth} ± {se_mean}"
         );
-        // Σ D² / (2δ)² would be biased by 2·noise²·n/(2δ)² = 250 ≈ 2.7× the truth here.
+        // Σ J² would be biased by noise²·n = 500, about 5.7× the truth here.
         let typical_se = ses.iter().sum::<f64>() / k;
         assert!(typical_se >= sd, "bound {typical_se} below the spread {sd}");
     }

@@ -631,7 +631,6 @@ mod tests {
         };
         let s = Sensitivity {
             slope: [0.0; 3],
-            step: [0.1; 3],
             learned: [1.0; 3],
             volpath: [1.0, 0.01, 0.01],
             volpath_se: [0.0; 3],

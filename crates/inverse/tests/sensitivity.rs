@@ -1,7 +1,7 @@
 //! The volumetric path tracer's curvature along a σ_t valley ([`inverse::sensitivity`]) on a
-//! small sphere: the estimate from two pairs of renders is unbiased, so a cheap and an expensive
-//! measurement agree within their standard errors (Σ D² alone would not: its noise bias falls
-//! as 1/spp); α at its bound measures along σ_t alone.
+//! small sphere: the estimate from two renders with derivatives is unbiased, so a cheap and an
+//! expensive measurement agree within their standard errors (Σ J² alone would not: its noise
+//! bias falls as 1/spp); α at its bound measures along σ_t alone.
 
 mod common;
 
@@ -71,7 +71,6 @@ fn cheap_and_expensive_measurements_agree() {
             "side light: curvature detected"
         );
         assert_eq!(cheap.learned[c], 1.0);
-        assert_eq!(cheap.step[c], inverse::sensitivity::STEP);
     }
 }
 
@@ -81,15 +80,11 @@ fn albedo_at_its_bound_measures_along_sigma_t_alone() {
     let m = medium(0.9995);
     let r = run(&s, &s.side, &m, -0.05, 16, 5);
     assert_eq!(r.slope, [0.0; 3]);
-    assert_eq!(r.step, [inverse::sensitivity::STEP; 3]);
     for c in 0..3 {
         assert!(r.volpath[c].is_finite() && r.ratio[c].is_finite());
     }
-    // Room for part of the step: δ shrinks so that α stays inside.
+    // Inside the margin the valley's direction is kept.
     let m = medium(0.996);
     let r = run(&s, &s.side, &m, -0.05, 16, 5);
-    for c in 0..3 {
-        assert!(r.step[c] < inverse::sensitivity::STEP && r.step[c] > 0.0);
-        assert!((0.996 + r.step[c] * 0.05 - (1.0 - 1e-3)).abs() < 1e-6);
-    }
+    assert_eq!(r.slope, [-0.05; 3]);
 }

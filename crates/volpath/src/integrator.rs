@@ -191,6 +191,65 @@ pub fn radiance_primary(
     line: Option<CameraLine>,
     s: &mut Sampler,
 ) -> [f32; 3] {
+    trace::<[f32; 3]>(scene, settings, origin, dir, line, s)
+}
+
+/// What a traced path adds up: the radiance alone (`[f32; 3]`) or the radiance with its
+/// derivatives with respect to the medium ([`crate::derivative::PathDerivatives`]).
+///
+/// Every contribution of a path (a next-event estimate or the environment at its escape) is
+/// handed over with the number k of real scatterings before it and the total length ℓ of the
+/// path inside the medium up to the light (its free flights, plus the shadow segment's inside
+/// length for a next-event estimate): the path's throughput depends on the medium only through
+/// (α σ_t)^k e^{−σ_t ℓ}, which is what the derivatives need.
+pub trait Tally: Copy + Default + Send + Sync {
+    /// A pixel's running sum of tallies.
+    type Sum: Copy + Default + Send + Sync;
+    /// Adds this tally to a pixel's sum.
+    fn add_to(&self, sum: &mut Self::Sum);
+    /// Adds the contribution `c` (per channel, the estimator's weight included) of a path with
+    /// `k` real scatterings and inside length `len`, in a medium of `sigma_t`, `albedo`.
+    fn record(&mut self, c: [f32; 3], k: u32, len: f32, sigma_t: &[f32; 3], albedo: &[f32; 3]);
+    /// Replaces non-finite values by 0 (a path that lost its numbers contributes nothing).
+    fn finish(&mut self);
+}
+
+impl Tally for [f32; 3] {
+    type Sum = [f64; 3];
+
+    #[inline]
+    fn add_to(&self, sum: &mut [f64; 3]) {
+        for (s, v) in sum.iter_mut().zip(self) {
+            *s += *v as f64;
+        }
+    }
+
+    #[inline]
+    fn record(&mut self, c: [f32; 3], _k: u32, _len: f32, _st: &[f32; 3], _al: &[f32; 3]) {
+        for (l, c) in self.iter_mut().zip(c) {
+            *l += c;
+        }
+    }
+
+    #[inline]
+    fn finish(&mut self) {
+        for v in self {
+            if !v.is_finite() {
+                *v = 0.0;
+            }
+        }
+    }
+}
+
+/// [`radiance_primary`] for any [`Tally`]: the path loop of the tracer.
+pub fn trace<T: Tally>(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    origin: Vec3,
+    dir: Vec3,
+    line: Option<CameraLine>,
+    s: &mut Sampler,
+) -> T {
     let m = &scene.medium;
     let phase = HenyeyGreenstein { g: m.g };
     let hero = s.next_below(3) as usize;
@@ -198,7 +257,9 @@ pub fn radiance_primary(
         ChannelSampling::SpectralMis => SpectralWeight::new(hero),
         ChannelSampling::SingleChannel => SpectralWeight::new_single_channel(hero),
     };
-    let mut l = [0.0f32; 3];
+    let mut l = T::default();
+    // The path's length inside the medium so far (its free flights).
+    let mut len = 0.0f32;
     let mut o = origin;
     let mut d = dir;
     let mut inside = false;
@@ -226,21 +287,26 @@ pub fn radiance_primary(
             let t = w.sample_distance(&m.sigma_t, s.next_f32());
             if let Some(hit) = closest(&mut line, on_line, o, d, t) {
                 w.pass(&m.sigma_t, hit.t);
+                len += hit.t;
                 hit
             } else {
                 // Real scattering event.
                 o += t * d;
                 on_line = false;
                 w.scatter(&m.sigma_t, &m.albedo, t);
+                len += t;
                 depth += 1;
                 if depth >= settings.max_depth {
                     break;
                 }
                 if let Some(light) = &scene.light {
-                    if m.eta == 1.0 {
-                        next_event(scene, settings.shadow, &phase, light, o, d, &w, &mut l, s);
+                    let nee = if m.eta == 1.0 {
+                        next_event(scene, settings.shadow, &phase, light, o, d, &w, s)
                     } else {
-                        next_event_refracted(scene, &phase, light, o, d, &w, &mut l);
+                        next_event_refracted(scene, &phase, light, o, d, &w)
+                    };
+                    if let Some((c, shadow_len)) = nee {
+                        l.record(c, depth, len + shadow_len, &m.sigma_t, &m.albedo);
                     }
                 }
                 if depth > settings.rr_depth {
@@ -273,9 +339,8 @@ pub fn radiance_primary(
             };
             let Some(hit) = hit else {
                 if let Some(env) = &scene.environment {
-                    for ((l, b), e) in l.iter_mut().zip(w.beta).zip(env.radiance) {
-                        *l += b * e;
-                    }
+                    let c = std::array::from_fn(|k| w.beta[k] * env.radiance[k]);
+                    l.record(c, depth, len, &m.sigma_t, &m.albedo);
                 }
                 break;
             };
@@ -290,16 +355,13 @@ pub fn radiance_primary(
         }
         escaped = !inside && d.dot(hit.ng) > 0.0 && scene.accel.exit_is_final(hit.tri);
     }
-    for v in &mut l {
-        if !v.is_finite() {
-            *v = 0.0;
-        }
-    }
+    l.finish();
     l
 }
 
 /// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
-/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]).
+/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]), and
+/// ℓ_inside (`None`: no contribution).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn next_event(
@@ -310,17 +372,16 @@ fn next_event(
     p: Vec3,
     d: Vec3,
     w: &SpectralWeight,
-    l: &mut [f32; 3],
     s: &mut Sampler,
-) {
+) -> Option<([f32; 3], f32)> {
     let to_l = light.position - p;
     let r2 = to_l.length_squared();
     if r2 <= 0.0 {
-        return;
+        return None;
     }
     let dir_l = to_l / r2.sqrt();
     let f = phase.eval(d, dir_l) / r2;
-    let tr = shadow.estimate(
+    let (tr, len) = shadow.estimate_with_length(
         scene.accel,
         scene.light_bins,
         &scene.medium.sigma_t,
@@ -328,13 +389,14 @@ fn next_event(
         light.position,
         s,
     );
-    for (c, l) in l.iter_mut().enumerate() {
-        *l += w.beta[c] * f * tr[c] * light.intensity[c];
-    }
+    Some((
+        std::array::from_fn(|c| w.beta[c] * f * tr[c] * light.intensity[c]),
+        len,
+    ))
 }
 
 /// NEE to a point light through the dielectric boundary (η ≠ 1) by manifold NEE
-/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥.
+/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥, and ℓ.
 #[inline]
 fn next_event_refracted(
     scene: &VolpathScene,
@@ -343,16 +405,16 @@ fn next_event_refracted(
     p: Vec3,
     d: Vec3,
     w: &SpectralWeight,
-    l: &mut [f32; 3],
-) {
-    let Some(c) = manifold::connect(scene.accel, p, light.position, scene.medium.eta) else {
-        return;
-    };
+) -> Option<([f32; 3], f32)> {
+    let c = manifold::connect(scene.accel, p, light.position, scene.medium.eta)?;
     let f = phase.eval(d, c.dir) * c.transmittance * c.flux_factor;
-    for (k, l) in l.iter_mut().enumerate() {
-        *l +=
-            w.beta[k] * f * (-scene.medium.sigma_t[k] * c.inside_length).exp() * light.intensity[k];
-    }
+    let st = &scene.medium.sigma_t;
+    Some((
+        std::array::from_fn(|k| {
+            w.beta[k] * f * (-st[k] * c.inside_length).exp() * light.intensity[k]
+        }),
+        c.inside_length,
+    ))
 }
 
 /// Interaction with the boundary at `hit`. η = 1: the ray crosses unchanged. η > 1: specular

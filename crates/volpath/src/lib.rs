@@ -5,6 +5,7 @@
 //! so that its images can be compared with Mitsuba's directly.
 //!
 //! * [`integrator`]: radiance along a ray (free flights, NEE, dielectric boundary, roulette).
+//! * [`derivative`]: ∂I/∂σ_t and ∂I/∂α of the same paths, from each path's throughput.
 //! * [`spectral`]: hero-channel spectral MIS for RGB extinction.
 //! * [`phase`]: Henyey–Greenstein sampling and evaluation.
 //! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
@@ -13,6 +14,7 @@
 //! * [`shadow`]: transmittance of the shadow rays (exact or tracked).
 //! * [`rng`]: seeded per-pixel random streams.
 
+pub mod derivative;
 pub mod fresnel;
 pub mod integrator;
 pub mod manifold;
@@ -22,9 +24,10 @@ pub mod rng;
 pub mod shadow;
 pub mod spectral;
 
+pub use derivative::{DerivativeImages, PathDerivatives};
 pub use integrator::{
-    CameraLine, ChannelSampling, SpawnOffset, VolpathScene, VolpathSettings, radiance,
-    radiance_primary,
+    CameraLine, ChannelSampling, SpawnOffset, Tally, VolpathScene, VolpathSettings, radiance,
+    radiance_primary, trace,
 };
-pub use render::{Progressive, RenderSettings, render_image, shadow_lists};
+pub use render::{Progressive, RenderSettings, render_derivatives, render_image, shadow_lists};
 pub use shadow::ShadowTransmittance;

@@ -8,7 +8,8 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image};
 
-use crate::integrator::{CameraLine, VolpathScene, VolpathSettings, radiance_primary};
+use crate::derivative::{DerivativeImages, PathDerivatives};
+use crate::integrator::{CameraLine, Tally, VolpathScene, VolpathSettings, trace};
 use crate::rng::{Sampler, hash_key};
 use crate::shadow::ShadowTransmittance;
 
@@ -64,20 +65,37 @@ pub fn render_image(
     p.image()
 }
 
+/// Render one view with the derivatives of every pixel with respect to the medium's σ_t and α
+/// ([`crate::derivative`]). Its value image is bit for bit [`render_image`]'s with the same
+/// settings (the same paths, the same random numbers).
+pub fn render_derivatives(
+    scene: &VolpathScene,
+    settings: &VolpathSettings,
+    camera: &Camera,
+    rs: &RenderSettings,
+    progress: Option<&ProgressBar>,
+) -> DerivativeImages {
+    let mut p = Progressive::with_derivatives(scene, settings, camera, rs.seed, rs.view);
+    p.advance(rs.spp, progress);
+    p.derivative_images()
+}
+
 /// The state of one pixel between passes: its random stream, its Sobol scramble key and the sums
 /// of its samples so far.
-struct PixelState {
+struct PixelState<S> {
     stream: Sampler,
     key: u64,
-    sum: [f64; 3],
+    sum: S,
 }
 
 /// A view rendered in passes: [`Progressive::advance`] adds samples to every pixel, continuing
 /// each pixel's random stream and Sobol sequence where the last pass left them, so that passes of
 /// n₁, n₂, … samples give bit for bit the image of [`render_image`] at n₁ + n₂ + … spp. Used
 /// where the number of samples is decided while rendering (`validate-mitsuba --equal-time`
-/// renders until the reference's render time is spent).
-pub struct Progressive<'a> {
+/// renders until the reference's render time is spent). `T` is what each path adds up: the
+/// radiance (`[f32; 3]`, [`Progressive::new`]) or the radiance with its derivatives
+/// ([`Progressive::with_derivatives`]).
+pub struct Progressive<'a, T: Tally = [f32; 3]> {
     scene: VolpathScene<'a>,
     settings: VolpathSettings,
     camera: Camera,
@@ -85,7 +103,7 @@ pub struct Progressive<'a> {
     bins: Option<PixelBins>,
     /// The shadow rays' lists, when the scene does not bring them and the settings use them.
     light_bins: Option<LightBins>,
-    pixels: Vec<PixelState>,
+    pixels: Vec<PixelState<T::Sum>>,
     spp: u32,
 }
 
@@ -99,12 +117,64 @@ impl<'a> Progressive<'a> {
         seed: u64,
         view: u64,
     ) -> Self {
+        Self::start(scene, settings, camera, seed, view)
+    }
+
+    /// The mean of the samples so far (black before the first pass).
+    pub fn image(&self) -> Image {
+        let mut img = Image::new(self.camera.width, self.camera.height);
+        let inv = 1.0 / self.spp.max(1) as f64;
+        for (px, st) in img.data.iter_mut().zip(&self.pixels) {
+            *px = st.sum.map(|v| (v * inv) as f32);
+        }
+        img
+    }
+}
+
+impl<'a> Progressive<'a, PathDerivatives> {
+    /// [`Progressive::new`] for a render with derivatives ([`render_derivatives`]).
+    pub fn with_derivatives(
+        scene: &VolpathScene<'a>,
+        settings: &VolpathSettings,
+        camera: &Camera,
+        seed: u64,
+        view: u64,
+    ) -> Self {
+        Self::start(scene, settings, camera, seed, view)
+    }
+
+    /// The mean value and derivative images of the samples so far.
+    pub fn derivative_images(&self) -> DerivativeImages {
+        let image = |part: usize| {
+            let mut img = Image::new(self.camera.width, self.camera.height);
+            let inv = 1.0 / self.spp.max(1) as f64;
+            for (px, st) in img.data.iter_mut().zip(&self.pixels) {
+                *px = st.sum[part].map(|v| (v * inv) as f32);
+            }
+            img
+        };
+        DerivativeImages {
+            value: image(0),
+            d_sigma_t: image(1),
+            d_albedo: image(2),
+        }
+    }
+}
+
+impl<'a, T: Tally> Progressive<'a, T> {
+    fn start(
+        scene: &VolpathScene<'a>,
+        settings: &VolpathSettings,
+        camera: &Camera,
+        seed: u64,
+        view: u64,
+    ) -> Self {
         let pixels = (0..camera.width as u64 * camera.height as u64)
             .into_par_iter()
             .map(|pixel| PixelState {
                 stream: Sampler::new(seed, view, pixel, 0),
                 key: hash_key(&[seed, view, pixel, 1]),
-                sum: [0.0; 3],
+                sum: T::Sum::default(),
             })
             .collect();
         let light_bins = match scene.light_bins {
@@ -149,10 +219,7 @@ impl<'a> Progressive<'a> {
                         let (fx, fy) = (x as f32 + jx, y as f32 + jy);
                         let (o, d) = rays.ray(fx, fy);
                         let line = bins.map(|bins| CameraLine::new(bins, fx, fy, &project));
-                        let l = radiance_primary(scene, settings, o, d, line, s);
-                        for c in 0..3 {
-                            px.sum[c] += l[c] as f64;
-                        }
+                        trace::<T>(scene, settings, o, d, line, s).add_to(&mut px.sum);
                     }
                 }
                 if let Some(pb) = progress {
@@ -160,15 +227,5 @@ impl<'a> Progressive<'a> {
                 }
             });
         self.spp += samples;
-    }
-
-    /// The mean of the samples so far (black before the first pass).
-    pub fn image(&self) -> Image {
-        let mut img = Image::new(self.camera.width, self.camera.height);
-        let inv = 1.0 / self.spp.max(1) as f64;
-        for (px, st) in img.data.iter_mut().zip(&self.pixels) {
-            *px = st.sum.map(|v| (v * inv) as f32);
-        }
-        img
     }
 }

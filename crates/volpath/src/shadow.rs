@@ -63,6 +63,24 @@ impl ShadowTransmittance {
         light: Vec3,
         s: &mut Sampler,
     ) -> [f32; 3] {
+        self.estimate_with_length(accel, bins, sigma_t, p, light, s)
+            .0
+    }
+
+    /// [`ShadowTransmittance::estimate`] and the inside length ℓ of the segment (0 where the
+    /// tracked estimate is 0: its budget ran out before ℓ was known). For either estimator
+    /// T̂_c·(−ℓ) is an unbiased estimate of ∂T_c/∂σ_t,c = −ℓ·exp(−σ_t,c ℓ) (for `Tracked` the
+    /// majorant σ̄ is a sampling choice, held fixed).
+    #[inline]
+    pub fn estimate_with_length(
+        self,
+        accel: &Accel,
+        bins: Option<&LightBins>,
+        sigma_t: &[f32; 3],
+        p: Vec3,
+        light: Vec3,
+        s: &mut Sampler,
+    ) -> ([f32; 3], f32) {
         match self {
             ShadowTransmittance::Exact => {
                 let len = match bins {
@@ -72,14 +90,14 @@ impl ShadowTransmittance {
                     }
                     None => accel.inside_length(p, light),
                 };
-                sigma_t.map(|st| (-st * len).exp())
+                (sigma_t.map(|st| (-st * len).exp()), len)
             }
             ShadowTransmittance::Tracked => {
                 let sigma_bar = sigma_t[0].min(sigma_t[1]).min(sigma_t[2]);
                 let budget = -(1.0 - s.next_f32()).ln() / sigma_bar;
                 match tracked_inside_length(accel, p, light, budget) {
-                    Some(len) => sigma_t.map(|st| (-(st - sigma_bar) * len).exp()),
-                    None => [0.0; 3],
+                    Some(len) => (sigma_t.map(|st| (-(st - sigma_bar) * len).exp()), len),
+                    None => ([0.0; 3], 0.0),
                 }
             }
         }

@@ -22,15 +22,19 @@ pub enum DiffMethod {
     Naive,
     /// Brute-force central differences of full renders (reference).
     Fd,
+    /// The volumetric path tracer's analytic derivative of each path (`volpath::derivative`):
+    /// not an estimator of the learned model, which refuses it.
+    Ad,
 }
 
 impl DiffMethod {
     /// All methods, in the order of their names.
-    pub const ALL: [DiffMethod; 4] = [
+    pub const ALL: [DiffMethod; 5] = [
         DiffMethod::Ours,
         DiffMethod::OursAlphaOffsets,
         DiffMethod::Naive,
         DiffMethod::Fd,
+        DiffMethod::Ad,
     ];
 
     /// The name accepted by [`FromStr`].
@@ -40,13 +44,14 @@ impl DiffMethod {
             DiffMethod::OursAlphaOffsets => "ours-alpha-offsets",
             DiffMethod::Naive => "naive",
             DiffMethod::Fd => "fd",
+            DiffMethod::Ad => "ad",
         }
     }
 }
 
 /// An unknown [`DiffMethod`] name.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive or fd)")]
+#[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive, fd or ad)")]
 pub struct UnknownMethod(pub String);
 
 /// `FromStr` (the choice among `ALL` whose `name()` is the string, case-insensitive, `_` read

@@ -49,11 +49,16 @@ pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
             && v["complete"].as_bool() != Some(false)
     });
     if done {
-        println!("run {label} ({}): reusing {}", o.method, run_dir.display());
+        println!(
+            "run {label} ({}): reusing {}",
+            o.estimator(),
+            run_dir.display()
+        );
     } else {
         println!(
             "run {label} ({}): {} iterations",
-            o.method, o.budget.iterations
+            o.estimator(),
+            o.budget.iterations
         );
         let mut o = o.clone();
         o.resume = checkpoint.exists();

@@ -242,6 +242,60 @@ fn render_dataset_folder_reproduces_its_images() {
     );
 }
 
+/// `render --derivatives`: the images are the plain render's, bit for bit; each view gets its
+/// two derivative images (EXR and PNG), finite, with ∂I/∂α ≥ 0 (more albedo, more light); a
+/// second run into the same folder needs `--overwrite`; the learned model renders them too.
+#[test]
+fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
+    let t = tmp();
+    make_dataset(t.path(), "ds", "2", "12", &["--seed", "4"]);
+    ok(t.path(), &["-q", "render", "ds", "--out", "plain"]);
+    let args = ["-q", "render", "ds", "--out", "d", "--derivatives"];
+    ok(t.path(), &args);
+    assert_same_images(
+        &t.path().join("plain"),
+        &t.path().join("d"),
+        2,
+        "the render with derivatives changed the image",
+    );
+    for v in 0..2 {
+        for what in ["d_sigma_t", "d_albedo"] {
+            let stem = t.path().join(format!("d/view_{v:03}_{what}"));
+            assert!(
+                stem.with_extension("png").is_file(),
+                "{what} PNG of view {v}"
+            );
+            let img = scene::Image::read_exr(&stem.with_extension("exr")).unwrap();
+            assert!(img.data.iter().flatten().all(|x| x.is_finite()));
+            assert!(
+                img.data.iter().flatten().any(|x| *x != 0.0),
+                "{what} of view {v} is 0"
+            );
+            if what == "d_albedo" {
+                assert!(img.data.iter().flatten().all(|x| *x >= 0.0));
+            }
+        }
+    }
+    let again = fails(t.path(), &args);
+    assert_stderr_has(&again, &["--overwrite"]);
+    ok(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "ds",
+            "--out",
+            "l",
+            "--derivatives",
+            "--method",
+            "learned",
+            "--spp",
+            "2",
+        ],
+    );
+    assert!(t.path().join("l/view_001_d_sigma_t.exr").is_file());
+}
+
 // ---------------------------------------------------------------------------------------------
 // 3. compare
 

@@ -806,3 +806,33 @@ fn negative_numbers_reach_the_domain_checks() {
     let bad = fails(d, &[&TINY_OPTIMIZE[..], &["--init-sigma-t", "-5"]].concat());
     assert_stderr_has(&bad, &["init.sigma_t", "-5", "must be positive"]);
 }
+
+/// `optimize --model volpath` runs the volumetric baseline through the same loop and reports:
+/// its estimator is `ad`, the configuration records the model, the re-renders and intervals are
+/// written; a learned-model estimator with it (or `ad` with the learned model) is refused,
+/// naming the model's estimators.
+#[test]
+fn optimize_with_the_volumetric_model_and_invalid_pairs() {
+    let t = tiny_optimize_dataset("2");
+    let d = t.path();
+    let args = [&TINY_OPTIMIZE[..], &["--model", "volpath"]].concat();
+    let r = ok(d, &args);
+    assert_stdout_has(&r, &["run bootstrap step 1 (ad)"]);
+    let res = read_json(&d.join("o/result.json"));
+    assert_eq!(res["config"]["model"], "volpath");
+    assert_eq!(res["config"]["method"], "ad");
+    assert_eq!(res["config"]["volpath_max_depth"], 32);
+    assert!(res["interval95"]["sigma_t"][0][0].as_f64().unwrap() > 0.0);
+    assert!(res.get("sensitivity").is_none_or(Value::is_null));
+    assert!(d.join("o/final/view_000.exr").is_file());
+    // The same command into a fresh folder, with an invalid model × estimator pair.
+    let mut fresh = TINY_OPTIMIZE.to_vec();
+    fresh[4] = "o2";
+    let bad = [&fresh[..], &["--model", "volpath", "--method", "ours"]].concat();
+    assert_stderr_has(&fails(d, &bad), &["volpath", "no estimator \"ours\"", "ad"]);
+    let bad = [&fresh[..], &["--method", "ad"]].concat();
+    assert_stderr_has(
+        &fails(d, &bad),
+        &["learned", "ours, ours-alpha-offsets, naive, fd"],
+    );
+}

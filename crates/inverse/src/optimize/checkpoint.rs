@@ -135,7 +135,8 @@ impl<'a> Optimizer<'a> {
         } else {
             config.init
         };
-        let features = super::fit_features(accel, &fit_at.medium(&base), model, &config)?;
+        let mut forward = super::forward_model(&config, accel, model);
+        forward.prepare(&fit_at.medium(&base))?;
         let adam = Adam::from_state(
             adam_config(&config),
             AdamState {
@@ -148,11 +149,11 @@ impl<'a> Optimizer<'a> {
             return Err(InverseError::Invalid("no target views".into()));
         }
         let parts = Parts {
-            features,
+            forward,
             adam,
             u: checkpoint.u,
             history: checkpoint.history,
         };
-        Ok(Self::assemble(config, accel, model, base, targets, parts))
+        Ok(Self::assemble(config, base, targets, parts))
     }
 }
