@@ -45,7 +45,7 @@ pub enum ExperimentCommand {
     /// `optimize`'s defaults on twelve cases we did not tune on (flash, fixed light, turntable,
     /// back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh file): errors, 95 % intervals
     /// and their calibration, whether σ_t is determined, consistency, status.
-    Robustness(robustness::RobustnessArgs),
+    Robustness(Box<robustness::RobustnessArgs>),
 }
 
 #[derive(Args)]

@@ -196,9 +196,9 @@ impl OptimizeArgs {
 impl OptimizeArgs {
     /// The estimator's name: `--method`, or the model's default.
     pub fn estimator(&self) -> String {
-        self.method.clone().unwrap_or_else(|| {
-            self.learned.kind().estimators()[0].name().to_string()
-        })
+        self.method
+            .clone()
+            .unwrap_or_else(|| self.learned.kind().estimators()[0].name().to_string())
     }
 }
 
@@ -513,7 +513,9 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     let spi = result["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
     let (mut shown, mut shown_u) = (estimate, uncertainty.clone());
-    if a.bc.enabled() {
+    // The volumetric model is the simulator the correction would use: it has no bias of its own
+    // to measure, and a correction would only add a second recovery's noise.
+    if a.bc.enabled() && a.learned.kind() == ModelKind::Learned {
         // The model's own fit stays in convergence.png and final/; result.json reports the
         // corrected medium.
         let c = bias_correction::correct(a, &ds, &estimate, &base)?;
@@ -606,13 +608,17 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         result["sensitivity"] = serde_json::to_value(s)?;
         shown_u = Some(widened);
     }
-    let problems = inverse::health::assess(
+    let mut problems = inverse::health::assess(
         opt.history(),
         &shown,
         &opt.config().params,
         base.g as f64,
         consistency.as_ref(),
     );
+    if !learned_model {
+        // The training range is the learned model's; the tracer has none.
+        problems.retain(|p| !matches!(p, inverse::health::Problem::OutsideTrainingRange { .. }));
+    }
     report::add_assessment(&mut result, &problems, None);
     if let Some(c) = &consistency {
         result["consistency"] = serde_json::to_value(c)?;

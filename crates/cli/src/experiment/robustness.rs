@@ -53,6 +53,10 @@ pub struct RobustnessArgs {
     /// Samples per pixel of the volumetric target renders.
     #[arg(long, default_value_t = 128)]
     pub target_spp: u32,
+    /// The forward model of the recoveries: `learned` (the default) or `volpath` (the volumetric
+    /// baseline, `optimize --model volpath`).
+    #[arg(long, default_value = "learned", value_parser = ["learned", "volpath"])]
+    pub model: String,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Independent repetitions of every case (renders and runs).
@@ -363,6 +367,10 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
 /// estimate can be no better than this allows: a model that renders the truth 10 % too dark
 /// must move σ_t or α to match the images. Cached in `RUN/model-ratio.json`.
 fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Result<[f64; 3]> {
+    if o.learned.kind() == inverse::forward::ModelKind::Volpath {
+        // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches).
+        return Ok([f64::NAN; 3]);
+    }
     let cache = run_dir.join("model-ratio.json");
     if let Ok(v) = read_json(&cache) {
         return Ok(rgb(&v["ratio"]));
@@ -601,6 +609,9 @@ fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
 pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> OptimizeArgs {
     let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
+    if a.model == "volpath" {
+        o.learned.model = Some("volpath".into());
+    }
     o.budget = a.budget;
     o.seed = a.seed + rep;
     o.final_spp = 16;

@@ -34,7 +34,8 @@ pub struct BiasCorrectionArgs {
     /// with the volumetric path tracer at the estimate (same views, lights, spp and seed),
     /// recovered with the same settings, and 2θ̂ − θ̂₂ in (ln σ_t, α) is reported, with the
     /// correction's size added to the 95 % intervals. It doubles the cost and is what makes
-    /// the estimate and its interval hold on data the learned model did not make.
+    /// the estimate and its interval hold on data the learned model did not make. (Not with
+    /// `--model volpath`: the tracer is the simulator itself, with no bias to correct.)
     #[arg(long)]
     pub no_bias_correction: bool,
     /// (The default; accepted for older scripts.)
