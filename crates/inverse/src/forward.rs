@@ -82,12 +82,7 @@ impl ModelKind {
     /// The estimators this model has; the first is its default.
     pub fn estimators(self) -> &'static [DiffMethod] {
         match self {
-            ModelKind::Learned => &[
-                DiffMethod::Ours,
-                DiffMethod::OursAlphaOffsets,
-                DiffMethod::Naive,
-                DiffMethod::Fd,
-            ],
+            ModelKind::Learned => &DiffMethod::LEARNED,
             ModelKind::Volpath => &[DiffMethod::Ad],
         }
     }

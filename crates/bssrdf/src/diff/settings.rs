@@ -28,6 +28,14 @@ pub enum DiffMethod {
 }
 
 impl DiffMethod {
+    /// The learned model's estimators (all but [`DiffMethod::Ad`]).
+    pub const LEARNED: [DiffMethod; 4] = [
+        DiffMethod::Ours,
+        DiffMethod::OursAlphaOffsets,
+        DiffMethod::Naive,
+        DiffMethod::Fd,
+    ];
+
     /// All methods, in the order of their names.
     pub const ALL: [DiffMethod; 5] = [
         DiffMethod::Ours,
