@@ -42,9 +42,9 @@ pub struct OptimizeArgs {
     #[arg(long)]
     pub method: Option<String>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
-    /// semantics; the default of `dataset`). Set it to the dataset's own when that differs.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 32)]
-    pub max_depth: u32,
+    /// semantics; default: the dataset's own, else 32).
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    pub max_depth: Option<u32>,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss: l2 or l1.
@@ -215,7 +215,11 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.model = model;
     c.method = method;
     if model == ModelKind::Volpath {
-        c.volpath_max_depth = Some(a.max_depth);
+        let depth = match a.max_depth {
+            Some(d) => d,
+            None => Dataset::load(&a.dataset)?.render.max_depth.unwrap_or(32),
+        };
+        c.volpath_max_depth = Some(depth);
     }
     c.iterations = a.budget.iterations;
     c.spp = a.budget.spp;
@@ -375,11 +379,15 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     // learned model's, unused.
     let model = match a.learned.kind() {
         ModelKind::Volpath => {
-            if let Some(d) = ds.render.max_depth.filter(|d| *d != a.max_depth) {
+            let depth = a.max_depth.unwrap_or(32);
+            if let Some(d) = ds
+                .render
+                .max_depth
+                .filter(|d| a.max_depth.is_some() && *d != depth)
+            {
                 tracing::warn!(
                     "the dataset was rendered with maximum depth {d}, the model traces to \
-                     --max-depth {}; pass --max-depth {d} to match it",
-                    a.max_depth
+                     --max-depth {depth}"
                 );
             }
             crate::common::LearnedArgs::shipped_model()?

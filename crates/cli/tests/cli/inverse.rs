@@ -823,6 +823,7 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     let res = read_json(&d.join("o/result.json"));
     assert_eq!(res["config"]["model"], "volpath");
     assert_eq!(res["config"]["method"], "ad");
+    // The dataset's own depth (`make_dataset` renders at the default, 32).
     assert_eq!(res["config"]["volpath_max_depth"], 32);
     assert!(res["interval95"]["sigma_t"][0][0].as_f64().unwrap() > 0.0);
     assert!(res.get("sensitivity").is_none_or(Value::is_null));
