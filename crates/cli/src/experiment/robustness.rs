@@ -697,10 +697,20 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
     };
     let _ = writeln!(
         md,
-        "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({} iterations × {} spp from σ_t = 50, α = 0.5, bias correction), {} repetition(s), seed {}{}\n",
+        "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({}{} iterations × {} spp from σ_t = 50, α = 0.5{}), {} repetition(s), seed {}{}\n",
         renderers_named(outcomes),
+        if a.model == "volpath" {
+            "the volumetric model, "
+        } else {
+            ""
+        },
         if a.quick { 12 } else { a.budget.iterations },
         if a.quick { 4 } else { a.budget.spp },
+        if a.model == "volpath" {
+            ""
+        } else {
+            ", bias correction"
+        },
         a.seeds,
         a.seed,
         if a.quick {

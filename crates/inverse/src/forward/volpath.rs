@@ -106,6 +106,9 @@ impl ViewRenderer for VolpathView<'_> {
         })
     }
 
+    /// From one derivative render: the loss derivative and the derivative images share their
+    /// paths, so for L2 the product carries their covariance (the single-render estimator of
+    /// `--single-render`; the default split-sample gradient has none).
     fn loss_gradient(
         &self,
         rs: &RenderSettings,
