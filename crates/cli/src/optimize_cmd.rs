@@ -558,6 +558,8 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         })
         .collect();
     let check_spp = ds.render.spp.unwrap_or(64);
+    // The tracer renders the checks at the targets' own path depth.
+    let check_depth = ds.render.max_depth.unwrap_or(32);
     let consistency = (k > 0).then(|| {
         let views: Vec<_> = check_views.iter().map(|(_, v)| *v).collect();
         let pb = progress(0, "consistency (volumetric path tracer)");
@@ -566,6 +568,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
             &shown.medium(&base),
             &views,
             check_spp,
+            check_depth,
             a.seed ^ 0xC0_5157,
         );
         pb.finish_and_clear();
@@ -600,6 +603,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
                 &breads,
                 inverse::sensitivity::valley_slope(&u.bread()),
                 check_spp,
+                check_depth,
                 a.seed ^ 0x5E_4517,
             );
             pb.finish_and_clear();

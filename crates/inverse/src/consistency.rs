@@ -76,15 +76,19 @@ pub struct CheckView<'a> {
 }
 
 /// Render `medium` in every view twice (seeds `seed`, `seed + 1`) with the volumetric path
-/// tracer at `spp` and compare with the targets.
+/// tracer at `spp` and the targets' path depth `max_depth`, and compare with the targets.
 pub fn check(
     accel: &Accel,
     medium: &Medium,
     views: &[CheckView],
     spp: u32,
+    max_depth: u32,
     seed: u64,
 ) -> Consistency {
-    let settings = VolpathSettings::default();
+    let settings = VolpathSettings {
+        max_depth,
+        ..VolpathSettings::default()
+    };
     let mut view_ratio = Vec::with_capacity(views.len());
     let (mut num, mut var_i, mut var_t) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
     let (mut sum_i, mut sum_t) = ([0.0f64; 3], [0.0f64; 3]);

@@ -72,7 +72,9 @@ pub fn valley_slope(a: &[[f64; 3]; 3]) -> [f64; 3] {
 }
 
 /// Measures the sensitivity at `medium` on `views`, each with the learned model's bread of that
-/// view (`breads[i]` for `views[i]`), along the valleys of slope `slope`.
+/// view (`breads[i]` for `views[i]`), along the valleys of slope `slope`, with the tracer at
+/// `spp` and the targets' path depth `max_depth`.
+#[allow(clippy::too_many_arguments)]
 pub fn measure(
     accel: &Accel,
     medium: &Medium,
@@ -80,6 +82,7 @@ pub fn measure(
     breads: &[[[f64; 3]; 3]],
     slope: [f64; 3],
     spp: u32,
+    max_depth: u32,
     seed: u64,
 ) -> Sensitivity {
     assert_eq!(views.len(), breads.len(), "one bread per view");
@@ -91,7 +94,7 @@ pub fn measure(
             0.0
         }
     });
-    let (volpath, volpath_se) = tracer_curvature(accel, medium, views, slope, spp, seed);
+    let (volpath, volpath_se) = tracer_curvature(accel, medium, views, slope, spp, max_depth, seed);
     let learned: [f64; 3] = std::array::from_fn(|c| {
         let s = slope[c];
         breads
@@ -124,9 +127,13 @@ pub fn tracer_curvature(
     views: &[CheckView],
     slope: [f64; 3],
     spp: u32,
+    max_depth: u32,
     seed: u64,
 ) -> ([f64; 3], [f64; 3]) {
-    let settings = VolpathSettings::default();
+    let settings = VolpathSettings {
+        max_depth,
+        ..VolpathSettings::default()
+    };
     let mut sums = ProductSums::default();
     for v in views {
         let mut scene = VolpathScene {
