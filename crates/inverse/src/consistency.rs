@@ -75,6 +75,39 @@ pub struct CheckView<'a> {
     pub index: usize,
 }
 
+impl CheckView<'_> {
+    /// Runs `f` with the volumetric path tracer's scene of this view at `medium` (its light,
+    /// with the shadow rays' lists), the tracer's settings at path depth `max_depth`, and a
+    /// maker of this view's render settings from (spp, seed).
+    pub fn trace<R>(
+        &self,
+        accel: &Accel,
+        medium: &Medium,
+        max_depth: u32,
+        f: impl FnOnce(&VolpathScene, &VolpathSettings, &dyn Fn(u32, u64) -> RenderSettings) -> R,
+    ) -> R {
+        let settings = VolpathSettings {
+            max_depth,
+            ..VolpathSettings::default()
+        };
+        let mut scene = VolpathScene {
+            accel,
+            medium: *medium,
+            light: Some(*self.light),
+            environment: None,
+            light_bins: None,
+        };
+        let lists = shadow_lists(&scene, &settings);
+        scene.light_bins = lists.as_ref();
+        let rs = |spp, seed| RenderSettings {
+            spp,
+            seed,
+            view: self.index as u64,
+        };
+        f(&scene, &settings, &rs)
+    }
+}
+
 /// Render `medium` in every view twice (seeds `seed`, `seed + 1`) with the volumetric path
 /// tracer at `spp` and the targets' path depth `max_depth`, and compare with the targets.
 pub fn check(
@@ -85,30 +118,14 @@ pub fn check(
     max_depth: u32,
     seed: u64,
 ) -> Consistency {
-    let settings = VolpathSettings {
-        max_depth,
-        ..VolpathSettings::default()
-    };
     let mut view_ratio = Vec::with_capacity(views.len());
     let (mut num, mut var_i, mut var_t) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
     let (mut sum_i, mut sum_t) = ([0.0f64; 3], [0.0f64; 3]);
     for v in views {
-        let mut scene = VolpathScene {
-            accel,
-            medium: *medium,
-            light: Some(*v.light),
-            environment: None,
-            light_bins: None,
-        };
-        let lists = shadow_lists(&scene, &settings);
-        scene.light_bins = lists.as_ref();
         let render = |s: u64| {
-            let rs = RenderSettings {
-                spp,
-                seed: s,
-                view: v.index as u64,
-            };
-            render_image(&scene, &settings, v.camera, &rs, None)
+            v.trace(accel, medium, max_depth, |scene, settings, rs| {
+                render_image(scene, settings, v.camera, &rs(spp, s), None)
+            })
         };
         let (a, b) = (render(seed), render(seed + 1));
         let sums = compare(&a, &b, v.target);

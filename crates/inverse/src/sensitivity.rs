@@ -33,7 +33,6 @@ use crate::consistency::CheckView;
 use geometry::Accel;
 use scene::{Image, Medium};
 use serde::{Deserialize, Serialize};
-use volpath::{RenderSettings, VolpathScene, VolpathSettings, shadow_lists};
 
 /// The largest widening of the ln σ_t variance (its standard deviation × 10).
 pub const MAX_RATIO: f64 = 100.0;
@@ -130,28 +129,12 @@ pub fn tracer_curvature(
     max_depth: u32,
     seed: u64,
 ) -> ([f64; 3], [f64; 3]) {
-    let settings = VolpathSettings {
-        max_depth,
-        ..VolpathSettings::default()
-    };
     let mut sums = ProductSums::default();
     for v in views {
-        let mut scene = VolpathScene {
-            accel,
-            medium: *medium,
-            light: Some(*v.light),
-            environment: None,
-            light_bins: None,
-        };
-        let lists = shadow_lists(&scene, &settings);
-        scene.light_bins = lists.as_ref();
         let along = |s: u64| {
-            let rs = RenderSettings {
-                spp,
-                seed: s,
-                view: v.index as u64,
-            };
-            let d = volpath::render_derivatives(&scene, &settings, v.camera, &rs, None);
+            let d = v.trace(accel, medium, max_depth, |scene, settings, rs| {
+                volpath::render_derivatives(scene, settings, v.camera, &rs(spp, s), None)
+            });
             let mut j = d.d_sigma_t;
             for (j, da) in j.data.iter_mut().zip(&d.d_albedo.data) {
                 for c in 0..3 {
