@@ -189,16 +189,21 @@ fn light() -> PointLight {
     }
 }
 
+/// The sphere of medium with boundary `eta` under [`light`] and `environment`.
+fn scene(accel: &Accel, eta: f32, environment: Option<Environment>) -> VolpathScene<'_> {
+    VolpathScene {
+        accel,
+        medium: medium(eta),
+        light: Some(light()),
+        environment,
+        light_bins: None,
+    }
+}
+
 #[test]
 fn derivatives_match_finite_differences_index_matched() {
     let accel = sphere();
-    let scene = VolpathScene {
-        accel: &accel,
-        medium: medium(1.0),
-        light: Some(light()),
-        environment: None,
-        light_bins: None,
-    };
+    let scene = scene(&accel, 1.0, None);
     compare("exact shadows", &accel, &scene, &VolpathSettings::default());
     let tracked = VolpathSettings {
         shadow: ShadowTransmittance::Tracked,
@@ -210,15 +215,10 @@ fn derivatives_match_finite_differences_index_matched() {
 #[test]
 fn derivatives_match_finite_differences_dielectric() {
     let accel = sphere();
-    let scene = VolpathScene {
-        accel: &accel,
-        medium: medium(1.5),
-        light: Some(light()),
-        environment: Some(Environment {
-            radiance: [0.3, 0.5, 0.7],
-        }),
-        light_bins: None,
+    let environment = Environment {
+        radiance: [0.3, 0.5, 0.7],
     };
+    let scene = scene(&accel, 1.5, Some(environment));
     compare("dielectric", &accel, &scene, &VolpathSettings::default());
 }
 
@@ -226,13 +226,7 @@ fn derivatives_match_finite_differences_dielectric() {
 #[test]
 fn derivative_render_has_the_plain_image() {
     let accel = sphere();
-    let scene = VolpathScene {
-        accel: &accel,
-        medium: medium(1.0),
-        light: Some(light()),
-        environment: None,
-        light_bins: None,
-    };
+    let scene = scene(&accel, 1.0, None);
     let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 24, 20);
     let rs = RenderSettings {
         spp: 8,
