@@ -22,6 +22,8 @@
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
+//! * [`dipole`]: the planar dipole baseline (DLW22, §9): the Jensen dipole between the camera
+//!   point and entry points from probe rays, with derivatives at fixed sample positions.
 //! * [`gaussian`]: standard normal samples by inversion.
 //! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
 //!   dependency).
@@ -29,6 +31,7 @@
 pub mod boundary;
 pub mod curvature;
 pub mod diff;
+pub mod dipole;
 pub mod exit;
 pub mod fit;
 pub mod gaussian;

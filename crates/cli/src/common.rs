@@ -133,6 +133,48 @@ pub fn render_views_with(
     }
 }
 
+/// Render every view with the planar dipole baseline ([`bssrdf::dipole`]), with each view's
+/// derivatives with respect to σ_t and α when `derivatives` (the profile's analytic
+/// derivatives at fixed sample positions); one progress bar over the views.
+pub fn render_views_dipole(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    derivatives: bool,
+) -> Result<RenderReport> {
+    let scene = bssrdf::dipole::DipoleScene::new(accel, *medium)?;
+    let pb = progress(views.len() as u64, "dipole");
+    let mut images = Vec::with_capacity(views.len());
+    let mut grads = Vec::new();
+    let mut secs = Vec::with_capacity(views.len());
+    for (i, v) in views.iter().enumerate() {
+        let rs = RenderSettings {
+            spp,
+            seed,
+            view: i as u64,
+        };
+        let t0 = Instant::now();
+        let view = bssrdf::dipole::DipoleView::new(accel, &v.camera, &v.light);
+        if derivatives {
+            let d = bssrdf::dipole::render_derivatives(&scene, &view, &rs);
+            images.push(d.value);
+            grads.push([d.d_sigma_t, d.d_albedo]);
+        } else {
+            images.push(bssrdf::dipole::render_image(&scene, &view, &rs));
+        }
+        secs.push(t0.elapsed().as_secs_f64());
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(RenderReport {
+        images,
+        derivatives: grads,
+        seconds_per_view: secs,
+    })
+}
+
 /// Write `name.exr` and `name.png` into `dir` with a shared exposure.
 pub fn write_outputs(
     dir: &Path,
@@ -247,8 +289,9 @@ pub struct LearnedArgs {
     /// The forward model: `learned` (the learned BSSRDF shipped in `models/`, built into the
     /// binary; the default), a learned model file (translucent safetensors format, written by
     /// `translucent train` or `translucent model import-son24`; `shipped` names the built-in
-    /// one), or `volpath` (the volumetric path tracer: in `optimize` the volumetric baseline, in
-    /// `render` the same as `--method volpath`).
+    /// one), `volpath` (the volumetric path tracer: in `optimize` the volumetric baseline, in
+    /// `render` the same as `--method volpath`) or `dipole` (the planar dipole baseline of Deng
+    /// et al. 2022).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub model: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
@@ -417,10 +460,11 @@ impl LearnedArgs {
     }
 
     /// Which forward model `--model` names: the volumetric path tracer for `volpath`, the
-    /// learned BSSRDF otherwise.
+    /// planar dipole for `dipole`, the learned BSSRDF otherwise.
     pub fn kind(&self) -> inverse::forward::ModelKind {
         match &self.model {
             Some(p) if p.as_os_str() == "volpath" => inverse::forward::ModelKind::Volpath,
+            Some(p) if p.as_os_str() == "dipole" => inverse::forward::ModelKind::Dipole,
             _ => inverse::forward::ModelKind::Learned,
         }
     }
@@ -440,13 +484,12 @@ pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v2.safetensors";
 static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v2.safetensors");
 
 /// Loads a `--model` value: a file, or `shipped` (or `learned`) for the built-in model.
-/// `volpath` is not a learned model: commands that need one say so.
+/// `volpath` and `dipole` are not learned models: commands that need one say so.
 pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
     match path.as_os_str().to_str() {
         Some("shipped" | "learned") => LearnedArgs::shipped_model(),
-        Some("volpath") => anyhow::bail!(
-            "--model volpath: the volumetric path tracer is not a learned model; this command \
-             needs one (a model file, or `shipped`)"
+        Some(m @ ("volpath" | "dipole")) => anyhow::bail!(
+            "--model {m}: not a learned model; this command needs one (a model file, or `shipped`)"
         ),
         _ => Ok(bssrdf::model::load(path)?),
     }

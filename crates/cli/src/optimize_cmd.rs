@@ -38,7 +38,7 @@ pub struct OptimizeArgs {
     #[arg(long, default_value = "out/optimize")]
     pub out: PathBuf,
     /// Gradient estimator of the model (`--model`): for the learned BSSRDF ours (default),
-    /// ours-alpha-offsets, naive or fd; for `volpath` ad (default).
+    /// ours-alpha-offsets, naive or fd; for `volpath` and `dipole` ad (default) or fd.
     #[arg(long)]
     pub method: Option<String>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
@@ -375,9 +375,10 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         accel.mesh().triangle_count(),
         t0.elapsed().as_secs_f64() * 1e3
     );
-    // The volumetric model has no networks; the optimiser's interface still takes the
-    // learned model's, unused.
+    // The volumetric and dipole models have no networks; the optimiser's interface still
+    // takes the learned model's, unused.
     let model = match a.learned.kind() {
+        ModelKind::Dipole => crate::common::LearnedArgs::shipped_model()?,
         ModelKind::Volpath => {
             let depth = a.max_depth.unwrap_or(32);
             if let Some(d) = ds

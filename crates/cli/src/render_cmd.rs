@@ -24,7 +24,7 @@ use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
     LearnedArgs, Method, ShadowArg, SpawnOffsetArg, build_accel, check_output_free,
-    render_views_learned_with, render_views_with, write_outputs,
+    render_views_dipole, render_views_learned_with, render_views_with, write_outputs,
 };
 
 #[derive(Args)]
@@ -119,36 +119,43 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         ..Default::default()
     };
     let method = match a.learned.kind() {
-        inverse::forward::ModelKind::Volpath => Method::Volpath,
-        inverse::forward::ModelKind::Learned => a.method,
+        inverse::forward::ModelKind::Volpath => Some(Method::Volpath),
+        inverse::forward::ModelKind::Learned => Some(a.method),
+        inverse::forward::ModelKind::Dipole => None,
     };
     let (rep, renderer) = match method {
-        Method::Volpath => (
-            render_views_with(
-                &accel,
-                &desc.medium,
-                views,
-                spp,
-                seed,
-                &settings,
-                a.derivatives,
-            ),
-            "volpath".to_string(),
+        None => (
+            render_views_dipole(&accel, &desc.medium, views, spp, seed, a.derivatives)?,
+            "planar dipole".to_string(),
         ),
-        Method::Learned => {
-            let model = a.learned.load_model()?;
-            let rep = render_views_learned_with(
-                &accel,
-                &desc.medium,
-                views,
-                spp,
-                seed,
-                &model,
-                a.learned.settings(),
-                a.derivatives,
-            )?;
-            (rep, format!("learned BSSRDF ({})", a.learned.describe()))
-        }
+        Some(method) => match method {
+            Method::Volpath => (
+                render_views_with(
+                    &accel,
+                    &desc.medium,
+                    views,
+                    spp,
+                    seed,
+                    &settings,
+                    a.derivatives,
+                ),
+                "volpath".to_string(),
+            ),
+            Method::Learned => {
+                let model = a.learned.load_model()?;
+                let rep = render_views_learned_with(
+                    &accel,
+                    &desc.medium,
+                    views,
+                    spp,
+                    seed,
+                    &model,
+                    a.learned.settings(),
+                    a.derivatives,
+                )?;
+                (rep, format!("learned BSSRDF ({})", a.learned.describe()))
+            }
+        },
     };
     if a.as_dataset {
         let mut ds = Dataset::from_scene(&desc);

@@ -10,11 +10,14 @@
 //! | model ([`ModelKind`]) | file | estimators (`DiffMethod`) |
 //! |---|---|---|
 //! | `learned`: the learned shape-adaptive BSSRDF | [`learned`] | `ours`, `ours-alpha-offsets`, `naive`, `fd` ([`bssrdf::diff`]) |
-//! | `volpath`: the volumetric path tracer | [`volpath`] | `ad`: each path differentiated analytically ([`::volpath::derivative`]) |
+//! | `dipole`: the planar dipole baseline (DLW22) | [`dipole`] | `ad`: the profile differentiated at fixed sample positions ([`bssrdf::dipole`]); `fd` ([`fd`]) |
+//! | `volpath`: the volumetric path tracer | [`volpath`] | `ad`: each path differentiated analytically ([`::volpath::derivative`]); `fd` ([`fd`]) |
 //!
 //! Adding a model is a file implementing the three traits and an arm of [`ModelKind`] (with its
 //! valid estimators in [`ModelKind::estimators`]).
 
+pub mod dipole;
+pub mod fd;
 pub mod learned;
 pub mod volpath;
 
@@ -65,17 +68,21 @@ pub enum ModelKind {
     Learned,
     /// The volumetric path tracer, differentiated per path (the volumetric baseline).
     Volpath,
+    /// The classical dipole between the camera point and probe-ray entry points (the planar
+    /// baseline of Deng et al. 2022).
+    Dipole,
 }
 
 impl ModelKind {
     /// All models.
-    pub const ALL: [ModelKind; 2] = [ModelKind::Learned, ModelKind::Volpath];
+    pub const ALL: [ModelKind; 3] = [ModelKind::Learned, ModelKind::Volpath, ModelKind::Dipole];
 
     /// The name on the command line and in files.
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::Learned => "learned",
             ModelKind::Volpath => "volpath",
+            ModelKind::Dipole => "dipole",
         }
     }
 
@@ -83,7 +90,7 @@ impl ModelKind {
     pub fn estimators(self) -> &'static [DiffMethod] {
         match self {
             ModelKind::Learned => &DiffMethod::LEARNED,
-            ModelKind::Volpath => &[DiffMethod::Ad],
+            ModelKind::Volpath | ModelKind::Dipole => &[DiffMethod::Ad, DiffMethod::Fd],
         }
     }
 
@@ -120,6 +127,9 @@ impl std::str::FromStr for ModelKind {
         ModelKind::ALL
             .into_iter()
             .find(|m| m.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| format!("unknown model {s:?} (expected learned or volpath)"))
+            .ok_or_else(|| {
+                let names: Vec<&str> = ModelKind::ALL.iter().map(|m| m.name()).collect();
+                format!("unknown model {s:?} (expected {})", names.join(", "))
+            })
     }
 }

@@ -25,6 +25,7 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 use volpath::rng::{Sampler, hash_key};
 
+use crate::forward::dipole::Dipole;
 use crate::forward::learned::Learned;
 use crate::forward::volpath::Volpath;
 use crate::forward::{ForwardModel, ModelKind};
@@ -884,6 +885,15 @@ pub(crate) fn forward_model<'a>(
                 max_depth: config.volpath_max_depth.unwrap_or(32),
                 ..volpath::VolpathSettings::default()
             },
+            config.method,
+            config.delta_rel,
+            DiffSettings::default().delta_albedo,
+        )),
+        ModelKind::Dipole => Box::new(Dipole::new(
+            accel,
+            config.method,
+            config.delta_rel,
+            DiffSettings::default().delta_albedo,
         )),
     }
 }

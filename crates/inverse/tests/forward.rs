@@ -1,13 +1,15 @@
 //! The forward models behind [`inverse::forward`]: each model accepts only its own estimators,
-//! with an error naming them; the volumetric path tracer as the model of the loop (the
-//! volumetric baseline) gives a loss gradient that points back to the truth on targets it
-//! rendered, and its view renderer's image is the tracer's plain render.
+//! with an error naming them; the volumetric path tracer and the planar dipole as the model of
+//! the loop (the baselines), with each of their estimators, give a loss gradient that points
+//! back to the truth on targets they rendered, and their view renderers' images are their
+//! plain renders.
 
 mod common;
 
 use std::path::Path;
 
 use bssrdf::diff::DiffMethod;
+use bssrdf::dipole::{DipoleScene, DipoleView};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::RenderSettings;
 use geometry::Vec3;
@@ -35,19 +37,26 @@ fn each_model_accepts_only_its_own_estimators() {
         e.contains("learned") && e.contains("ours, ours-alpha-offsets, naive, fd"),
         "{e}"
     );
-    c.model = ModelKind::Volpath;
-    assert!(c.check().is_ok());
-    for m in [DiffMethod::Ours, DiffMethod::Naive, DiffMethod::Fd] {
-        c.method = m;
-        let e = c.check().unwrap_err();
-        assert!(e.contains("volpath") && e.contains("ad"), "{e}");
+    for model in [ModelKind::Volpath, ModelKind::Dipole] {
+        c.model = model;
+        for m in [DiffMethod::Ad, DiffMethod::Fd] {
+            c.method = m;
+            assert!(c.check().is_ok(), "{model} × {}", m.name());
+        }
+        for m in [DiffMethod::Ours, DiffMethod::Naive] {
+            c.method = m;
+            let e = c.check().unwrap_err();
+            assert!(e.contains(model.name()) && e.contains("ad, fd"), "{e}");
+        }
     }
     // Files written before the option read as the learned model, and the learned model's
     // settings serialise as before (no `model` key).
     let json = serde_json::to_value(OptimizeConfig::default()).unwrap();
     assert!(json.get("model").is_none() && json.get("volpath_max_depth").is_none());
     assert_eq!("volpath".parse::<ModelKind>().unwrap(), ModelKind::Volpath);
-    assert!("dipole".parse::<ModelKind>().is_err());
+    assert_eq!("dipole".parse::<ModelKind>().unwrap(), ModelKind::Dipole);
+    let e = "photon".parse::<ModelKind>().unwrap_err();
+    assert!(e.contains("learned, volpath, dipole"), "{e}");
 }
 
 struct Setup {
@@ -57,7 +66,7 @@ struct Setup {
     truth: Medium,
 }
 
-fn setup() -> Setup {
+fn setup(model: ModelKind) -> Setup {
     let accel = common::sphere(0.5);
     let truth = Medium {
         sigma_t: [3.0, 4.0, 6.0],
@@ -82,17 +91,21 @@ fn setup() -> Setup {
         .iter()
         .enumerate()
         .map(|(i, (c, l))| {
+            let rs = RenderSettings {
+                spp: 512,
+                seed: 99,
+                view: i as u64,
+            };
+            if model == ModelKind::Dipole {
+                let scene = DipoleScene::new(&accel, truth).unwrap();
+                return bssrdf::dipole::render_image(&scene, &DipoleView::new(&accel, c, l), &rs);
+            }
             let scene = VolpathScene {
                 accel: &accel,
                 medium: truth,
                 light: Some(*l),
                 environment: None,
                 light_bins: None,
-            };
-            let rs = RenderSettings {
-                spp: 512,
-                seed: 99,
-                view: i as u64,
             };
             volpath::render_image(&scene, &settings, c, &rs, None)
         })
@@ -106,12 +119,12 @@ fn setup() -> Setup {
 }
 
 /// On a sphere of 1.5–3 mean free paths radius, lit from behind one of the two views, with α at
-/// the truth and σ_t twice too high (half too low), the volumetric model's loss gradient in σ_t
-/// is positive (negative) in every channel, by more than 4 standard errors of its mean over 40
-/// iterations (each its own view and random numbers).
-#[test]
-fn the_volumetric_model_s_gradient_points_to_the_truth() {
-    let s = setup();
+/// the truth and σ_t twice too high (half too low), the model's loss gradient in σ_t on targets
+/// it rendered is positive (negative) in every channel, by more than 4 standard errors of its
+/// mean over `iterations` iterations (each its own view and random numbers); and the loop's
+/// re-render is the model's plain image.
+fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, iterations: u32) {
+    let s = setup(model_kind);
     let model = shipped();
     let targets: Vec<TargetView> = s
         .views
@@ -124,8 +137,8 @@ fn the_volumetric_model_s_gradient_points_to_the_truth() {
         })
         .collect();
     let config = OptimizeConfig {
-        model: ModelKind::Volpath,
-        method: DiffMethod::Ad,
+        model: model_kind,
+        method,
         spp: 16,
         ..OptimizeConfig::default()
     };
@@ -136,7 +149,7 @@ fn the_volumetric_model_s_gradient_points_to_the_truth() {
             sigma_t: truth.sigma_t.map(|v| v * factor),
             ..truth
         };
-        let g: Vec<[f64; 3]> = (0..40)
+        let g: Vec<[f64; 3]> = (0..iterations)
             .map(|k| opt.gradient(k, &p).unwrap().d_sigma_t)
             .collect();
         for c in 0..3 {
@@ -145,11 +158,12 @@ fn the_volumetric_model_s_gradient_points_to_the_truth() {
             let se = (g.iter().map(|v| (v[c] - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
             assert!(
                 sign * m > 4.0 * se,
-                "σ_t × {factor}: ∂ℓ/∂σ_t of channel {c} = {m} ± {se}"
+                "{model_kind} × {}: σ_t × {factor}: ∂ℓ/∂σ_t of channel {c} = {m} ± {se}",
+                method.name()
             );
         }
     }
-    // The loop's re-render is the tracer's plain image.
+    // The loop's re-render is the model's plain image.
     let rs = RenderSettings {
         spp: 4,
         seed: 5,
@@ -157,13 +171,39 @@ fn the_volumetric_model_s_gradient_points_to_the_truth() {
     };
     let (c, l) = &s.views[1];
     let img = opt.render(&truth, c, l, &rs).unwrap();
-    let scene = VolpathScene {
-        accel: &s.accel,
-        medium: s.truth,
-        light: Some(*l),
-        environment: None,
-        light_bins: None,
+    let plain = if model_kind == ModelKind::Dipole {
+        let scene = DipoleScene::new(&s.accel, s.truth).unwrap();
+        bssrdf::dipole::render_image(&scene, &DipoleView::new(&s.accel, c, l), &rs)
+    } else {
+        let scene = VolpathScene {
+            accel: &s.accel,
+            medium: s.truth,
+            light: Some(*l),
+            environment: None,
+            light_bins: None,
+        };
+        volpath::render_image(&scene, &VolpathSettings::default(), c, &rs, None)
     };
-    let plain = volpath::render_image(&scene, &VolpathSettings::default(), c, &rs, None);
     assert_eq!(img.data, plain.data);
+}
+
+#[test]
+fn the_volumetric_model_s_gradient_points_to_the_truth() {
+    gradient_points_to_the_truth(ModelKind::Volpath, DiffMethod::Ad, 40);
+}
+
+#[test]
+fn the_volumetric_model_s_differences_point_to_the_truth() {
+    gradient_points_to_the_truth(ModelKind::Volpath, DiffMethod::Fd, 40);
+}
+
+#[test]
+fn the_dipole_s_gradient_points_to_the_truth() {
+    gradient_points_to_the_truth(ModelKind::Dipole, DiffMethod::Ad, 40);
+}
+
+#[test]
+fn the_dipole_s_differences_point_to_the_truth() {
+    // The differences move the probe positions with σ_t: noisier than `ad` per iteration.
+    gradient_points_to_the_truth(ModelKind::Dipole, DiffMethod::Fd, 120);
 }

@@ -367,8 +367,9 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
 /// estimate can be no better than this allows: a model that renders the truth 10 % too dark
 /// must move σ_t or α to match the images. Cached in `RUN/model-ratio.json`.
 fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Result<[f64; 3]> {
-    if o.learned.kind() == inverse::forward::ModelKind::Volpath {
-        // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches).
+    if o.learned.kind() != inverse::forward::ModelKind::Learned {
+        // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches);
+        // the dipole's error at the truth is what the run measures.
         return Ok([f64::NAN; 3]);
     }
     let cache = run_dir.join("model-ratio.json");

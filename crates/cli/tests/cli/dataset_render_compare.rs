@@ -244,7 +244,8 @@ fn render_dataset_folder_reproduces_its_images() {
 
 /// `render --derivatives`: the images are the plain render's, bit for bit; each view gets its
 /// two derivative images (EXR and PNG), finite, with ∂I/∂α ≥ 0 (more albedo, more light); a
-/// second run into the same folder needs `--overwrite`; the learned model renders them too.
+/// second run into the same folder needs `--overwrite`; the learned model and the planar dipole
+/// render them too (the dipole's ∂I/∂α ≥ 0 as well).
 #[test]
 fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
     let t = tmp();
@@ -294,6 +295,25 @@ fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
         ],
     );
     assert!(t.path().join("l/view_001_d_sigma_t.exr").is_file());
+    let args = [
+        "-q",
+        "render",
+        "ds",
+        "--out",
+        "p",
+        "--derivatives",
+        "--model",
+        "dipole",
+    ];
+    ok(t.path(), &args);
+    let img = scene::Image::read_exr(&t.path().join("p/view_001_d_albedo.exr")).unwrap();
+    assert!(
+        img.data
+            .iter()
+            .flatten()
+            .all(|x| x.is_finite() && *x >= 0.0)
+    );
+    assert!(img.data.iter().flatten().any(|x| *x > 0.0));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -809,8 +809,8 @@ fn negative_numbers_reach_the_domain_checks() {
 
 /// `optimize --model volpath` runs the volumetric baseline through the same loop and reports:
 /// its estimator is `ad`, the configuration records the model, the re-renders and intervals are
-/// written, and no bias correction runs; a learned-model estimator with it (or `ad` with the learned model) is refused,
-/// naming the model's estimators.
+/// written, and no bias correction runs; a learned-model estimator with it (or `ad` with the
+/// learned model) is refused, naming the model's estimators. The same for `--model dipole`.
 #[test]
 fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     let t = tiny_optimize_dataset("2");
@@ -837,5 +837,20 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     assert_stderr_has(
         &fails(d, &bad),
         &["learned", "ours, ours-alpha-offsets, naive, fd"],
+    );
+    // The planar dipole through the same loop.
+    fresh[4] = "o3";
+    ok(d, &[&fresh[..], &["--model", "dipole"]].concat());
+    let res = read_json(&d.join("o3/result.json"));
+    assert_eq!(res["config"]["model"], "dipole");
+    assert_eq!(res["config"]["method"], "ad");
+    assert!(res["interval95"]["sigma_t"][0][0].as_f64().unwrap() > 0.0);
+    assert!(!d.join("o3/bootstrap").exists());
+    assert!(d.join("o3/final/view_000.exr").is_file());
+    fresh[4] = "o4";
+    let bad = [&fresh[..], &["--model", "dipole", "--method", "naive"]].concat();
+    assert_stderr_has(
+        &fails(d, &bad),
+        &["dipole", "no estimator \"naive\"", "ad, fd"],
     );
 }

@@ -2,14 +2,16 @@
 //! differentiated per path ([`volpath::derivative`]: a path's throughput depends on the medium
 //! only through (α σ_t)^k e^{−σ_t ℓ}). Its derivative images are the derivatives of exactly
 //! the images it renders, with the same paths, so a recovery with it has no model error
-//! against targets it rendered; each view keeps its shadow-ray triangle lists.
+//! against targets it rendered; each view keeps its shadow-ray triangle lists. Estimators: `ad`
+//! (those per-path derivatives) and `fd` (central differences of full renders, [`super::fd`]).
 
-use bssrdf::diff::{DiffImages, Loss, LossGradient};
+use bssrdf::diff::{DiffImages, DiffMethod, Loss, LossGradient};
 use bssrdf::render::RenderSettings;
 use geometry::{Accel, LightBins};
 use scene::{Camera, Image, Medium, PointLight};
 use volpath::{VolpathScene, VolpathSettings};
 
+use super::fd::central_differences;
 use super::{ForwardModel, MediumRenderer, ViewRenderer};
 use crate::optimize::{InverseError, decorrelated_gradient};
 
@@ -17,12 +19,29 @@ use crate::optimize::{InverseError, decorrelated_gradient};
 pub struct Volpath<'a> {
     accel: &'a Accel,
     settings: VolpathSettings,
+    method: DiffMethod,
+    delta_rel: f32,
+    delta_albedo: f32,
 }
 
 impl<'a> Volpath<'a> {
-    /// The tracer over `accel` with `settings` (the dataset's maximum depth).
-    pub fn new(accel: &'a Accel, settings: VolpathSettings) -> Self {
-        Volpath { accel, settings }
+    /// The tracer over `accel` with `settings` (the dataset's maximum depth), differentiated by
+    /// `method` (`ad` or `fd`, the latter with relative σ_t step `delta_rel` and albedo step
+    /// `delta_albedo`).
+    pub fn new(
+        accel: &'a Accel,
+        settings: VolpathSettings,
+        method: DiffMethod,
+        delta_rel: f32,
+        delta_albedo: f32,
+    ) -> Self {
+        Volpath {
+            accel,
+            settings,
+            method,
+            delta_rel,
+            delta_albedo,
+        }
     }
 }
 
@@ -36,6 +55,7 @@ impl ForwardModel for Volpath<'_> {
             .validate("medium")
             .map_err(|e| InverseError::Invalid(e.to_string()))?;
         Ok(Box::new(VolpathAt {
+            model: self,
             accel: self.accel,
             settings: self.settings,
             medium,
@@ -44,6 +64,7 @@ impl ForwardModel for Volpath<'_> {
 }
 
 struct VolpathAt<'s> {
+    model: &'s Volpath<'s>,
     accel: &'s Accel,
     settings: VolpathSettings,
     medium: Medium,
@@ -98,7 +119,22 @@ impl ViewRenderer for VolpathView<'_> {
 
     fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
         let scene = self.at.scene(self.light, self.bins.as_ref());
-        let d = volpath::render_derivatives(&scene, &self.at.settings, self.camera, rs, None);
+        let settings = &self.at.settings;
+        let model = self.at.model;
+        if model.method == DiffMethod::Fd {
+            let render = |medium| {
+                let scene = VolpathScene { medium, ..scene };
+                Ok(volpath::render_image(
+                    &scene,
+                    settings,
+                    self.camera,
+                    rs,
+                    None,
+                ))
+            };
+            return central_differences(render, scene.medium, model.delta_rel, model.delta_albedo);
+        }
+        let d = volpath::render_derivatives(&scene, settings, self.camera, rs, None);
         Ok(DiffImages {
             value: d.value,
             d_sigma_t: d.d_sigma_t,
