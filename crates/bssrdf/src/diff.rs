@@ -1,5 +1,5 @@
 //! The differentiable learned renderer: per-pixel values and their derivatives with respect to
-//! the six medium parameters σ_t,c and α_c (c = R, G, B), docs/model.md §8, architecture.md §4,
+//! the six medium parameters σ_t,c and α_c (c = R, G, B), docs/model.md §8, ARCHITECTURE.md, "Gradient estimators",
 //! Son et al. 2024 §4 (eq. 6–17).
 //!
 //! Channel c of the image depends only on (σ_t,c, α_c) (docs/model.md §1, §2), so the derivatives
@@ -42,7 +42,7 @@
 //!   α ± Δα (y^±, S_abs^±, z reused), x_i^± = Π(x_o + σ_n(α ± Δα)·R·y^±), and the light side
 //!   (exit law, incidence factor) at α ± Δα: ∂C/∂α = (1 − F)·(S_abs⁺·L⁺(x_i⁺) − S_abs⁻·L⁻(x_i⁻))/(2Δα).
 //!   Unlike `Ours` it keeps the dependence of the sample positions on α.
-//! * [`DiffMethod::Naive`] (paper §4.1, the "naive" baseline; architecture.md §4): σ_t by the
+//! * [`DiffMethod::Naive`] (paper §4.1, the "naive" baseline; ARCHITECTURE.md, "Gradient estimators"): σ_t by the
 //!   derivative of the sample position with visibility held fixed (interior term only):
 //!   dx̃/dσ_t = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t), moved along the surface at x_i with the detached
 //!   projection direction d: dx_i = (I − d n_gᵀ/(n_g·d))·dx̃ (n_g the normal of the hit

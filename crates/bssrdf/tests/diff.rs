@@ -1,5 +1,5 @@
 //! The differentiable learned renderer against brute-force finite differences
-//! (architecture.md §4: every estimator is checked against FD; docs/model.md §8).
+//! (ARCHITECTURE.md, "Gradient estimators": every estimator is checked against FD; docs/model.md §8).
 //!
 //! The model is a small deterministic random network built here (no model files). Its decoder
 //! ignores the shape features (their input weights are zero), so y depends on z only and the

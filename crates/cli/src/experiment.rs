@@ -31,6 +31,7 @@ use volpath::rng::Sampler;
 
 mod report;
 mod robustness;
+mod timing;
 
 use report::{Row, inits_plot, report, results_csv};
 
@@ -46,6 +47,10 @@ pub enum ExperimentCommand {
     /// back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh file): errors, 95 % intervals
     /// and their calibration, whether σ_t is determined, consistency, status.
     Robustness(Box<robustness::RobustnessArgs>),
+    /// Seconds per iteration of every forward model × estimator at the paper's workload
+    /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
+    /// `--mitsuba-python`.
+    Timing(timing::TimingArgs),
 }
 
 #[derive(Args)]
@@ -104,6 +109,7 @@ pub fn run(cmd: &ExperimentCommand) -> Result<()> {
     match cmd {
         ExperimentCommand::Accuracy(a) => accuracy(a),
         ExperimentCommand::Robustness(a) => robustness::run(a),
+        ExperimentCommand::Timing(a) => timing::run(a),
     }
 }
 

@@ -648,7 +648,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
             format!(
                 "{:.2} ± {:.2}",
                 s.volpath[c] / s.learned[c],
-                2.0 * s.volpath_se[c] / s.learned[c]
+                (2.0 * s.volpath_se[c] / s.learned[c]).abs()
             )
         };
         println!(

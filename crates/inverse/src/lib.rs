@@ -4,7 +4,8 @@
 //! checkpoints ([`optimize`]), its reports ([`report`]), the uncertainty of an estimate from the
 //! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
 //! ([`consistency`]), the tracer's own sensitivity along the σ_t valley ([`sensitivity`]) and the parametric-bootstrap bias correction of a recovered medium
-//! ([`bootstrap`]). The gradient estimators themselves
+//! ([`bootstrap`]), and the seconds per iteration of every model × estimator ([`timing`]). The
+//! gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
 pub mod bootstrap;
@@ -15,4 +16,5 @@ pub mod optimize;
 pub mod params;
 pub mod report;
 pub mod sensitivity;
+pub mod timing;
 pub mod uncertainty;

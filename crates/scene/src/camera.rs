@@ -1,4 +1,4 @@
-//! The Mitsuba 3 `perspective` camera (architecture.md §3, fixed convention).
+//! The Mitsuba 3 `perspective` camera (CONVENTIONS.md, fixed convention).
 //!
 //! `to_world = look_at(origin, target, up)`: z = normalize(target − origin) (view direction),
 //! x = normalize(cross(up, z)) (image LEFT), y = cross(z, x) (image up). With t = tan(fov_x/2),

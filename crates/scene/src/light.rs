@@ -1,5 +1,5 @@
 //! Emitters. A [`PointLight`] has radiant intensity I per RGB channel: the irradiance at distance
-//! r facing the light is I/r² (architecture.md §3; psdr-cuda's `power` equals 4π·I).
+//! r facing the light is I/r² (CONVENTIONS.md; psdr-cuda's `power` equals 4π·I).
 //! An [`Environment`] is constant radiance from every direction (energy tests, furnace).
 
 use glam::Vec3;

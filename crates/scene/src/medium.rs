@@ -1,4 +1,4 @@
-//! The homogeneous medium (architecture.md §3): per RGB channel extinction σ_t [1/unit] and
+//! The homogeneous medium (CONVENTIONS.md): per RGB channel extinction σ_t [1/unit] and
 //! single-scattering albedo α (σ_s = α σ_t), Henyey–Greenstein g, relative IOR η = n_in/n_out.
 
 use serde::{Deserialize, Serialize};

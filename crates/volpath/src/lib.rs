@@ -1,7 +1,7 @@
 //! # translucent-volpath
 //!
 //! The volumetric path tracer: ground truth for the learned BSSRDF, generator of datasets and a
-//! baseline of the inverse problem. Conventions follow Mitsuba 3's `volpath` (architecture.md §3)
+//! baseline of the inverse problem. Conventions follow Mitsuba 3's `volpath` (CONVENTIONS.md)
 //! so that its images can be compared with Mitsuba's directly.
 //!
 //! * [`integrator`]: radiance along a ray (free flights, NEE, dielectric boundary, roulette).

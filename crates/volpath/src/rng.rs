@@ -1,5 +1,5 @@
 //! Reproducible random streams. Every stream is derived from (seed, view, pixel, purpose) by a
-//! SplitMix64-style hash, so results do not depend on thread scheduling (architecture.md §3).
+//! SplitMix64-style hash, so results do not depend on thread scheduling (CONVENTIONS.md).
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;

@@ -53,10 +53,10 @@ pub struct RobustnessArgs {
     /// Samples per pixel of the volumetric target renders.
     #[arg(long, default_value_t = 128)]
     pub target_spp: u32,
-    /// The forward model of the recoveries: `learned` (the default) or `volpath` (the volumetric
-    /// baseline, `optimize --model volpath`).
-    #[arg(long, default_value = "learned", value_parser = ["learned", "volpath"])]
-    pub model: String,
+    /// The forward model of the recoveries: `learned` (the default), `volpath` (the volumetric
+    /// baseline, `optimize --model volpath`) or `dipole` (the planar dipole baseline).
+    #[arg(long, default_value = "learned")]
+    pub model: inverse::forward::ModelKind,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Independent repetitions of every case (renders and runs).
@@ -610,8 +610,8 @@ fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
 pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> OptimizeArgs {
     let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    if a.model == "volpath" {
-        o.learned.model = Some("volpath".into());
+    if a.model != inverse::forward::ModelKind::Learned {
+        o.learned.model = Some(a.model.name().into());
     }
     o.budget = a.budget;
     o.seed = a.seed + rep;
@@ -700,17 +700,16 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
         md,
         "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({}{} iterations × {} spp from σ_t = 50, α = 0.5{}), {} repetition(s), seed {}{}\n",
         renderers_named(outcomes),
-        if a.model == "volpath" {
-            "the volumetric model, "
-        } else {
-            ""
+        match a.model {
+            inverse::forward::ModelKind::Learned => String::new(),
+            m => format!("the {m} model, "),
         },
         if a.quick { 12 } else { a.budget.iterations },
         if a.quick { 4 } else { a.budget.spp },
-        if a.model == "volpath" {
-            ""
-        } else {
+        if a.model == inverse::forward::ModelKind::Learned {
             ", bias correction"
+        } else {
+            ""
         },
         a.seeds,
         a.seed,

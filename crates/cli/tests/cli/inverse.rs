@@ -854,3 +854,47 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
         &["dipole", "no estimator \"naive\"", "ad, fd"],
     );
 }
+
+/// `experiment timing --quick`: one row per model × estimator with a positive time, the paper's
+/// figures beside ours and the PRB row absent without Mitsuba; the tables are written; a second
+/// run measures nothing again; other settings in the same folder are refused.
+#[test]
+fn experiment_timing_quick_times_every_model_and_estimator() {
+    let t = tmp();
+    let d = t.path();
+    let r = ok(d, &["-q", "experiment", "timing", "--quick", "--out", "tm"]);
+    let csv = std::fs::read_to_string(d.join("tm/timing.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    let pairs: Vec<String> = rows
+        .iter()
+        .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(" × "))
+        .collect();
+    assert_eq!(
+        pairs,
+        [
+            "learned × ours",
+            "learned × ours-alpha-offsets",
+            "learned × naive",
+            "learned × fd",
+            "volpath × ad",
+            "volpath × fd",
+            "dipole × ad",
+            "dipole × fd"
+        ]
+    );
+    for l in &rows {
+        let s: f64 = l.split(',').nth(2).unwrap().parse().unwrap();
+        assert!(s > 0.0 && s.is_finite(), "{l}");
+    }
+    assert!(r.stdout.contains("1.40 (ours)") && r.stdout.contains("QUICK"));
+    assert!(!r.stdout.contains("PRB"));
+    assert!(d.join("tm/timing.md").is_file());
+    let again = ok(d, &["-q", "experiment", "timing", "--quick", "--out", "tm"]);
+    assert!(!again.stdout.contains("s/it\n"), "{}", again.stdout);
+    assert_eq!(
+        std::fs::read_to_string(d.join("tm/timing.csv")).unwrap(),
+        csv
+    );
+    let other = fails(d, &["-q", "experiment", "timing", "--out", "tm"]);
+    assert_stderr_has(&other, &["another"]);
+}

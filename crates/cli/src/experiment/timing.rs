@@ -1,0 +1,253 @@
+//! `translucent experiment timing`: seconds per iteration of every forward model × estimator at
+//! the paper's workload (Son et al. 2024, Table 1: 256² × 32 spp, one view per iteration), in
+//! one run on this machine, beside the paper's figures (RTX 4090). The workload: a blob 0.8
+//! across, four views with one fixed light, a random medium, targets rendered by the volumetric
+//! path tracer ([`inverse::timing`] times the loop). With `--mitsuba-python`, Mitsuba 3's PRB
+//! (`tools/mitsuba/prb_optimize.py`) runs on the same dataset, views, samples and iterations.
+//!
+//! Rows are kept in `OUT/timing.json` as they finish: an interrupted run continues with the
+//! missing ones, and a finished one prints its table again; other settings need another `--out`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use geometry::Shape;
+use inverse::forward::ModelKind;
+use inverse::optimize::TargetView;
+use inverse::timing::{TimingRow, TimingSettings, all_pairs, measure};
+use scene::{Dataset, MeshSource};
+use serde::{Deserialize, Serialize};
+
+use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+
+#[derive(Args)]
+pub struct TimingArgs {
+    /// Output folder (the dataset in OUT/data; timing.json, timing.md, timing.csv).
+    #[arg(long, default_value = "out/experiment-timing")]
+    pub out: PathBuf,
+    /// Iterations per model × estimator (the first is not counted).
+    #[arg(long, default_value_t = 16)]
+    pub iterations: u32,
+    /// Samples per pixel per iteration (the paper: 32).
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    /// Image width and height (the paper: 256).
+    #[arg(long, default_value_t = 256)]
+    pub res: u32,
+    /// Seed of the medium, the targets and the runs.
+    #[arg(long, default_value_t = 3)]
+    pub seed: u64,
+    /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB row.
+    #[arg(long)]
+    pub mitsuba_python: Option<PathBuf>,
+    /// A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// What `OUT/timing.json` holds.
+#[derive(Serialize, Deserialize)]
+struct Record {
+    settings: TimingSettings,
+    res: u32,
+    rows: Vec<TimingRow>,
+    /// Mitsuba's PRB, seconds per iteration after the first.
+    prb: Option<f64>,
+}
+
+/// The paper's seconds per iteration (RTX 4090, its Head scene, 32 spp) of the method a row
+/// corresponds to.
+fn paper_figure(model: ModelKind, method: &str) -> &'static str {
+    match (model, method) {
+        (ModelKind::Learned, "ours") => "1.40 (ours)",
+        (ModelKind::Volpath, "ad") => "2.28 (PSDR-VOL, depth 6)",
+        _ => "—",
+    }
+}
+
+pub fn run(a: &TimingArgs) -> Result<()> {
+    let (res, spp, iterations, views, target_spp) = if a.quick {
+        (32, 4, 3, 2, 4)
+    } else {
+        (a.res, a.spp, a.iterations, 4, 8)
+    };
+    if iterations < 2 {
+        bail!("--iterations must be at least 2 (the first iteration is not counted)");
+    }
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let data = a.out.join("data");
+    let ds = if data.join("dataset.json").exists() {
+        Dataset::load(&data)?
+    } else {
+        println!("dataset: blob, {views} views {res}² at {target_spp} spp");
+        make_dataset(
+            &paper_rig(views, res),
+            MeshSource::Shape(Shape::from_name("blob")?),
+            random_medium(a.seed),
+            RenderOpts {
+                spp: target_spp,
+                seed: a.seed,
+                max_depth: 32,
+                shadow: Default::default(),
+            },
+            &data,
+            false,
+        )?
+    };
+    if ds.views.first().map(|v| v.camera.width) != Some(res) {
+        bail!(
+            "{} holds a dataset of another resolution; use another --out",
+            data.display()
+        );
+    }
+    let settings = TimingSettings {
+        iterations,
+        spp,
+        seed: a.seed,
+        volpath_max_depth: ds.render.max_depth.unwrap_or(32),
+    };
+    let path = a.out.join("timing.json");
+    let mut record = match std::fs::read(&path) {
+        Ok(bytes) => {
+            let r: Record = serde_json::from_slice(&bytes)
+                .with_context(|| format!("{}: not a timing record", path.display()))?;
+            if r.settings != settings || r.res != res {
+                bail!(
+                    "{} holds a timing run with other settings; use another --out",
+                    a.out.display()
+                );
+            }
+            r
+        }
+        Err(_) => Record {
+            settings,
+            res,
+            rows: Vec::new(),
+            prb: None,
+        },
+    };
+    let (mesh, warnings) = ds.load_mesh()?;
+    let accel = crate::common::build_accel(mesh, &warnings, "the timing dataset's mesh");
+    accel.decide_all_supporting();
+    let images = ds
+        .views
+        .iter()
+        .map(|v| v.image.as_ref().context("the timing dataset has no images"))
+        .collect::<Result<Vec<_>>>()?;
+    let targets: Vec<TargetView> = ds
+        .views
+        .iter()
+        .zip(&images)
+        .map(|(v, img)| TargetView {
+            camera: &v.camera,
+            light: &v.light,
+            image: img,
+        })
+        .collect();
+    let base = ds.truth.context("the timing dataset has no medium")?;
+    let nets = crate::common::LearnedArgs::shipped_model()?;
+    for (model, method) in all_pairs() {
+        if record
+            .rows
+            .iter()
+            .any(|r| r.model == model && r.method == method.name())
+        {
+            continue;
+        }
+        let pb = crate::common::progress(0, &format!("{model} × {method}"));
+        let row = measure(&accel, &nets, base, &targets, model, method, &settings)?;
+        pb.finish_and_clear();
+        println!("{model} × {method}: {:.3} s/it", row.mean());
+        record.rows.push(row);
+        scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
+    }
+    if let (Some(py), None) = (&a.mitsuba_python, record.prb) {
+        record.prb = Some(prb(py, &data, &a.out.join("prb"), &settings)?);
+        scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
+    }
+    let (md, csv) = tables(&record, a.quick);
+    print!("{md}");
+    std::fs::write(a.out.join("timing.md"), md)?;
+    std::fs::write(a.out.join("timing.csv"), csv)?;
+    println!("wrote {} (timing.md, timing.csv)", a.out.display());
+    Ok(())
+}
+
+/// Mitsuba's PRB on the dataset: its mean seconds per iteration after the first.
+fn prb(python: &Path, data: &Path, out: &Path, s: &TimingSettings) -> Result<f64> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
+    let status = Command::new(python)
+        .arg(&script)
+        .arg(data)
+        .args(["--iterations", &s.iterations.to_string()])
+        .args(["--spp", &s.spp.to_string()])
+        .args([
+            "--views-per-iter",
+            "1",
+            "--seed",
+            "0",
+            "--overwrite",
+            "--out",
+        ])
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !status.success() {
+        bail!(
+            "{} {} failed ({status})",
+            python.display(),
+            script.display()
+        );
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json"))?)?;
+    v["seconds_per_iteration"]
+        .as_f64()
+        .context("PRB's result.json has no seconds_per_iteration")
+}
+
+/// The Markdown and CSV tables.
+fn tables(r: &Record, quick: bool) -> (String, String) {
+    let s = &r.settings;
+    let mut md = format!(
+        "Seconds per iteration, {res}² × {spp} spp, one view per iteration, iterations 1–{last} \
+         of {n} (mean ± standard error){quick}\n\n\
+         | model | estimator | s/it | paper (RTX 4090) |\n|---|---|---|---|\n",
+        res = r.res,
+        spp = s.spp,
+        last = s.iterations - 1,
+        n = s.iterations,
+        quick = if quick {
+            " — QUICK: a smoke test, not a measurement"
+        } else {
+            ""
+        },
+    );
+    let mut csv = String::from("model,estimator,seconds_per_iteration,std_error,iterations\n");
+    for row in &r.rows {
+        md.push_str(&format!(
+            "| {} | {} | {:.3} ± {:.3} | {} |\n",
+            row.model,
+            row.method,
+            row.mean(),
+            row.std_error(),
+            paper_figure(row.model, &row.method)
+        ));
+        csv.push_str(&format!(
+            "{},{},{},{},{}\n",
+            row.model,
+            row.method,
+            row.mean(),
+            row.std_error(),
+            row.seconds.len()
+        ));
+    }
+    if let Some(p) = r.prb {
+        md.push_str(&format!(
+            "| Mitsuba 3 PRB (`prbvolpath`) | — | {p:.3} | not given |\n"
+        ));
+        csv.push_str(&format!("mitsuba-prb,,{p},,{}\n", s.iterations));
+    }
+    (md, csv)
+}

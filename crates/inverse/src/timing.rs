@@ -1,0 +1,136 @@
+//! Seconds per iteration of every forward model × estimator on one workload (the comparison of
+//! Son et al. 2024, Table 1): each pair runs the inverse loop with `optimize`'s defaults from the
+//! same start for a few iterations on the same targets, and reports the mean time of an
+//! iteration after the first (which also builds the per-view lists and warms the caches), with
+//! its standard error over the iterations.
+
+use bssrdf::diff::DiffMethod;
+use bssrdf::nn::ShapeAdaptiveModel;
+use geometry::Accel;
+use scene::Medium;
+use serde::{Deserialize, Serialize};
+
+use crate::forward::ModelKind;
+use crate::optimize::{InverseError, OptimizeConfig, Optimizer, TargetView};
+use crate::params::Params;
+
+/// The workload of a timing run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimingSettings {
+    /// Iterations per pair (at least 2: the first is not counted).
+    pub iterations: u32,
+    /// Samples per pixel per iteration.
+    pub spp: u32,
+    /// Seed of the runs.
+    pub seed: u64,
+    /// Path depth of the volumetric model.
+    pub volpath_max_depth: u32,
+}
+
+/// The iteration times of one model × estimator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimingRow {
+    pub model: ModelKind,
+    /// The estimator's name ([`DiffMethod::name`]).
+    pub method: String,
+    /// Seconds of every iteration.
+    pub seconds: Vec<f64>,
+}
+
+impl TimingRow {
+    /// The iterations after the first.
+    fn counted(&self) -> &[f64] {
+        if self.seconds.len() > 1 {
+            &self.seconds[1..]
+        } else {
+            &self.seconds
+        }
+    }
+
+    /// Mean seconds per iteration (module docs).
+    pub fn mean(&self) -> f64 {
+        let s = self.counted();
+        s.iter().sum::<f64>() / s.len().max(1) as f64
+    }
+
+    /// Standard error of [`TimingRow::mean`].
+    pub fn std_error(&self) -> f64 {
+        let s = self.counted();
+        let n = s.len() as f64;
+        if n < 2.0 {
+            return f64::NAN;
+        }
+        let m = self.mean();
+        (s.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt()
+    }
+}
+
+/// Every model × estimator pair, each model's default estimator first.
+pub fn all_pairs() -> Vec<(ModelKind, DiffMethod)> {
+    ModelKind::ALL
+        .iter()
+        .flat_map(|&m| m.estimators().iter().map(move |&e| (m, e)))
+        .collect()
+}
+
+/// Times `settings.iterations` iterations of the loop with `model` × `method` on `targets`
+/// (`nets`: the learned model's networks; `base`: g and η of the medium), from σ_t = 50,
+/// α = 0.5 with `optimize`'s defaults otherwise.
+pub fn measure(
+    accel: &Accel,
+    nets: &ShapeAdaptiveModel,
+    base: Medium,
+    targets: &[TargetView],
+    model: ModelKind,
+    method: DiffMethod,
+    settings: &TimingSettings,
+) -> Result<TimingRow, InverseError> {
+    let mut c = OptimizeConfig::new(Params {
+        sigma_t: [50.0; 3],
+        albedo: [0.5; 3],
+    });
+    c.model = model;
+    c.method = method;
+    c.spp = settings.spp;
+    c.iterations = settings.iterations;
+    c.seed = settings.seed;
+    if model == ModelKind::Volpath {
+        c.volpath_max_depth = Some(settings.volpath_max_depth);
+    }
+    let views = targets
+        .iter()
+        .map(|t| TargetView {
+            camera: t.camera,
+            light: t.light,
+            image: t.image,
+        })
+        .collect();
+    let mut opt = Optimizer::new(c, accel, nets, base, views)?;
+    for _ in 0..settings.iterations {
+        opt.step()?;
+    }
+    Ok(TimingRow {
+        model,
+        method: method.name().to_string(),
+        seconds: opt.history().iter().map(|r| r.seconds).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pairs_and_statistics() {
+        let pairs = all_pairs();
+        assert_eq!(pairs.len(), 8);
+        assert_eq!(pairs[0], (ModelKind::Learned, DiffMethod::Ours));
+        let r = TimingRow {
+            model: ModelKind::Dipole,
+            method: "ad".into(),
+            seconds: vec![9.0, 1.0, 2.0, 3.0],
+        };
+        assert_eq!(r.mean(), 2.0);
+        assert!((r.std_error() - (1.0f64 / 3.0).sqrt()).abs() < 1e-12);
+    }
+}
