@@ -39,10 +39,10 @@
 //! (g = 0, η = 1; shipped in `data/curvature-g0-eta1.json`, `translucent model curvature-table`);
 //! for other media there is no correction (C = 1).
 
+use base::rng::Sampler;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use volpath::rng::Sampler;
 
 use crate::exit::{
     ExitSlice, ExitTable, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, albedo_spline,

@@ -31,12 +31,12 @@ pub mod profile;
 pub use probe::{ProbeSample, ProbeSampler};
 pub use profile::{DipoleProfile, ProfileValue};
 
+use base::pixel::pixel_jitter;
+use base::rng::{Sampler, hash_key};
 use geometry::bvh::offset_origin;
 use geometry::{Accel, Frame, Hit, PixelBins};
 use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
-use volpath::render::pixel_jitter;
-use volpath::rng::{Sampler, hash_key};
 
 use crate::boundary::{sw, transmittance};
 use crate::diff::DiffImages;

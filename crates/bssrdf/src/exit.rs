@@ -31,11 +31,11 @@
 //! entry bin, the entry cosine uniform within its bin). [`ExitSlice`] is the table at one albedo,
 //! with ∂ln f/∂α for the α-gradient; lookups are bilinear between bin centres.
 
+use base::fresnel::fresnel_dielectric;
+use base::phase::HenyeyGreenstein;
+use base::rng::Sampler;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use volpath::fresnel::fresnel_dielectric;
-use volpath::phase::HenyeyGreenstein;
-use volpath::rng::Sampler;
 
 /// The light-side exit law of the learned renderer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -49,12 +49,12 @@
 //! walks follow the physics of [`crate::exit`] (analog absorption, HG phase, Fresnel reflection
 //! at the boundary), in three dimensions.
 
+use base::fresnel::fresnel_dielectric;
+use base::phase::HenyeyGreenstein;
+use base::rng::Sampler;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use volpath::fresnel::fresnel_dielectric;
-use volpath::phase::HenyeyGreenstein;
-use volpath::rng::Sampler;
 
 use crate::exit::{
     MU_BINS, MediumCache, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, WalkTable,

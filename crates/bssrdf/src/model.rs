@@ -409,6 +409,15 @@ impl ShapeAdaptiveModel {
     }
 }
 
+/// Name of the shipped model (`models/translucent-v2.safetensors`, see `models/MODEL_CARD.md`).
+pub const SHIPPED_NAME: &str = "models/translucent-v2.safetensors";
+static SHIPPED: &[u8] = include_bytes!("../../../models/translucent-v2.safetensors");
+
+/// The shipped model, built into the library and validated like a file.
+pub fn shipped() -> Result<ShapeAdaptiveModel, ModelError> {
+    from_bytes(Path::new(SHIPPED_NAME), SHIPPED)
+}
+
 /// Writes `bytes` to `path` through a temporary sibling file and a rename.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ModelError> {
     let io = |action: &'static str| {

@@ -36,13 +36,13 @@
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
 //! unrefracted camera direction, outputs in the shading frame of x_o), see docs/model.md A4.
 
+use base::fresnel::refract;
+use base::rng::hash_key;
 use geometry::{Accel, Frame, Hit, PixelBins};
 use glam::Vec3;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
-use volpath::fresnel::refract;
-use volpath::rng::hash_key;
 
 use crate::boundary::transmittance;
 use crate::curvature::{CurvatureCoords, CurvatureSlice, CurvatureTable};
@@ -368,7 +368,7 @@ pub(crate) struct RowBuffers {
 }
 
 /// Per-render settings (shared with the volumetric renderer).
-pub use volpath::RenderSettings;
+pub use base::pixel::RenderSettings;
 
 /// Render one view with the learned BSSRDF. `progress` advances by one per row.
 pub fn render_image(

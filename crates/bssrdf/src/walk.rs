@@ -34,10 +34,10 @@
 //! Everything is allocation-free; the random stream is a [`Sampler`].
 
 use crate::polynomial::{N_COEFFS, Poly3, monomials_f64};
+use base::fresnel::{fresnel_dielectric, reflect, refract};
+use base::phase::HenyeyGreenstein;
+use base::rng::Sampler;
 use glam::{DVec3, Vec3};
-use volpath::fresnel::{fresnel_dielectric, reflect, refract};
-use volpath::phase::HenyeyGreenstein;
-use volpath::rng::Sampler;
 
 /// More scattering events than this count as absorption (VKJ19).
 pub const MAX_BOUNCES: u32 = 10_000;

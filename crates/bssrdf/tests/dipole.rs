@@ -2,13 +2,13 @@
 //! and the closed-form total reflectance of a half-space) and its derivative images against
 //! central differences of its renders.
 
+use base::rng::Sampler;
 use bssrdf::dipole::{DipoleScene, DipoleView, ProbeSampler, render_derivatives, render_image};
 use bssrdf::render::RenderSettings;
 use geometry::{Accel, Frame, Mesh, Shape};
 use glam::Vec3;
 use scene::{Camera, Image, Medium, PointLight};
 use testkit::{MeanEstimate, chi2_test};
-use volpath::rng::Sampler;
 
 fn uniforms(s: &mut Sampler) -> [f32; 5] {
     std::array::from_fn(|_| s.next_f32())

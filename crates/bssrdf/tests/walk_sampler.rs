@@ -7,13 +7,13 @@
 //! 40 000 sampler draws against the escaped ones of 400 000 independent plain walks, at a
 //! p-value threshold of 10⁻³ per case.
 
+use base::rng::Sampler;
 use bssrdf::polynomial::{Poly3, power_to_index};
 use bssrdf::render::{WALK_MAX_TRIES, walk_exit};
 use bssrdf::walk::{WalkMedium, WalkOutcome, WalkSurface, random_walk};
 use glam::Vec3;
 use rayon::prelude::*;
 use testkit::chi2_two_sample;
-use volpath::rng::Sampler;
 
 const BINS: usize = 40;
 const R_MAX: f64 = 8.0;

@@ -469,19 +469,12 @@ impl LearnedArgs {
         }
     }
 
-    /// The model shipped in `models/` (see `models/MODEL_CARD.md`), built into the binary and
-    /// validated like a file.
+    /// The model shipped in `models/` (see `models/MODEL_CARD.md`), built into the library
+    /// ([`bssrdf::model::shipped`]).
     pub fn shipped_model() -> Result<bssrdf::nn::ShapeAdaptiveModel> {
-        Ok(bssrdf::model::from_bytes(
-            std::path::Path::new(SHIPPED_MODEL_NAME),
-            SHIPPED_MODEL,
-        )?)
+        Ok(bssrdf::model::shipped()?)
     }
 }
-
-/// Name of the shipped model (also accepted as a `--model` value).
-pub const SHIPPED_MODEL_NAME: &str = "models/translucent-v2.safetensors";
-static SHIPPED_MODEL: &[u8] = include_bytes!("../../../models/translucent-v2.safetensors");
 
 /// Loads a `--model` value: a file, or `shipped` (or `learned`) for the built-in model.
 /// `volpath` and `dipole` are not learned models: commands that need one say so.

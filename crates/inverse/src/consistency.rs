@@ -211,7 +211,7 @@ pub fn compare(a: &Image, b: &Image, t: &Image) -> ViewSums {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use volpath::rng::Sampler;
+    use base::rng::Sampler;
 
     /// A smooth blob image with independent Gaussian pixel noise of relative s.d. `sd`.
     fn noisy(w: u32, h: u32, gain: f32, sd: f32, seed: u64) -> Image {

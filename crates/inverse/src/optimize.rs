@@ -16,14 +16,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use base::optim::{Adam, AdamConfig, AdamState};
+use base::rng::{Sampler, hash_key};
 use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Loss, LossGradient, Primal};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::{LearnedSettings, RenderSettings};
 use geometry::Accel;
-use learn::optim::{Adam, AdamConfig, AdamState};
 use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
-use volpath::rng::{Sampler, hash_key};
 
 use crate::forward::dipole::Dipole;
 use crate::forward::learned::Learned;

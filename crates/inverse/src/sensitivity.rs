@@ -186,7 +186,7 @@ impl ProductSums {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use volpath::rng::Sampler;
+    use base::rng::Sampler;
 
     fn gauss(rng: &mut Sampler) -> f64 {
         let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);

@@ -479,7 +479,7 @@ pub fn add_covariances(a: [Option<[f64; 3]>; 3], b: [[f64; 3]; 3]) -> [Option<[f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use volpath::rng::Sampler;
+    use base::rng::Sampler;
 
     /// A linear model I_p(θ) = J_p·θ with Gaussian target noise of per-view scale (views
     /// differ in noise, as real views differ in brightness): the least-squares estimate's

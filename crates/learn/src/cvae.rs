@@ -24,12 +24,12 @@
 use std::cell::RefCell;
 use std::ops::Range;
 
+use base::rng::Sampler;
 use bssrdf::model::{ModelError, ModelInfo};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{Dense, Encoder, INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use volpath::rng::Sampler;
 
 use crate::mlp_grad::MlpTape;
 

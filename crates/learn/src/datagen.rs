@@ -31,14 +31,14 @@
 //! mesh index, so `config / configs_per_mesh` is the mesh; [`DataSummary::meshes`] gives each mesh's
 //! sample range. Disjoint `first_mesh` ranges give disjoint train/validation meshes.
 
+use base::fresnel::{fresnel_dielectric, refract};
+use base::rng::{Sampler, hash_key};
 use bssrdf::fit::{ConstraintCloud, FitError};
 use bssrdf::medium::{effective_albedo_inverse, kernel_epsilon, sigma_n};
 use geometry::{AreaSampler, Frame, GeometryError, Mesh, Shape};
 use glam::{Mat4, Quat, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use volpath::fresnel::{fresnel_dielectric, refract};
-use volpath::rng::{Sampler, hash_key};
 
 use crate::sample::Sample;
 use crate::walk::{WalkMedium, WalkOutcome, WalkSurface, random_walk};

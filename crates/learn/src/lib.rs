@@ -20,7 +20,8 @@ pub mod cvae;
 pub mod datagen;
 pub mod energy;
 pub mod mlp_grad;
-pub mod optim;
+/// Adam lives in `base`, shared with the inverse loop.
+pub use base::optim;
 pub mod plot;
 pub mod sample;
 pub mod samplefile;

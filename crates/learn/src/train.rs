@@ -22,12 +22,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use base::rng::{Sampler, hash_key};
 use bssrdf::medium::{ReducedMedium, StatSample};
 use bssrdf::model::ModelInfo;
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM};
 use serde::{Deserialize, Serialize};
-use volpath::rng::{Sampler, hash_key};
 
 use crate::cvae::{self as vae, Batch, Gradients, LossParts, LossWeights, Widths};
 use crate::energy::{self, EnergyBatch, EnergyWeights};
@@ -585,7 +585,7 @@ pub use checkpoint::CHECKPOINT_MAGIC;
 pub fn fingerprint(p: &Prepared) -> u64 {
     let mut h = hash_key(&[p.len() as u64]);
     for v in p.inputs.iter().chain(&p.targets).chain(&p.absorption) {
-        h = volpath::rng::mix64(h ^ v.to_bits() as u64);
+        h = base::rng::mix64(h ^ v.to_bits() as u64);
     }
     h
 }

@@ -2,6 +2,7 @@
 //! random walk inside the fitted polynomial, an analytic half-space reference (Chandrasekhar's
 //! H-function), determinism, and the samples file.
 
+use base::rng::Sampler;
 use bssrdf::fit::ConstraintCloud;
 use bssrdf::polynomial::Poly3;
 use geometry::{AreaSampler, Shape};
@@ -10,7 +11,6 @@ use learn::datagen::{DataConfig, generate};
 use learn::sample::{SAMPLE_BYTES, Sample};
 use learn::samplefile::{SampleFileError, SampleFileHeader, read_samples, write_samples};
 use learn::walk::{WalkMedium, WalkOutcome, WalkSurface, first_root, random_walk};
-use volpath::rng::Sampler;
 
 fn horner(c: &[f64; 4], s: f64) -> f64 {
     ((c[3] * s + c[2]) * s + c[1]) * s + c[0]

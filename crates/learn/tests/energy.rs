@@ -7,13 +7,13 @@
 mod common;
 use common::*;
 
+use base::rng::Sampler;
 use bssrdf::model::ModelInfo;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM, ShapeAdaptiveModel};
 use learn::cvae::{Gradients, Widths, init_model, params_to_flat};
 use learn::energy::{EnergyBatch, EnergyWeights, loss_and_grad, loss_only};
 use learn::optim::AdamConfig;
 use learn::train::{Objective, Prepared, TrainConfig, Trainer};
-use volpath::rng::Sampler;
 
 const DRAWS: usize = 5;
 

@@ -2,13 +2,13 @@
 //! speed) against the library walk of the training data, `learn::walk::random_walk`, on the
 //! plane p = u_z: the same exit-cosine histograms (two-sample chi-square) and escaped fractions.
 
+use base::rng::Sampler;
 use bssrdf::exit::{ExitTable, ExitTableSettings, MU_BINS};
 use bssrdf::medium::sigma_n;
 use bssrdf::polynomial::Poly3;
 use glam::Vec3;
 use learn::walk::{WalkMedium, WalkOutcome, WalkSurface, random_walk};
 use rayon::prelude::*;
-use volpath::rng::Sampler;
 
 /// χ²(15) quantile at p = 0.999.
 const CHI2_15_999: f64 = 37.70;

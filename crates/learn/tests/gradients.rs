@@ -23,6 +23,7 @@
 mod common;
 use common::*;
 
+use base::rng::Sampler;
 use bssrdf::model::ModelInfo;
 use bssrdf::nn::{Dense, INPUT_DIM, LATENT_DIM, Mlp, Normalisation, ShapeAdaptiveModel, Workspace};
 use learn::cvae::{
@@ -31,7 +32,6 @@ use learn::cvae::{
 };
 use learn::mlp_grad::{MlpTape, dense_backward};
 use learn::optim::{Adam, AdamConfig, AdamState};
-use volpath::rng::Sampler;
 
 fn assert_close(label: &str, analytic: &[f32], fd: &[f64]) {
     let gmax = analytic.iter().fold(0.0f32, |a, b| a.max(b.abs())) as f64;

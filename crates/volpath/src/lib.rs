@@ -7,20 +7,18 @@
 //! * [`integrator`]: radiance along a ray (free flights, NEE, dielectric boundary, roulette).
 //! * [`derivative`]: ∂I/∂σ_t and ∂I/∂α of the same paths, from each path's throughput.
 //! * [`spectral`]: hero-channel spectral MIS for RGB extinction.
-//! * [`phase`]: Henyey–Greenstein sampling and evaluation.
-//! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
+//! * [`phase`], [`fresnel`], [`rng`]: from the `base` crate.
 //! * [`manifold`]: next-event estimation through one refraction (η > 1 with point lights).
 //! * [`render`]: parallel, reproducible image rendering.
 //! * [`shadow`]: transmittance of the shadow rays (exact or tracked).
-//! * [`rng`]: seeded per-pixel random streams.
 
 pub mod derivative;
-pub mod fresnel;
+/// Fresnel, the phase function and the random streams live in `base`, shared with the other
+/// renderers; re-exported here under their old paths.
+pub use base::{fresnel, phase, rng};
 pub mod integrator;
 pub mod manifold;
-pub mod phase;
 pub mod render;
-pub mod rng;
 pub mod shadow;
 pub mod spectral;
 

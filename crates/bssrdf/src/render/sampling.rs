@@ -24,8 +24,8 @@
 //!
 //! Past 2¹⁶ samples per channel the sequence falls back to independent uniforms.
 
-use volpath::render::pixel_jitter;
-use volpath::rng::{Sampler, hash_key};
+use base::pixel::pixel_jitter;
+use base::rng::{Sampler, hash_key};
 
 use crate::nn::LATENT_DIM;
 

@@ -20,8 +20,8 @@
 //! exit (after [`MAX_TRIES`]) proposes NaN, which [`crate::render::place_and_project`] treats as
 //! an invalid sample (value 0).
 
+use base::rng::Sampler;
 use glam::Vec3;
-use volpath::rng::Sampler;
 
 use super::{LearnedScene, Pending};
 use crate::nn::POSITION_DIM;

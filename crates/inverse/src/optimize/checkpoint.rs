@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
+use base::optim::{Adam, AdamState};
 use bssrdf::nn::ShapeAdaptiveModel;
 use geometry::Accel;
-use learn::optim::{Adam, AdamState};
 use scene::Medium;
 use serde::{Deserialize, Serialize};
 

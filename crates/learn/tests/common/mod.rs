@@ -5,12 +5,12 @@
 
 #![allow(dead_code)]
 
+use base::rng::Sampler;
 use bssrdf::model::ModelInfo;
 use bssrdf::nn::{
     Dense, INPUT_DIM, LATENT_DIM, Mlp, Normalisation, POSITION_DIM, ShapeAdaptiveModel,
 };
 use learn::cvae::{Widths, flat_to_params, init_model, params_to_flat};
-use volpath::rng::Sampler;
 
 pub const H: f64 = 1e-6;
 pub const MARGIN: f64 = 1e-4;
