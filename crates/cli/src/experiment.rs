@@ -29,6 +29,7 @@ use scene::rig::Rig;
 use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
+mod gradients;
 mod report;
 mod robustness;
 mod timing;
@@ -51,6 +52,10 @@ pub enum ExperimentCommand {
     /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
     /// `--mitsuba-python`.
     Timing(timing::TimingArgs),
+    /// Derivative images of the learned renderer's estimators (ours, naive) against central
+    /// differences on a cone and a blob (paper Fig. 3 and 5): relative error of the summed
+    /// derivative and per-pixel correlation.
+    Gradients(gradients::GradientsArgs),
 }
 
 #[derive(Args)]
@@ -110,6 +115,7 @@ pub fn run(cmd: &ExperimentCommand) -> Result<()> {
         ExperimentCommand::Accuracy(a) => accuracy(a),
         ExperimentCommand::Robustness(a) => robustness::run(a),
         ExperimentCommand::Timing(a) => timing::run(a),
+        ExperimentCommand::Gradients(a) => gradients::run(a),
     }
 }
 

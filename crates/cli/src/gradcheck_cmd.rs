@@ -4,14 +4,14 @@
 //! methods are comparable) and EXRs, with a summary per method: the image-summed derivative per
 //! channel, its relative error against `fd`, and the per-pixel correlation with `fd`.
 
-use std::path::PathBuf;
-use std::time::Instant;
-
 use anyhow::{Context, Result, bail};
-use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Primal, render_diff};
+use bssrdf::diff::{DiffMethod, Primal};
 use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
 use clap::Args;
 use scene::{Dataset, Image, Medium};
+use std::path::PathBuf;
+
+use inverse::gradcheck::{EstimatorImages, agreement, render_estimators};
 
 use crate::common::{LearnedArgs, build_accel, parse_rgb};
 
@@ -54,38 +54,6 @@ pub struct GradcheckArgs {
     pub learned: LearnedArgs,
 }
 
-fn sums(img: &Image) -> [f64; 3] {
-    let mut s = [0.0; 3];
-    for p in &img.data {
-        for c in 0..3 {
-            s[c] += p[c] as f64;
-        }
-    }
-    s
-}
-
-/// Pearson correlation of the per-pixel values (all channels together).
-fn correlation(a: &Image, b: &Image) -> f64 {
-    let xs: Vec<(f64, f64)> = a
-        .data
-        .iter()
-        .zip(&b.data)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] as f64, q[c] as f64)))
-        .collect();
-    let n = xs.len().max(1) as f64;
-    let (ma, mb) = (
-        xs.iter().map(|x| x.0).sum::<f64>() / n,
-        xs.iter().map(|x| x.1).sum::<f64>() / n,
-    );
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in &xs {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    sab / (saa * sbb).sqrt().max(1e-300)
-}
-
 pub fn run(a: &GradcheckArgs) -> Result<()> {
     let ds = Dataset::load(&a.dataset)?;
     let Some(view) = ds.views.get(a.view) else {
@@ -120,31 +88,23 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         seed: a.seed,
         view: a.view as u64,
     };
-    let mut methods: Vec<DiffMethod> = a
+    let methods: Vec<DiffMethod> = a
         .methods
         .iter()
         .map(|m| m.parse())
         .collect::<Result<_, _>>()?;
-    methods.retain(|m| *m != DiffMethod::Fd);
-    methods.push(DiffMethod::Fd);
     std::fs::create_dir_all(&a.out)?;
-    let mut results: Vec<(DiffMethod, DiffImages, f64)> = Vec::new();
-    for &m in &methods {
-        let t0 = Instant::now();
-        let ds = DiffSettings {
-            method: m,
-            delta_rel: a.delta_rel,
-            primal: a.primal,
-            ..DiffSettings::default()
-        };
-        let img = render_diff(&scene, &view.camera, &view.light, &rs, &ds, None)?;
-        results.push((m, img, t0.elapsed().as_secs_f64()));
-    }
-    let fd = &results.last().expect("fd is always there").1;
-    let zero = Image::new(fd.value.width, fd.value.height);
-    // One colour range per parameter: the 99th percentile of |fd|.
-    let (_, r_t) = Image::false_colour_diff_with_range(&fd.d_sigma_t, &zero, None)?;
-    let (_, r_a) = Image::false_colour_diff_with_range(&fd.d_albedo, &zero, None)?;
+    let results = render_estimators(
+        &scene,
+        &view.camera,
+        &view.light,
+        &rs,
+        &rs,
+        &methods,
+        a.delta_rel,
+        a.primal,
+    )?;
+    write_estimators(&results, &a.out, a.overwrite)?;
     println!(
         "view {} of {}, σ_t = {:?}, α = {:?}, {} spp",
         a.view,
@@ -164,44 +124,63 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         "rel.err",
         "corr"
     );
-    let (ft, fa) = (sums(&fd.d_sigma_t), sums(&fd.d_albedo));
-    let rel = |s: [f64; 3], f: [f64; 3]| {
-        let num: f64 = (0..3).map(|c| (s[c] - f[c]).powi(2)).sum::<f64>().sqrt();
-        let den: f64 = (0..3).map(|c| f[c].powi(2)).sum::<f64>().sqrt();
-        num / den.max(1e-300)
-    };
+    let fd = &results.last().expect("fd is always there").images;
     let mut csv = String::from("method,seconds,channel,sum_d_sigma_t,sum_d_albedo\n");
-    for (m, img, secs) in &results {
-        let (st, sa) = (sums(&img.d_sigma_t), sums(&img.d_albedo));
+    for r in &results {
+        let g = agreement(&r.images, fd);
+        let (st, sa) = (g.sum_d_sigma_t, g.sum_d_albedo);
         println!(
             "{:<20} {:>8.2} | {:>+11.3e} {:>+11.3e} {:>+11.3e} {:>8.3} {:>6.3} | {:>+11.3e} {:>+11.3e} {:>+11.3e} {:>8.3} {:>6.3}",
-            m.name(),
-            secs,
+            r.method.name(),
+            r.seconds,
             st[0],
             st[1],
             st[2],
-            rel(st, ft),
-            correlation(&img.d_sigma_t, &fd.d_sigma_t),
+            g.relative_error[0],
+            g.correlation[0],
             sa[0],
             sa[1],
             sa[2],
-            rel(sa, fa),
-            correlation(&img.d_albedo, &fd.d_albedo)
+            g.relative_error[1],
+            g.correlation[1]
         );
         for c in 0..3 {
-            csv.push_str(&format!("{},{secs},{c},{},{}\n", m.name(), st[c], sa[c]));
-        }
-        for (what, d, r) in [
-            ("d_sigma_t", &img.d_sigma_t, r_t),
-            ("d_albedo", &img.d_albedo, r_a),
-        ] {
-            let stem = format!("{}_{what}", m.name());
-            d.write_exr(&a.out.join(format!("{stem}.exr")), a.overwrite)?;
-            let (fc, _) = Image::false_colour_diff_with_range(d, &zero, Some(r))?;
-            fc.write_png(&a.out.join(format!("{stem}.png")), 1.0, a.overwrite)?;
+            csv.push_str(&format!(
+                "{},{},{c},{},{}\n",
+                r.method.name(),
+                r.seconds,
+                st[c],
+                sa[c]
+            ));
         }
     }
     scene::fsutil::atomic_write(&a.out.join("gradcheck.csv"), csv.as_bytes(), a.overwrite)?;
     println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// Writes each estimator's two derivative images as EXR and as false-colour PNG
+/// (`<method>_d_sigma_t`, `<method>_d_albedo`), one colour range per parameter: the 99th
+/// percentile of the differences' |∂I| (the last of `results`), so the estimators compare.
+pub fn write_estimators(
+    results: &[EstimatorImages],
+    out: &std::path::Path,
+    overwrite: bool,
+) -> Result<()> {
+    let fd = &results.last().context("no derivative images")?.images;
+    let zero = Image::new(fd.value.width, fd.value.height);
+    let (_, r_t) = Image::false_colour_diff_with_range(&fd.d_sigma_t, &zero, None)?;
+    let (_, r_a) = Image::false_colour_diff_with_range(&fd.d_albedo, &zero, None)?;
+    for r in results {
+        for (what, d, range) in [
+            ("d_sigma_t", &r.images.d_sigma_t, r_t),
+            ("d_albedo", &r.images.d_albedo, r_a),
+        ] {
+            let stem = format!("{}_{what}", r.method.name());
+            d.write_exr(&out.join(format!("{stem}.exr")), overwrite)?;
+            let (fc, _) = Image::false_colour_diff_with_range(d, &zero, Some(range))?;
+            fc.write_png(&out.join(format!("{stem}.png")), 1.0, overwrite)?;
+        }
+    }
     Ok(())
 }

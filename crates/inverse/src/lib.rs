@@ -4,13 +4,15 @@
 //! checkpoints ([`optimize`]), its reports ([`report`]), the uncertainty of an estimate from the
 //! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
 //! ([`consistency`]), the tracer's own sensitivity along the σ_t valley ([`sensitivity`]) and the parametric-bootstrap bias correction of a recovered medium
-//! ([`bootstrap`]), and the seconds per iteration of every model × estimator ([`timing`]). The
+//! ([`bootstrap`]), the learned estimators' derivative images against differences
+//! ([`gradcheck`]), and the seconds per iteration of every model × estimator ([`timing`]). The
 //! gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
 pub mod bootstrap;
 pub mod consistency;
 pub mod forward;
+pub mod gradcheck;
 pub mod health;
 pub mod optimize;
 pub mod params;

@@ -898,3 +898,53 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
     let other = fails(d, &["-q", "experiment", "timing", "--out", "tm"]);
     assert_stderr_has(&other, &["another"]);
 }
+
+/// `experiment gradients --quick`: a row per scene × estimator (ours, naive, and the differences
+/// as the reference, which agree with themselves), the derivative images in false colour, and a
+/// second run that reuses the images.
+#[test]
+fn experiment_gradients_quick_compares_estimators_with_differences() {
+    let t = tmp();
+    let d = t.path();
+    ok(
+        d,
+        &["-q", "experiment", "gradients", "--quick", "--out", "g"],
+    );
+    let csv = std::fs::read_to_string(d.join("g/gradients.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let names: Vec<String> = rows.iter().map(|r| format!("{} {}", r[0], r[1])).collect();
+    assert_eq!(
+        names,
+        [
+            "cone ours",
+            "cone naive",
+            "cone fd",
+            "blob ours",
+            "blob naive",
+            "blob fd"
+        ]
+    );
+    for r in &rows {
+        let v: Vec<f64> = r[2..6].iter().map(|x| x.parse().unwrap()).collect();
+        assert!(v.iter().all(|x| x.is_finite()), "{r:?}");
+        if r[1] == "fd" {
+            assert_eq!(v, [0.0, 1.0, 0.0, 1.0]);
+        }
+    }
+    for f in [
+        "cone/ours_d_sigma_t.png",
+        "blob/naive_d_albedo.exr",
+        "gradients.md",
+    ] {
+        assert!(d.join("g").join(f).is_file(), "{f}");
+    }
+    let again = ok(
+        d,
+        &["-q", "experiment", "gradients", "--quick", "--out", "g"],
+    );
+    assert!(again.stdout.contains("reusing"), "{}", again.stdout);
+}

@@ -1,0 +1,218 @@
+//! `translucent experiment gradients` (Son et al. 2024, Fig. 3 and 5: naive differentiation
+//! misses the boundary term, ours matches finite differences): derivative images ∂I/∂σ_t and
+//! ∂I/∂α of one view of a cone and of a blob, lit from above and beside, by the learned
+//! renderer's estimators `ours` and `naive` and by central differences of full renders with
+//! independent random numbers and four times the samples ([`inverse::gradcheck`]). Per scene and estimator: the relative error of the image-summed
+//! derivative against the differences and the per-pixel correlation with them, in a table
+//! (`OUT/gradients.md`, `gradients.csv`), and the derivative images in false colour
+//! (`OUT/<scene>/<estimator>_d_sigma_t.png` …, one colour range per parameter).
+//!
+//! A scene whose images are all there is not rendered again (an interrupted run continues with
+//! the missing scenes); other settings need another `--out`.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use bssrdf::diff::{DiffMethod, Primal};
+use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
+use clap::Args;
+use geometry::Shape;
+use inverse::gradcheck::{Agreement, agreement, render_estimators};
+use scene::rig::RigLight;
+use scene::{Dataset, Image, Medium, MeshSource};
+
+use crate::dataset_cmd::{RenderOpts, house_rig, make_dataset};
+use crate::gradcheck_cmd::write_estimators;
+
+#[derive(Args)]
+pub struct GradientsArgs {
+    /// Output folder.
+    #[arg(long, default_value = "out/experiment-gradients")]
+    pub out: PathBuf,
+    /// Image width and height.
+    #[arg(long, default_value_t = 256)]
+    pub res: u32,
+    /// Samples per pixel of the estimators' derivative renders (the differences: four times).
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Seed of the renders.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A smoke test in seconds (32², 4 spp): not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// The estimators compared with the differences.
+const METHODS: [DiffMethod; 2] = [DiffMethod::Ours, DiffMethod::Naive];
+
+/// The scenes: a cone (the paper's Fig. 3) and a blob, with a medium of the paper's ranges.
+fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
+    let medium = Medium {
+        sigma_t: [60.0, 80.0, 100.0],
+        albedo: [0.95, 0.9, 0.85],
+        g: 0.0,
+        eta: 1.0,
+    };
+    Ok([
+        ("cone", Shape::from_name("cone")?, medium),
+        ("blob", Shape::from_name("blob")?, medium),
+    ])
+}
+
+pub fn run(a: &GradientsArgs) -> Result<()> {
+    let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let model = crate::common::LearnedArgs::shipped_model()?;
+    let settings = format!("{res}² × {spp} spp, seed {}", a.seed);
+    let stamp = a.out.join("settings.txt");
+    match std::fs::read_to_string(&stamp) {
+        Ok(s) if s != settings => {
+            bail!("{} holds a run at {s}; use another --out", a.out.display())
+        }
+        _ => {
+            std::fs::create_dir_all(&a.out)?;
+            std::fs::write(&stamp, &settings)?;
+        }
+    }
+    let mut rows: Vec<(String, DiffMethod, Agreement, f64)> = Vec::new();
+    for (name, shape, medium) in scenes()? {
+        let dir = a.out.join(name);
+        let data = dir.join("data");
+        let ds = if data.join("dataset.json").exists() {
+            Dataset::load(&data)?
+        } else {
+            let rig = house_rig(
+                1,
+                res,
+                RigLight::Fixed {
+                    position: geometry::Vec3::new(1.6, 1.4, 0.4),
+                },
+                (20.0, 20.0),
+            );
+            make_dataset(
+                &rig,
+                MeshSource::Shape(shape),
+                medium,
+                RenderOpts {
+                    spp: 4,
+                    seed: a.seed,
+                    max_depth: 32,
+                    shadow: Default::default(),
+                },
+                &data,
+                false,
+            )?
+        };
+        let view = ds.views.first().context("the scene has no view")?;
+        let (mesh, warnings) = ds.load_mesh()?;
+        let accel = crate::common::build_accel(mesh, &warnings, name);
+        let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, a.seed)?;
+        let scene = LearnedScene::new(&accel, &model, &features, medium, Default::default())?;
+        let rs = RenderSettings {
+            spp,
+            seed: a.seed,
+            view: 0,
+        };
+        // The differences: an independent render (another seed) at four times the samples.
+        let reference = RenderSettings {
+            spp: 4 * spp,
+            seed: a.seed ^ 0xFD,
+            view: 0,
+        };
+        let done = |m: DiffMethod| dir.join(format!("{}_d_albedo.exr", m.name())).exists();
+        let results = if METHODS.iter().chain([&DiffMethod::Fd]).all(|m| done(*m)) {
+            println!("{name}: reusing {}", dir.display());
+            reread(&dir)?
+        } else {
+            let pb = crate::common::progress(0, &format!("{name}: ours, naive, fd"));
+            let r = render_estimators(
+                &scene,
+                &view.camera,
+                &view.light,
+                &rs,
+                &reference,
+                &METHODS,
+                0.02,
+                Primal::default(),
+            )?;
+            pb.finish_and_clear();
+            write_estimators(&r, &dir, true)?;
+            r.into_iter()
+                .map(|e| (e.method, e.images, e.seconds))
+                .collect()
+        };
+        let fd = &results.last().expect("fd is last").1;
+        for (m, img, secs) in &results {
+            rows.push((name.to_string(), *m, agreement(img, fd), *secs));
+        }
+    }
+    let (md, csv) = tables(&rows, &settings, a.quick);
+    print!("{md}");
+    std::fs::write(a.out.join("gradients.md"), md)?;
+    std::fs::write(a.out.join("gradients.csv"), csv)?;
+    println!(
+        "wrote {} (gradients.md, gradients.csv, <scene>/<estimator>_d_*.png)",
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// The derivative images of a finished scene, read back (the value image is not kept, and the
+/// seconds are not known: NaN).
+fn reread(dir: &std::path::Path) -> Result<Vec<(DiffMethod, bssrdf::diff::DiffImages, f64)>> {
+    METHODS
+        .iter()
+        .chain([&DiffMethod::Fd])
+        .map(|&m| {
+            let read = |what: &str| Image::read_exr(&dir.join(format!("{}_{what}.exr", m.name())));
+            let d_sigma_t = read("d_sigma_t")?;
+            let images = bssrdf::diff::DiffImages {
+                value: Image::new(d_sigma_t.width, d_sigma_t.height),
+                d_albedo: read("d_albedo")?,
+                d_sigma_t,
+            };
+            Ok((m, images, f64::NAN))
+        })
+        .collect()
+}
+
+/// The Markdown and CSV tables.
+fn tables(
+    rows: &[(String, DiffMethod, Agreement, f64)],
+    settings: &str,
+    quick: bool,
+) -> (String, String) {
+    let mut md = format!(
+        "Derivative images against central differences, {settings}{}\n\n\
+         | scene | estimator | Σ∂I/∂σ_t rel. error | ∂I/∂σ_t correlation | Σ∂I/∂α rel. error | ∂I/∂α correlation | seconds |\n\
+         |---|---|---|---|---|---|---|\n",
+        if quick {
+            " — QUICK: a smoke test, not a measurement"
+        } else {
+            ""
+        }
+    );
+    let mut csv = String::from(
+        "scene,estimator,sigma_t_relative_error,sigma_t_correlation,albedo_relative_error,albedo_correlation,seconds\n",
+    );
+    for (scene, m, g, secs) in rows {
+        md.push_str(&format!(
+            "| {scene} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {secs:.1} |\n",
+            m.name(),
+            g.relative_error[0],
+            g.correlation[0],
+            g.relative_error[1],
+            g.correlation[1]
+        ));
+        csv.push_str(&format!(
+            "{scene},{},{},{},{},{},{secs}\n",
+            m.name(),
+            g.relative_error[0],
+            g.correlation[0],
+            g.relative_error[1],
+            g.correlation[1]
+        ));
+    }
+    (md, csv)
+}
