@@ -24,12 +24,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use geometry::Shape;
+use inverse::forward::ModelKind;
 use inverse::params::Params;
 use scene::rig::Rig;
 use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
 mod gradients;
+mod planar;
 mod report;
 mod robustness;
 mod timing;
@@ -56,6 +58,9 @@ pub enum ExperimentCommand {
     /// differences on a cone and a blob (paper Fig. 3 and 5): relative error of the summed
     /// derivative and per-pixel correlation.
     Gradients(gradients::GradientsArgs),
+    /// The paper's comparison with the planar dipole (Fig. 6): ours, naive and the dipole on
+    /// three shapes × two media; errors over iterations and re-renders side by side.
+    Planar(planar::PlanarArgs),
 }
 
 #[derive(Args)]
@@ -112,19 +117,27 @@ pub struct AccuracyArgs {
 
 pub fn run(cmd: &ExperimentCommand) -> Result<()> {
     match cmd {
-        ExperimentCommand::Accuracy(a) => accuracy(a),
+        ExperimentCommand::Accuracy(a) => accuracy(a).map(|_| ()),
         ExperimentCommand::Robustness(a) => robustness::run(a),
         ExperimentCommand::Timing(a) => timing::run(a),
         ExperimentCommand::Gradients(a) => gradients::run(a),
+        ExperimentCommand::Planar(a) => planar::run(a),
     }
 }
 
-fn accuracy(a: &AccuracyArgs) -> Result<()> {
+fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
         bail!("--shapes, --methods and --media must name at least one of each");
     }
     for m in &a.methods {
-        m.parse::<bssrdf::diff::DiffMethod>()?;
+        if baseline_model(m).is_none() {
+            m.parse::<bssrdf::diff::DiffMethod>().map_err(|_| {
+                anyhow::anyhow!(
+                    "--methods: unknown method {m:?} (expected ours, ours-alpha-offsets, naive, \
+                     fd, or a baseline model: dipole, volpath)"
+                )
+            })?;
+        }
     }
     let shapes: Vec<Shape> = a
         .shapes
@@ -179,7 +192,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
             let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
             let row = optimize(a, dir, &run_dir, method, default_init, medium, name)?;
             let mut corrected = Vec::new();
-            if a.bc.enabled() {
+            if a.bc.enabled() && baseline_model(method).is_none() {
                 for step in 1..=a.bc.bias_correction_steps {
                     let current = corrected.last().unwrap_or(&row);
                     let next =
@@ -248,7 +261,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<()> {
             ", inits.png"
         }
     );
-    Ok(())
+    Ok(rows)
 }
 
 /// Step `step` of the parametric-bootstrap correction of `row` (`inverse::bootstrap`): the
@@ -374,7 +387,12 @@ pub(crate) fn run_args(
     init: Params,
 ) -> OptimizeArgs {
     let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    o.method = Some(method.to_string());
+    o.learned = a.learned.clone();
+    match baseline_model(method) {
+        // A baseline model with its default estimator.
+        Some(m) => o.learned.model = Some(m.name().into()),
+        None => o.method = Some(method.to_string()),
+    }
     o.budget = a.budget;
     o.scaled_sigma_t = a.scaled_sigma_t;
     o.albedo_warmup = a.albedo_warmup;
@@ -382,10 +400,17 @@ pub(crate) fn run_args(
     o.init_albedo = init.albedo.map(|v| v as f32);
     o.seed = a.seed;
     o.final_spp = 16;
-    o.learned = a.learned.clone();
     // The experiment corrects its runs itself (rows `<method>+bc`).
     o.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
     o
+}
+
+/// The baseline model a `--methods` entry names (`dipole`, `volpath`), if it names one.
+pub(crate) fn baseline_model(method: &str) -> Option<ModelKind> {
+    method
+        .parse::<ModelKind>()
+        .ok()
+        .filter(|m| *m != ModelKind::Learned)
 }
 
 /// Run (or resume, or reuse) one optimisation and read its result.

@@ -237,7 +237,7 @@ pub(super) fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
 }
 
 /// (iteration, σ_t R/G/B, α R/G/B) per row of an `iterations.csv`.
-fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
+pub(super) fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     text.lines()

@@ -948,3 +948,35 @@ fn experiment_gradients_quick_compares_estimators_with_differences() {
     );
     assert!(again.stdout.contains("reusing"), "{}", again.stdout);
 }
+
+/// `experiment planar --quick`: ours, naive and the dipole on three shapes, the table holding
+/// every method, an error figure (PNG and SVG) and the side-by-side re-renders per case, and the
+/// dipole's runs made with the dipole model.
+#[test]
+fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
+    let t = tmp();
+    let d = t.path();
+    ok(d, &["-q", "experiment", "planar", "--quick", "--out", "p"]);
+    let csv = std::fs::read_to_string(d.join("p/results.csv")).unwrap();
+    for m in ["ours", "naive", "dipole"] {
+        assert_eq!(
+            csv.lines()
+                .filter(|l| l.contains(&format!(",{m},")))
+                .count(),
+            3,
+            "{m}:\n{csv}"
+        );
+    }
+    assert!(!csv.contains("+bc"));
+    for case in ["blob-m0", "torus-m0", "cone-m0"] {
+        for f in [
+            format!("planar-{case}.png"),
+            format!("planar-{case}.svg"),
+            format!("renders-{case}.png"),
+        ] {
+            assert!(d.join("p").join(&f).is_file(), "{f}");
+        }
+    }
+    let res = read_json(&d.join("p/runs/cone-m0-dipole/result.json"));
+    assert_eq!(res["config"]["model"], "dipole");
+}

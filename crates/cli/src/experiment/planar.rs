@@ -1,0 +1,147 @@
+//! `translucent experiment planar` (Son et al. 2024, Fig. 6: ours beats naive differentiation and
+//! the planar dipole, with sharper re-renders): the accuracy experiment
+//! ([`super::accuracy`]) with the methods `ours`, `naive` and the planar dipole baseline
+//! (`optimize --model dipole`), on three shapes × two media, without random initialisations or
+//! bias correction (the paper compares the plain methods). Besides
+//! its table (`OUT/table.md`, `results.csv`), per case a figure of the σ_t and α errors over the
+//! iterations, one line per method (`OUT/planar-<case>.png` and `.svg`), and the re-renders of
+//! the first view side by side with the target (`OUT/renders-<case>.png`: target, then each
+//! method, one exposure).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use plot::{Figure, Panel, Series};
+use scene::Image;
+
+use super::report::{Row, read_trajectory};
+use super::{AccuracyArgs, accuracy};
+use crate::common::arg_defaults;
+use crate::optimize_cmd::IterationArgs;
+
+#[derive(Args)]
+pub struct PlanarArgs {
+    /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
+    #[arg(long, default_value = "out/experiment-planar")]
+    pub out: PathBuf,
+    /// Built-in shapes (comma-separated, as `experiment accuracy --shapes`).
+    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
+    pub shapes: Vec<String>,
+    /// Hidden media per shape, drawn from the paper's ranges.
+    #[arg(long, default_value_t = 2)]
+    pub media: u64,
+    #[command(flatten)]
+    pub budget: IterationArgs,
+    /// Seed of the media, the renders and the runs.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// The methods compared (paper Fig. 6).
+const METHODS: [&str; 3] = ["ours", "naive", "dipole"];
+
+pub fn run(a: &PlanarArgs) -> Result<()> {
+    let out = a.out.to_string_lossy().to_string();
+    let mut acc: AccuracyArgs = arg_defaults(&["--out", &out]);
+    acc.shapes = a.shapes.clone();
+    acc.media = a.media;
+    acc.budget = a.budget;
+    acc.seed = a.seed;
+    acc.methods = METHODS.map(String::from).to_vec();
+    acc.inits = 0;
+    // The paper compares the plain methods.
+    acc.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
+    if a.quick {
+        (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
+        (acc.budget.iterations, acc.budget.spp) = (6, 2);
+    }
+    let rows = accuracy(&acc)?;
+    let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
+    cases.dedup();
+    for case in cases {
+        let of_case: Vec<&Row> = rows.iter().filter(|r| r.case == case).collect();
+        let fig = error_figure(case, &of_case)?;
+        fig.write_png(&a.out.join(format!("planar-{case}.png")), true)?;
+        fig.write_svg(&a.out.join(format!("planar-{case}.svg")), true)?;
+        let (renders, exposure) = side_by_side(&of_case)?;
+        renders.write_png(&a.out.join(format!("renders-{case}.png")), exposure, true)?;
+    }
+    println!(
+        "wrote {} (planar-<case>.png/.svg: errors over iterations; renders-<case>.png: target, {})",
+        a.out.display(),
+        METHODS.join(", ")
+    );
+    Ok(())
+}
+
+/// σ_t relative error (%, RMS over the channels) and α absolute error (RMS) over the
+/// iterations, one line per method.
+fn error_figure(case: &str, rows: &[&Row]) -> Result<Figure> {
+    let mut sigma = Vec::new();
+    let mut albedo = Vec::new();
+    for r in rows {
+        let t = read_trajectory(&r.run_dir.join("iterations.csv"))?;
+        let rms = |f: &dyn Fn(usize, &[f64; 7]) -> f64, p: &[f64; 7]| {
+            ((0..3).map(|c| f(c, p).powi(2)).sum::<f64>() / 3.0).sqrt()
+        };
+        let s = |c: usize, p: &[f64; 7]| 100.0 * (p[1 + c] / r.truth.sigma_t[c] - 1.0);
+        let al = |c: usize, p: &[f64; 7]| p[4 + c] - r.truth.albedo[c];
+        sigma.push(Series::new(
+            r.method.clone(),
+            t.iter().map(|p| (p[0], rms(&s, p))).collect(),
+        ));
+        albedo.push(Series::new(
+            r.method.clone(),
+            t.iter().map(|p| (p[0], rms(&al, p))).collect(),
+        ));
+    }
+    let panel = |title: String, y_label: &str, series| Panel {
+        title,
+        x_label: "iteration".into(),
+        y_label: y_label.into(),
+        log_y: true,
+        series,
+        reference_lines: Vec::new(),
+    };
+    Ok(Figure::new(
+        vec![
+            panel(format!("{case}: σ_t error"), "RMS over channels, %", sigma),
+            panel(format!("{case}: α error"), "RMS over channels", albedo),
+        ],
+        2,
+    ))
+}
+
+/// The first view's target, then each method's re-render, side by side, with their shared
+/// exposure.
+fn side_by_side(rows: &[&Row]) -> Result<(Image, f32)> {
+    let first = rows.first().context("no runs")?;
+    let read = |p: PathBuf| Image::read_exr(&p).with_context(|| format!("reading {}", p.display()));
+    // Runs are OUT/runs/<case>-<method>, datasets OUT/data/<case>.
+    let data = first.run_dir.join("../../data").join(&first.case);
+    let dataset = scene::Dataset::load(&data)?;
+    let target = dataset
+        .views
+        .first()
+        .and_then(|v| v.image.clone())
+        .context("the dataset has no images")?;
+    let mut images = vec![target];
+    for r in rows {
+        images.push(read(r.run_dir.join("final/view_000.exr"))?);
+    }
+    let (w, h) = (images[0].width, images[0].height);
+    let mut out = Image::new(w * images.len() as u32, h);
+    for (k, img) in images.iter().enumerate() {
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                out.data[y * out.width as usize + k * w as usize + x] =
+                    img.data[y * w as usize + x];
+            }
+        }
+    }
+    Ok((out, scene::image::auto_exposure(&images)))
+}
