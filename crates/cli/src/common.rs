@@ -67,6 +67,37 @@ pub struct RenderReport {
     pub seconds_per_view: Vec<f64>,
 }
 
+/// One view's render: the image, and its two derivative images when asked for.
+type ViewRender = (Image, Option<[Image; 2]>);
+
+/// Renders every view with `render(view, settings)` (the settings of view i: `spp`, `seed`,
+/// view index i), timing each.
+fn render_each(
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    mut render: impl FnMut(&ViewDesc, &RenderSettings) -> Result<ViewRender>,
+) -> Result<RenderReport> {
+    let mut report = RenderReport {
+        images: Vec::with_capacity(views.len()),
+        derivatives: Vec::new(),
+        seconds_per_view: Vec::with_capacity(views.len()),
+    };
+    for (i, v) in views.iter().enumerate() {
+        let rs = RenderSettings {
+            spp,
+            seed,
+            view: i as u64,
+        };
+        let t0 = Instant::now();
+        let (image, derivatives) = render(v, &rs)?;
+        report.images.push(image);
+        report.derivatives.extend(derivatives);
+        report.seconds_per_view.push(t0.elapsed().as_secs_f64());
+    }
+    Ok(report)
+}
+
 /// Render every view with the volumetric path tracer; one progress bar over all rows.
 pub fn render_views(
     accel: &Accel,
@@ -93,12 +124,9 @@ pub fn render_views_with(
 ) -> RenderReport {
     let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
     let pb = progress(rows, "volpath");
-    let mut images = Vec::with_capacity(views.len());
-    let mut grads = Vec::new();
-    let mut secs = Vec::with_capacity(views.len());
     // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
     let mut lists: Option<LightBins> = None;
-    for (i, v) in views.iter().enumerate() {
+    let report = render_each(views, spp, seed, |v, rs| {
         let mut scene = VolpathScene {
             accel,
             medium: *medium,
@@ -110,27 +138,19 @@ pub fn render_views_with(
             lists = shadow_lists(&scene, settings);
         }
         scene.light_bins = lists.as_ref();
-        let rs = RenderSettings {
-            spp,
-            seed,
-            view: i as u64,
-        };
-        let t0 = Instant::now();
-        if derivatives {
-            let d = volpath::render_derivatives(&scene, settings, &v.camera, &rs, Some(&pb));
-            images.push(d.value);
-            grads.push([d.d_sigma_t, d.d_albedo]);
+        Ok(if derivatives {
+            let d = volpath::render_derivatives(&scene, settings, &v.camera, rs, Some(&pb));
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
         } else {
-            images.push(render_image(&scene, settings, &v.camera, &rs, Some(&pb)));
-        }
-        secs.push(t0.elapsed().as_secs_f64());
-    }
+            (
+                render_image(&scene, settings, &v.camera, rs, Some(&pb)),
+                None,
+            )
+        })
+    })
+    .expect("the volumetric renders do not fail");
     pb.finish_and_clear();
-    RenderReport {
-        images,
-        derivatives: grads,
-        seconds_per_view: secs,
-    }
+    report
 }
 
 /// Render every view with the planar dipole baseline ([`bssrdf::dipole`]), with each view's
@@ -146,33 +166,18 @@ pub fn render_views_dipole(
 ) -> Result<RenderReport> {
     let scene = bssrdf::dipole::DipoleScene::new(accel, *medium)?;
     let pb = progress(views.len() as u64, "dipole");
-    let mut images = Vec::with_capacity(views.len());
-    let mut grads = Vec::new();
-    let mut secs = Vec::with_capacity(views.len());
-    for (i, v) in views.iter().enumerate() {
-        let rs = RenderSettings {
-            spp,
-            seed,
-            view: i as u64,
-        };
-        let t0 = Instant::now();
+    let report = render_each(views, spp, seed, |v, rs| {
         let view = bssrdf::dipole::DipoleView::new(accel, &v.camera, &v.light);
-        if derivatives {
-            let d = bssrdf::dipole::render_derivatives(&scene, &view, &rs);
-            images.push(d.value);
-            grads.push([d.d_sigma_t, d.d_albedo]);
-        } else {
-            images.push(bssrdf::dipole::render_image(&scene, &view, &rs));
-        }
-        secs.push(t0.elapsed().as_secs_f64());
         pb.inc(1);
-    }
+        Ok(if derivatives {
+            let d = bssrdf::dipole::render_derivatives(&scene, &view, rs);
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
+        } else {
+            (bssrdf::dipole::render_image(&scene, &view, rs), None)
+        })
+    })?;
     pb.finish_and_clear();
-    Ok(RenderReport {
-        images,
-        derivatives: grads,
-        seconds_per_view: secs,
-    })
+    Ok(report)
 }
 
 /// Write `name.exr` and `name.png` into `dir` with a shared exposure.
@@ -525,36 +530,16 @@ pub fn render_views_learned_with(
     let scene = bssrdf::render::LearnedScene::new(accel, model, &features, *medium, settings)?;
     let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
     let pb = progress(rows, "learned");
-    let mut images = Vec::with_capacity(views.len());
-    let mut grads = Vec::new();
-    let mut secs = Vec::with_capacity(views.len());
-    for (i, v) in views.iter().enumerate() {
-        let rs = RenderSettings {
-            spp,
-            seed,
-            view: i as u64,
-        };
-        let t0 = Instant::now();
-        if derivatives {
+    let report = render_each(views, spp, seed, |v, rs| {
+        Ok(if derivatives {
             let ds = bssrdf::diff::DiffSettings::default();
-            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, &rs, &ds, Some(&pb))?;
-            images.push(d.value);
-            grads.push([d.d_sigma_t, d.d_albedo]);
+            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, rs, &ds, Some(&pb))?;
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
         } else {
-            images.push(bssrdf::render::render_image(
-                &scene,
-                &v.camera,
-                &v.light,
-                &rs,
-                Some(&pb),
-            )?);
-        }
-        secs.push(t0.elapsed().as_secs_f64());
-    }
+            let img = bssrdf::render::render_image(&scene, &v.camera, &v.light, rs, Some(&pb))?;
+            (img, None)
+        })
+    })?;
     pb.finish_and_clear();
-    Ok(RenderReport {
-        images,
-        derivatives: grads,
-        seconds_per_view: secs,
-    })
+    Ok(report)
 }

@@ -395,29 +395,8 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         }
         ModelKind::Learned => a.learned.load_model()?,
     };
-    let images: Vec<&Image> = ds
-        .views
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            v.image
-                .as_ref()
-                .with_context(|| format!("{}: view {i} has no image to fit", a.dataset.display()))
-        })
-        .collect::<Result<_>>()?;
-    for (i, img) in images.iter().enumerate() {
-        img.check_finite(&format!("{} view {i}", a.dataset.display()))?;
-    }
-    let targets: Vec<TargetView> = ds
-        .views
-        .iter()
-        .zip(&images)
-        .map(|(v, img)| TargetView {
-            camera: &v.camera,
-            light: &v.light,
-            image: img,
-        })
-        .collect();
+    let targets = TargetView::of_dataset(&ds, &a.dataset.display().to_string())?;
+    let images: Vec<&Image> = targets.iter().map(|t| t.image).collect();
     let base = ds.truth.unwrap_or(Medium {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],

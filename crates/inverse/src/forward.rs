@@ -50,13 +50,21 @@ pub trait ViewRenderer {
     /// The image and its derivatives with respect to σ_t and α.
     fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError>;
     /// One render's loss against `target` and its gradient, accumulated per pixel (the loss
-    /// derivative and the image derivatives from the same samples).
+    /// derivative and the image derivatives from the same samples; for L2 the product carries
+    /// their covariance: the single-render estimator of `--single-render`, where the default
+    /// split-sample gradient has none). By default from one derivative render; a model with a
+    /// fused loss render overrides it.
     fn loss_gradient(
         &self,
         rs: &RenderSettings,
         target: &Image,
         loss: Loss,
-    ) -> Result<LossGradient, InverseError>;
+    ) -> Result<LossGradient, InverseError> {
+        let d = self.derivatives(rs)?;
+        Ok(crate::optimize::decorrelated_gradient(
+            &d.value, &d, target, loss,
+        ))
+    }
 }
 
 /// Which forward model a recovery renders with.

@@ -26,6 +26,7 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
 use crate::forward::dipole::Dipole;
+use crate::forward::fd::Differencing;
 use crate::forward::learned::Learned;
 use crate::forward::volpath::Volpath;
 use crate::forward::{ForwardModel, ModelKind};
@@ -374,6 +375,28 @@ pub struct TargetView<'a> {
     pub light: &'a PointLight,
     /// Target image.
     pub image: &'a Image,
+}
+
+impl<'a> TargetView<'a> {
+    /// Every view of `ds` with its image (`what` names the dataset in errors): an error names
+    /// the first view without an image or with a non-finite pixel.
+    pub fn of_dataset(ds: &'a scene::Dataset, what: &str) -> Result<Vec<Self>, InverseError> {
+        ds.views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let image = v.image.as_ref().ok_or_else(|| {
+                    InverseError::Invalid(format!("{what}: view {i} has no image to fit"))
+                })?;
+                image.check_finite(&format!("{what} view {i}"))?;
+                Ok(TargetView {
+                    camera: &v.camera,
+                    light: &v.light,
+                    image,
+                })
+            })
+            .collect()
+    }
 }
 
 /// One row of the per-iteration history.
@@ -865,6 +888,11 @@ pub(crate) fn forward_model<'a>(
     accel: &'a Accel,
     model: &'a ShapeAdaptiveModel,
 ) -> Box<dyn ForwardModel + 'a> {
+    let differencing = Differencing {
+        method: config.method,
+        delta_rel: config.delta_rel,
+        delta_albedo: DiffSettings::default().delta_albedo,
+    };
     match config.model {
         ModelKind::Learned => Box::new(Learned::new(
             accel,
@@ -885,15 +913,8 @@ pub(crate) fn forward_model<'a>(
                 max_depth: config.volpath_max_depth.unwrap_or(32),
                 ..volpath::VolpathSettings::default()
             },
-            config.method,
-            config.delta_rel,
-            DiffSettings::default().delta_albedo,
+            differencing,
         )),
-        ModelKind::Dipole => Box::new(Dipole::new(
-            accel,
-            config.method,
-            config.delta_rel,
-            DiffSettings::default().delta_albedo,
-        )),
+        ModelKind::Dipole => Box::new(Dipole::new(accel, differencing)),
     }
 }

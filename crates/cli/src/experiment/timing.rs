@@ -131,21 +131,7 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = crate::common::build_accel(mesh, &warnings, "the timing dataset's mesh");
     accel.decide_all_supporting();
-    let images = ds
-        .views
-        .iter()
-        .map(|v| v.image.as_ref().context("the timing dataset has no images"))
-        .collect::<Result<Vec<_>>>()?;
-    let targets: Vec<TargetView> = ds
-        .views
-        .iter()
-        .zip(&images)
-        .map(|(v, img)| TargetView {
-            camera: &v.camera,
-            light: &v.light,
-            image: img,
-        })
-        .collect();
+    let targets = TargetView::of_dataset(&ds, "the timing dataset")?;
     let base = ds.truth.context("the timing dataset has no medium")?;
     let nets = crate::common::LearnedArgs::shipped_model()?;
     for (model, method) in all_pairs() {

@@ -4,34 +4,26 @@
 //! derivative of the dipole profile with the sample positions held fixed (DLW22), and `fd`,
 //! central differences of full renders ([`super::fd`]).
 
-use bssrdf::diff::{DiffImages, DiffMethod, Loss, LossGradient};
+use bssrdf::diff::DiffImages;
 use bssrdf::dipole::{DipoleScene, DipoleView, render_derivatives, render_image};
 use bssrdf::render::RenderSettings;
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 
-use super::fd::central_differences;
+use super::fd::Differencing;
 use super::{ForwardModel, MediumRenderer, ViewRenderer};
-use crate::optimize::{InverseError, decorrelated_gradient};
+use crate::optimize::InverseError;
 
 /// The dipole over one mesh.
 pub struct Dipole<'a> {
     accel: &'a Accel,
-    method: DiffMethod,
-    delta_rel: f32,
-    delta_albedo: f32,
+    estimator: Differencing,
 }
 
 impl<'a> Dipole<'a> {
-    /// The dipole over `accel`, differentiated by `method` (`ad` or `fd`, the latter with
-    /// relative σ_t step `delta_rel` and albedo step `delta_albedo`).
-    pub fn new(accel: &'a Accel, method: DiffMethod, delta_rel: f32, delta_albedo: f32) -> Self {
-        Dipole {
-            accel,
-            method,
-            delta_rel,
-            delta_albedo,
-        }
+    /// The dipole over `accel`, differentiated by `estimator` (`ad` or `fd`).
+    pub fn new(accel: &'a Accel, estimator: Differencing) -> Self {
+        Dipole { accel, estimator }
     }
 }
 
@@ -73,30 +65,11 @@ impl ViewRenderer for DipoleViewRenderer<'_> {
     }
 
     fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
-        let model = self.at.model;
-        match model.method {
-            DiffMethod::Fd => central_differences(
-                |m| {
-                    let scene = DipoleScene::new(model.accel, m)?;
-                    Ok(render_image(&scene, &self.view, rs))
-                },
-                self.at.scene.medium,
-                model.delta_rel,
-                model.delta_albedo,
-            ),
-            _ => Ok(render_derivatives(&self.at.scene, &self.view, rs)),
-        }
-    }
-
-    /// From one derivative render (the single-render estimator; the default split-sample
-    /// gradient pairs two).
-    fn loss_gradient(
-        &self,
-        rs: &RenderSettings,
-        target: &Image,
-        loss: Loss,
-    ) -> Result<LossGradient, InverseError> {
-        let d = self.derivatives(rs)?;
-        Ok(decorrelated_gradient(&d.value, &d, target, loss))
+        let accel = self.at.model.accel;
+        self.at.model.estimator.derivatives(
+            self.at.scene.medium,
+            |m| Ok(render_image(&DipoleScene::new(accel, m)?, &self.view, rs)),
+            || Ok(render_derivatives(&self.at.scene, &self.view, rs)),
+        )
     }
 }

@@ -10,10 +10,38 @@
 //! keep α ± Δα_c in [0, 1). The truncation error is O(Δ²); the estimate is a reference, not a
 //! fast estimator.
 
-use bssrdf::diff::DiffImages;
+use bssrdf::diff::{DiffImages, DiffMethod};
 use scene::{Image, Medium};
 
 use crate::optimize::InverseError;
+
+/// The estimator of a model whose choices are `ad` (its own analytic derivatives) and `fd`,
+/// with the steps of the latter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Differencing {
+    pub method: DiffMethod,
+    /// Relative σ_t step of `fd`.
+    pub delta_rel: f32,
+    /// Albedo step of `fd`.
+    pub delta_albedo: f32,
+}
+
+impl Differencing {
+    /// The derivative images at `medium`: by `fd` from the renders `render`, otherwise by `ad`.
+    pub fn derivatives(
+        &self,
+        medium: Medium,
+        render: impl Fn(Medium) -> Result<Image, InverseError>,
+        ad: impl FnOnce() -> Result<DiffImages, InverseError>,
+    ) -> Result<DiffImages, InverseError> {
+        match self.method {
+            DiffMethod::Fd => {
+                central_differences(render, medium, self.delta_rel, self.delta_albedo)
+            }
+            _ => ad(),
+        }
+    }
+}
 
 /// The largest albedo a perturbed render uses.
 const ALBEDO_CEILING: f32 = 0.9999;

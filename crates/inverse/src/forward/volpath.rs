@@ -5,42 +5,31 @@
 //! against targets it rendered; each view keeps its shadow-ray triangle lists. Estimators: `ad`
 //! (those per-path derivatives) and `fd` (central differences of full renders, [`super::fd`]).
 
-use bssrdf::diff::{DiffImages, DiffMethod, Loss, LossGradient};
+use bssrdf::diff::DiffImages;
 use bssrdf::render::RenderSettings;
 use geometry::{Accel, LightBins};
 use scene::{Camera, Image, Medium, PointLight};
 use volpath::{VolpathScene, VolpathSettings};
 
-use super::fd::central_differences;
+use super::fd::Differencing;
 use super::{ForwardModel, MediumRenderer, ViewRenderer};
-use crate::optimize::{InverseError, decorrelated_gradient};
+use crate::optimize::InverseError;
 
 /// The volumetric path tracer over one mesh.
 pub struct Volpath<'a> {
     accel: &'a Accel,
     settings: VolpathSettings,
-    method: DiffMethod,
-    delta_rel: f32,
-    delta_albedo: f32,
+    estimator: Differencing,
 }
 
 impl<'a> Volpath<'a> {
     /// The tracer over `accel` with `settings` (the dataset's maximum depth), differentiated by
-    /// `method` (`ad` or `fd`, the latter with relative σ_t step `delta_rel` and albedo step
-    /// `delta_albedo`).
-    pub fn new(
-        accel: &'a Accel,
-        settings: VolpathSettings,
-        method: DiffMethod,
-        delta_rel: f32,
-        delta_albedo: f32,
-    ) -> Self {
+    /// `estimator` (`ad` or `fd`).
+    pub fn new(accel: &'a Accel, settings: VolpathSettings, estimator: Differencing) -> Self {
         Volpath {
             accel,
             settings,
-            method,
-            delta_rel,
-            delta_albedo,
+            estimator,
         }
     }
 }
@@ -120,9 +109,9 @@ impl ViewRenderer for VolpathView<'_> {
     fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
         let scene = self.at.scene(self.light, self.bins.as_ref());
         let settings = &self.at.settings;
-        let model = self.at.model;
-        if model.method == DiffMethod::Fd {
-            let render = |medium| {
+        self.at.model.estimator.derivatives(
+            scene.medium,
+            |medium| {
                 let scene = VolpathScene { medium, ..scene };
                 Ok(volpath::render_image(
                     &scene,
@@ -131,27 +120,15 @@ impl ViewRenderer for VolpathView<'_> {
                     rs,
                     None,
                 ))
-            };
-            return central_differences(render, scene.medium, model.delta_rel, model.delta_albedo);
-        }
-        let d = volpath::render_derivatives(&scene, settings, self.camera, rs, None);
-        Ok(DiffImages {
-            value: d.value,
-            d_sigma_t: d.d_sigma_t,
-            d_albedo: d.d_albedo,
-        })
-    }
-
-    /// From one derivative render: the loss derivative and the derivative images share their
-    /// paths, so for L2 the product carries their covariance (the single-render estimator of
-    /// `--single-render`; the default split-sample gradient has none).
-    fn loss_gradient(
-        &self,
-        rs: &RenderSettings,
-        target: &Image,
-        loss: Loss,
-    ) -> Result<LossGradient, InverseError> {
-        let d = self.derivatives(rs)?;
-        Ok(decorrelated_gradient(&d.value, &d, target, loss))
+            },
+            || {
+                let d = volpath::render_derivatives(&scene, settings, self.camera, rs, None);
+                Ok(DiffImages {
+                    value: d.value,
+                    d_sigma_t: d.d_sigma_t,
+                    d_albedo: d.d_albedo,
+                })
+            },
+        )
     }
 }
