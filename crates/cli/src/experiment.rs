@@ -31,6 +31,7 @@ use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
 mod gradients;
+mod inits;
 mod planar;
 mod report;
 mod robustness;
@@ -61,6 +62,9 @@ pub enum ExperimentCommand {
     /// The paper's comparison with the planar dipole (Fig. 6): ours, naive and the dipole on
     /// three shapes × two media; errors over iterations and re-renders side by side.
     Planar(planar::PlanarArgs),
+    /// Random initialisations on one case (paper Fig. 7): the mean ± s.d. of the errors over
+    /// the iterations, and every start's curve.
+    Inits(inits::InitsArgs),
 }
 
 #[derive(Args)]
@@ -122,9 +126,12 @@ pub fn run(cmd: &ExperimentCommand) -> Result<()> {
         ExperimentCommand::Timing(a) => timing::run(a),
         ExperimentCommand::Gradients(a) => gradients::run(a),
         ExperimentCommand::Planar(a) => planar::run(a),
+        ExperimentCommand::Inits(a) => inits::run(a),
     }
 }
 
+/// Runs the accuracy experiment; returns every row: the cases', then the random starts' (case
+/// `<name> init <i>`).
 fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
         bail!("--shapes, --methods and --media must name at least one of each");
@@ -261,7 +268,11 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
             ", inits.png"
         }
     );
-    Ok(rows)
+    Ok(rows
+        .into_iter()
+        .chain(init_rows)
+        .chain(init_bc_rows)
+        .collect())
 }
 
 /// Step `step` of the parametric-bootstrap correction of `row` (`inverse::bootstrap`): the

@@ -980,3 +980,23 @@ fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
     let res = read_json(&d.join("p/runs/cone-m0-dipole/result.json"));
     assert_eq!(res["config"]["model"], "dipole");
 }
+
+/// `experiment inits --quick`: one case with `ours`, three random starts in the table, the
+/// trajectories and the band figure (PNG and SVG).
+#[test]
+fn experiment_inits_quick_draws_the_band_of_the_starts() {
+    let t = tmp();
+    let d = t.path();
+    ok(d, &["-q", "experiment", "inits", "--quick", "--out", "i"]);
+    let csv = std::fs::read_to_string(d.join("i/results.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| l.contains(" init ")).count(),
+        3,
+        "{csv}"
+    );
+    for f in ["inits.png", "inits-band.png", "inits-band.svg", "table.md"] {
+        assert!(d.join("i").join(f).is_file(), "{f}");
+    }
+    let svg = std::fs::read_to_string(d.join("i/inits-band.svg")).unwrap();
+    assert!(svg.contains("start 2") && svg.contains("mean"));
+}
