@@ -361,15 +361,16 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
     })
 }
 
-/// The learned model's error at the truth: every third view of the dataset rendered by the
-/// learned BSSRDF (the run's model and settings) with the true medium at 32 spp, and the
-/// pooled brightness ratio Σ_views Σ_pixels render / Σ_views Σ_pixels target per channel. An
-/// estimate can be no better than this allows: a model that renders the truth 10 % too dark
-/// must move σ_t or α to match the images. Cached in `RUN/model-ratio.json`.
+/// The model's error at the truth: every third view of the dataset rendered by the run's
+/// model (the learned BSSRDF with the run's model and settings, or the dipole) with the true
+/// medium at 32 spp, and the pooled brightness ratio Σ_views Σ_pixels render / Σ_views
+/// Σ_pixels target per channel. An estimate can be no better than this allows: a model that
+/// renders the truth 10 % too dark must move σ_t or α to match the images. Cached in
+/// `RUN/model-ratio.json`.
 fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Result<[f64; 3]> {
-    if o.learned.kind() != inverse::forward::ModelKind::Learned {
-        // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches);
-        // the dipole's error at the truth is what the run measures.
+    let kind = o.learned.kind();
+    if kind == inverse::forward::ModelKind::Volpath {
+        // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches).
         return Ok([f64::NAN; 3]);
     }
     let cache = run_dir.join("model-ratio.json");
@@ -386,16 +387,20 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
     let scene = ds.scene(truth);
     let views: Vec<_> = picked.iter().map(|&i| scene.views[i].clone()).collect();
     let spp = if quick { 4 } else { 32 };
-    let model = o.learned.load_model()?;
-    let rep = render_views_learned(
-        &accel,
-        &truth,
-        &views,
-        spp,
-        o.seed,
-        &model,
-        o.learned.settings(),
-    )?;
+    let rep = if kind == inverse::forward::ModelKind::Dipole {
+        crate::common::render_views_dipole(&accel, &truth, &views, spp, o.seed, false)?
+    } else {
+        let model = o.learned.load_model()?;
+        render_views_learned(
+            &accel,
+            &truth,
+            &views,
+            spp,
+            o.seed,
+            &model,
+            o.learned.settings(),
+        )?
+    };
     let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
     for (img, &i) in rep.images.iter().zip(&picked) {
         let target = ds.views[i]
@@ -413,7 +418,7 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
         "ratio": ratio,
         "views": picked,
         "spp": spp,
-        "what": "learned BSSRDF render of the true medium ÷ targets, pooled over the views",
+        "what": format!("{kind} render of the true medium ÷ targets, pooled over the views"),
     });
     scene::fsutil::atomic_write(
         &cache,
@@ -891,7 +896,7 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
         "{ind}- runs whose status is not ok: {failed} of {}",
         outcomes.len()
     );
-    // Where the learned model itself is off at the truth, and the calibration of the runs that
+    // Where the model itself is off at the truth, and the calibration of the runs that
     // did not report a failure (a failed run's interval is not meant to be trusted).
     let off = |o: &Outcome| {
         o.model_ratio
@@ -902,7 +907,7 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
     let big_alpha = |o: &Outcome| o.albedo_error().iter().any(|e| e.abs() > 0.01);
     let _ = writeln!(
         md,
-        "{ind}- the learned model renders the truth more than {:.0} % off the targets (a channel) in {} of {} runs; of the {} runs with an α error above 0.01, {} are among them",
+        "{ind}- the model renders the truth more than {:.0} % off the targets (a channel) in {} of {} runs; of the {} runs with an α error above 0.01, {} are among them",
         100.0 * MODEL_RATIO_OFF,
         model_off.len(),
         outcomes.len(),
