@@ -36,6 +36,7 @@ mod planar;
 mod report;
 mod robustness;
 mod timing;
+mod volumetric;
 
 use report::{Row, inits_plot, report, results_csv};
 
@@ -65,6 +66,9 @@ pub enum ExperimentCommand {
     /// Random initialisations on one case (paper Fig. 7): the mean ± s.d. of the errors over
     /// the iterations, and every start's curve.
     Inits(inits::InitsArgs),
+    /// σ_t alone with α fixed, grey medium (paper Fig. 8): ours at 32 spp against the
+    /// volumetric baseline at 32 and 128 spp, at equal iterations and at equal time.
+    Volumetric(volumetric::VolumetricArgs),
 }
 
 #[derive(Args)]
@@ -127,6 +131,7 @@ pub fn run(cmd: &ExperimentCommand) -> Result<()> {
         ExperimentCommand::Gradients(a) => gradients::run(a),
         ExperimentCommand::Planar(a) => planar::run(a),
         ExperimentCommand::Inits(a) => inits::run(a),
+        ExperimentCommand::Volumetric(a) => volumetric::run(a),
     }
 }
 

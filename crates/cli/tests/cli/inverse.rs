@@ -1000,3 +1000,38 @@ fn experiment_inits_quick_draws_the_band_of_the_starts() {
     let svg = std::fs::read_to_string(d.join("i/inits-band.svg")).unwrap();
     assert!(svg.contains("start 2") && svg.contains("mean"));
 }
+
+/// `experiment volumetric --quick`: three runs (ours, the volumetric model at the base and at
+/// four times the samples) of σ_t alone with α held at 0.9 and grey, the table and the figure.
+#[test]
+fn experiment_volumetric_quick_runs_sigma_t_alone() {
+    let t = tmp();
+    let d = t.path();
+    ok(
+        d,
+        &["-q", "experiment", "volumetric", "--quick", "--out", "v"],
+    );
+    let csv = std::fs::read_to_string(d.join("v/volumetric.csv")).unwrap();
+    let runs: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(
+        runs,
+        ["ours, 2 spp", "volumetric, 2 spp", "volumetric, 8 spp"]
+    );
+    for dir in ["ours-2spp", "volumetric-2spp", "volumetric-8spp"] {
+        let res = read_json(&d.join("v/runs").join(dir).join("result.json"));
+        let albedo = &res["estimate"]["albedo"];
+        let sigma = &res["estimate"]["sigma_t"];
+        for c in 0..3 {
+            assert!(
+                (albedo[c].as_f64().unwrap() - 0.9).abs() < 1e-6,
+                "{dir}: {albedo}"
+            );
+            assert_eq!(sigma[c], sigma[0], "{dir}: grey");
+        }
+    }
+    assert!(d.join("v/volumetric.png").is_file() && d.join("v/volumetric.svg").is_file());
+}
