@@ -103,7 +103,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
             ""
         }
     );
-    let mut csv = String::from("run,sigma_t,error,seconds_per_iteration,seconds\n");
+    let mut csv = String::from("model,spp,sigma_t,error,seconds_per_iteration,seconds\n");
     for v in &VARIANTS {
         let label = format!("{}, {} spp", v.name, spp * v.spp_factor);
         let dir = a
@@ -134,7 +134,9 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
             done.seconds_per_iteration
         ));
         csv.push_str(&format!(
-            "{label},{est},{},{},{total}\n",
+            "{},{},{est},{},{},{total}\n",
+            v.name,
+            spp * v.spp_factor,
             err / 100.0,
             done.seconds_per_iteration
         ));
