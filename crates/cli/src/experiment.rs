@@ -33,6 +33,7 @@ use volpath::rng::Sampler;
 mod gradients;
 mod inits;
 mod planar;
+mod prb;
 mod report;
 mod robustness;
 mod timing;
@@ -69,6 +70,9 @@ pub enum ExperimentCommand {
     /// σ_t alone with α fixed, grey medium (paper Fig. 8): ours at 32 spp against the
     /// volumetric baseline at 32 and 128 spp, at equal iterations and at equal time.
     Volumetric(volumetric::VolumetricArgs),
+    /// RGB σ_t and α (paper Fig. 9): ours against the volumetric baseline and, with
+    /// `--mitsuba-python`, Mitsuba 3's PRB, by iterations and by time.
+    Prb(prb::PrbArgs),
 }
 
 #[derive(Args)]
@@ -132,6 +136,7 @@ pub fn run(cmd: &ExperimentCommand) -> Result<()> {
         ExperimentCommand::Planar(a) => planar::run(a),
         ExperimentCommand::Inits(a) => inits::run(a),
         ExperimentCommand::Volumetric(a) => volumetric::run(a),
+        ExperimentCommand::Prb(a) => prb::run(a),
     }
 }
 

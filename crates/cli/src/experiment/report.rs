@@ -257,3 +257,60 @@ pub(super) fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
         })
         .collect()
 }
+
+/// One iteration of a run, read by column name from an `iterations.csv` (ours or
+/// `tools/mitsuba/prb_optimize.py`'s): iteration, cumulative seconds at its end, σ_t and α.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Step {
+    pub(super) iteration: f64,
+    pub(super) seconds: f64,
+    pub(super) sigma_t: [f64; 3],
+    pub(super) albedo: [f64; 3],
+}
+
+/// The steps of `path` (module docs of [`Step`]).
+pub(super) fn read_steps(path: &Path) -> Result<Vec<Step>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.trim() == name)
+            .with_context(|| format!("{}: no column {name}", path.display()))
+    };
+    let names = [
+        "iteration",
+        "seconds",
+        "sigma_t_r",
+        "sigma_t_g",
+        "sigma_t_b",
+        "albedo_r",
+        "albedo_g",
+        "albedo_b",
+    ];
+    let cols: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_>>()?;
+    let mut total = 0.0;
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let v: Vec<f64> = cols
+                .iter()
+                .map(|&i| {
+                    f.get(i)
+                        .and_then(|x| x.trim().parse().ok())
+                        .unwrap_or(f64::NAN)
+                })
+                .collect();
+            total += v[1];
+            Ok(Step {
+                iteration: v[0],
+                seconds: total,
+                sigma_t: [v[2], v[3], v[4]],
+                albedo: [v[5], v[6], v[7]],
+            })
+        })
+        .collect()
+}

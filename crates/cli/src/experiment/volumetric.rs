@@ -9,7 +9,7 @@
 //! (`OUT/volumetric.md`, `volumetric.csv`). Runs resume and are reused like `experiment
 //! accuracy`'s.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
@@ -17,6 +17,7 @@ use geometry::Shape;
 use plot::{Figure, Panel, Series};
 use scene::{Medium, MeshSource};
 
+use super::report::read_steps;
 use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig};
 use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 
@@ -125,7 +126,10 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         o.final_spp = 16;
         o.bc = BiasCorrectionArgs::off();
         let done = run_or_reuse(&o, &label)?;
-        let t = trajectory(&dir)?;
+        let t: Vec<(f64, f64, f64)> = read_steps(&dir.join("iterations.csv"))?
+            .iter()
+            .map(|p| (p.iteration, p.seconds, p.sigma_t[0]))
+            .collect();
         let est = done.estimate.sigma_t[0];
         let err = 100.0 * (est / TRUTH.sigma_t[0] as f64 - 1.0);
         let total = t.last().map_or(0.0, |p| p.1);
@@ -178,31 +182,4 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         a.out.display()
     );
     Ok(())
-}
-
-/// (iteration, cumulative seconds, σ_t of channel R) per iteration of a run.
-fn trajectory(dir: &Path) -> Result<Vec<(f64, f64, f64)>> {
-    let path = dir.join("iterations.csv");
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| anyhow::anyhow!("reading {}: {e}", path.display()))?;
-    let header = text.lines().next().unwrap_or("").split(',');
-    let col = |name: &str| header.clone().position(|h| h == name);
-    let (Some(si), Some(ti)) = (col("sigma_t_r"), col("seconds")) else {
-        anyhow::bail!("{}: no sigma_t_r or seconds column", path.display());
-    };
-    let mut secs = 0.0;
-    text.lines()
-        .skip(1)
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let num = |i: usize| f.get(i).and_then(|x| x.trim().parse::<f64>().ok());
-            secs += num(ti).unwrap_or(0.0);
-            Ok((
-                num(0).unwrap_or(f64::NAN),
-                secs,
-                num(si).unwrap_or(f64::NAN),
-            ))
-        })
-        .collect()
 }

@@ -1032,3 +1032,36 @@ fn experiment_volumetric_quick_runs_sigma_t_alone() {
     }
     assert!(d.join("v/volumetric.png").is_file() && d.join("v/volumetric.svg").is_file());
 }
+
+/// `experiment prb --quick` without Mitsuba: ours and the volumetric baseline, the table with
+/// their errors and s/it, the four-panel figure; a second run reuses both runs.
+#[test]
+fn experiment_prb_quick_compares_ours_with_the_volumetric_baseline() {
+    let t = tmp();
+    let d = t.path();
+    ok(d, &["-q", "experiment", "prb", "--quick", "--out", "r"]);
+    let csv = std::fs::read_to_string(d.join("r/prb.csv")).unwrap();
+    let runs: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(runs, ["ours", "volumetric"]);
+    for l in csv.lines().skip(1) {
+        let f: Vec<f64> = l
+            .split(',')
+            .skip(1)
+            .take(3)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0), "{l}");
+    }
+    assert!(d.join("r/prb.png").is_file() && d.join("r/prb.svg").is_file());
+    let again = ok(d, &["-q", "experiment", "prb", "--quick", "--out", "r"]);
+    assert_eq!(
+        again.stdout.matches("reusing").count(),
+        2,
+        "{}",
+        again.stdout
+    );
+}

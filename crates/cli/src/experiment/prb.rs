@@ -1,0 +1,226 @@
+//! `translucent experiment prb` (Son et al. 2024, Fig. 9: with RGB σ_t and α, ours converges
+//! about six times sooner than Mitsuba 3's PRB): one RGB dataset (a blob, 40 views of 256², one
+//! fixed light, a medium of the paper's ranges, targets by our volumetric path tracer at 128
+//! spp), recovered from σ_t = 50, α = 0.5 at 32 spp and one view per iteration by the learned
+//! model (`ours`), by our volumetric baseline (`optimize --model volpath`) and, with
+//! `--mitsuba-python`, by Mitsuba 3's `prbvolpath` (`tools/mitsuba/prb_optimize.py`, its own
+//! Adam on ln σ_t and α). `optimize`'s defaults otherwise, without bias correction. Reports the
+//! σ_t and α errors (RMS over the channels) against iterations and against seconds
+//! (`OUT/prb.png`, `.svg`), and per run the final errors, s/it, and the first iteration after
+//! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use geometry::Shape;
+use plot::{Figure, Panel, Series};
+use scene::{Dataset, MeshSource};
+
+use super::report::{Step, read_steps};
+use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+
+#[derive(Args)]
+pub struct PrbArgs {
+    /// Output folder (the dataset in OUT/data, runs in OUT/runs).
+    #[arg(long, default_value = "out/experiment-prb")]
+    pub out: PathBuf,
+    /// Iterations per run.
+    #[arg(long, default_value_t = 300)]
+    pub iterations: u32,
+    /// Seed of the medium, the renders and the runs.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB run.
+    #[arg(long)]
+    pub mitsuba_python: Option<PathBuf>,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// σ_t within this relative error (RMS over the channels) counts as converged.
+const CONVERGED: f64 = 0.10;
+
+pub fn run(a: &PrbArgs) -> Result<()> {
+    let (views, res, target_spp, iterations, spp) = if a.quick {
+        (4, 32, 4, 6, 2)
+    } else {
+        (40, 256, 128, a.iterations, 32)
+    };
+    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let data = a.out.join("data");
+    if !data.join("dataset.json").exists() {
+        println!("dataset: blob, {views} views {res}² at {target_spp} spp");
+        make_dataset(
+            &paper_rig(views, res),
+            MeshSource::Shape(Shape::from_name("blob")?),
+            random_medium(a.seed),
+            RenderOpts {
+                spp: target_spp,
+                seed: a.seed,
+                max_depth: 32,
+                shadow: Default::default(),
+            },
+            &data,
+            false,
+        )?;
+    }
+    let truth = Dataset::load(&data)?
+        .truth
+        .context("the dataset has no medium")?;
+    let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
+    for (name, model) in [("ours", None), ("volumetric", Some("volpath"))] {
+        let dir = a.out.join("runs").join(name);
+        let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
+        o.learned.model = model.map(PathBuf::from);
+        o.budget = IterationArgs {
+            iterations,
+            spp,
+            ..o.budget
+        };
+        o.seed = a.seed;
+        o.final_spp = 16;
+        o.bc = BiasCorrectionArgs::off();
+        run_or_reuse(&o, name)?;
+        runs.push((name.into(), read_steps(&dir.join("iterations.csv"))?));
+    }
+    if let Some(py) = &a.mitsuba_python {
+        let dir = a.out.join("runs").join("mitsuba-prb");
+        prb(py, &data, &dir, iterations, spp, a.seed)?;
+        runs.push((
+            "Mitsuba PRB".into(),
+            read_steps(&dir.join("iterations.csv"))?,
+        ));
+    }
+    let err_t = |p: &Step| rms(|c| p.sigma_t[c] / truth.sigma_t[c] as f64 - 1.0);
+    let err_a = |p: &Step| rms(|c| p.albedo[c] - truth.albedo[c] as f64);
+    let mut md = format!(
+        "RGB σ_t and α, blob, {views} views {res}², {iterations} iterations × {spp} spp from σ_t = \
+         50, α = 0.5; truth σ_t = {:.1?}, α = {:.3?}{}\n\n| run | σ_t error (RMS) | α error (RMS) \
+         | s/it | σ_t within 10 % from iteration | seconds to that |\n|---|---|---|---|---|---|\n",
+        truth.sigma_t,
+        truth.albedo,
+        if a.quick {
+            " — QUICK: a smoke test, not a measurement"
+        } else {
+            ""
+        }
+    );
+    let mut csv = String::from(
+        "run,sigma_t_rms_error,albedo_rms_error,seconds_per_iteration,converged_iteration,converged_seconds\n",
+    );
+    for (name, steps) in &runs {
+        let last = steps.last().context("a run without iterations")?;
+        // The first iteration from which every later one is within the bound.
+        let from = steps
+            .iter()
+            .rposition(|p| err_t(p) > CONVERGED)
+            .map_or(Some(0), |i| (i + 1 < steps.len()).then_some(i + 1));
+        let spi = if steps.len() > 1 {
+            (last.seconds - steps[0].seconds) / (steps.len() - 1) as f64
+        } else {
+            last.seconds
+        };
+        let (it, secs) = match from {
+            Some(i) => (
+                format!("{}", steps[i].iteration),
+                format!("{:.0}", steps[i].seconds),
+            ),
+            None => ("not reached".into(), "—".into()),
+        };
+        md.push_str(&format!(
+            "| {name} | {:.1} % | {:.4} | {spi:.3} | {it} | {secs} |\n",
+            100.0 * err_t(last),
+            err_a(last)
+        ));
+        csv.push_str(&format!(
+            "{name},{},{},{spi},{it},{secs}\n",
+            err_t(last),
+            err_a(last)
+        ));
+    }
+    let panel = |title: &str, x: &str, y: &str, f: &dyn Fn(&Step) -> f64, by_time: bool| Panel {
+        title: title.into(),
+        x_label: x.into(),
+        y_label: y.into(),
+        log_y: true,
+        series: runs
+            .iter()
+            .map(|(name, steps)| {
+                let at = |p: &Step| if by_time { p.seconds } else { p.iteration };
+                Series::new(name.clone(), steps.iter().map(|p| (at(p), f(p))).collect())
+            })
+            .collect(),
+        reference_lines: Vec::new(),
+    };
+    let pct = |p: &Step| 100.0 * err_t(p);
+    let fig = Figure::new(
+        vec![
+            panel(
+                "σ_t error",
+                "iteration",
+                "RMS over channels, %",
+                &pct,
+                false,
+            ),
+            panel("σ_t error", "seconds", "RMS over channels, %", &pct, true),
+            panel("α error", "iteration", "RMS over channels", &err_a, false),
+            panel("α error", "seconds", "RMS over channels", &err_a, true),
+        ],
+        2,
+    );
+    fig.write_png(&a.out.join("prb.png"), true)?;
+    fig.write_svg(&a.out.join("prb.svg"), true)?;
+    print!("{md}");
+    std::fs::write(a.out.join("prb.md"), md)?;
+    std::fs::write(a.out.join("prb.csv"), csv)?;
+    println!("wrote {} (prb.md, prb.csv, prb.png/.svg)", a.out.display());
+    Ok(())
+}
+
+/// √(mean over the channels of f(c)²).
+fn rms(f: impl Fn(usize) -> f64) -> f64 {
+    ((0..3).map(|c| f(c).powi(2)).sum::<f64>() / 3.0).sqrt()
+}
+
+/// Mitsuba's PRB on the dataset into `out`, unless it finished there with these settings.
+fn prb(python: &Path, data: &Path, out: &Path, iterations: u32, spp: u32, seed: u64) -> Result<()> {
+    if let Ok(bytes) = std::fs::read(out.join("result.json")) {
+        let v: serde_json::Value = serde_json::from_slice(&bytes)?;
+        if v["iterations"].as_u64() == Some(iterations as u64)
+            && v["spp"].as_u64() == Some(spp as u64)
+        {
+            println!("run Mitsuba PRB: reusing {}", out.display());
+            return Ok(());
+        }
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
+    let status = Command::new(python)
+        .arg(&script)
+        .arg(data)
+        .args(["--iterations", &iterations.to_string()])
+        .args(["--spp", &spp.to_string()])
+        .args(["--seed", &seed.to_string()])
+        .args([
+            "--views-per-iter",
+            "1",
+            "--print-every",
+            "50",
+            "--overwrite",
+            "--out",
+        ])
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !status.success() {
+        bail!(
+            "{} {} failed ({status})",
+            python.display(),
+            script.display()
+        );
+    }
+    Ok(())
+}
