@@ -19,7 +19,8 @@ use crate::params::Params;
 pub struct TimingSettings {
     /// Iterations per pair (at least 2: the first is not counted).
     pub iterations: u32,
-    /// Samples per pixel per iteration.
+    /// Samples per pixel per iteration (the learned model's default estimator also runs at
+    /// twice this, as the paper's Table 1 does).
     pub spp: u32,
     /// Seed of the runs.
     pub seed: u64,
@@ -33,6 +34,8 @@ pub struct TimingRow {
     pub model: ModelKind,
     /// The estimator's name ([`DiffMethod::name`]).
     pub method: String,
+    /// Samples per pixel per iteration.
+    pub spp: u32,
     /// Seconds of every iteration.
     pub seconds: Vec<f64>,
 }
@@ -73,9 +76,10 @@ pub fn all_pairs() -> Vec<(ModelKind, DiffMethod)> {
         .collect()
 }
 
-/// Times `settings.iterations` iterations of the loop with `model` × `method` on `targets`
-/// (`nets`: the learned model's networks; `base`: g and η of the medium), from σ_t = 50,
-/// α = 0.5 with `optimize`'s defaults otherwise.
+/// Times `settings.iterations` iterations of the loop with `model` × `method` at `spp` samples
+/// per pixel on `targets` (`nets`: the learned model's networks; `base`: g and η of the
+/// medium), from σ_t = 50, α = 0.5 with `optimize`'s defaults otherwise.
+#[allow(clippy::too_many_arguments)]
 pub fn measure(
     accel: &Accel,
     nets: &ShapeAdaptiveModel,
@@ -83,6 +87,7 @@ pub fn measure(
     targets: &[TargetView],
     model: ModelKind,
     method: DiffMethod,
+    spp: u32,
     settings: &TimingSettings,
 ) -> Result<TimingRow, InverseError> {
     let mut c = OptimizeConfig::new(Params {
@@ -91,7 +96,7 @@ pub fn measure(
     });
     c.model = model;
     c.method = method;
-    c.spp = settings.spp;
+    c.spp = spp;
     c.iterations = settings.iterations;
     c.seed = settings.seed;
     if model == ModelKind::Volpath {
@@ -112,6 +117,7 @@ pub fn measure(
     Ok(TimingRow {
         model,
         method: method.name().to_string(),
+        spp,
         seconds: opt.history().iter().map(|r| r.seconds).collect(),
     })
 }
@@ -128,6 +134,7 @@ mod tests {
         let r = TimingRow {
             model: ModelKind::Dipole,
             method: "ad".into(),
+            spp: 32,
             seconds: vec![9.0, 1.0, 2.0, 3.0],
         };
         assert_eq!(r.mean(), 2.0);

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
+use bssrdf::diff::DiffMethod;
 use clap::Args;
 use geometry::Shape;
 use inverse::forward::ModelKind;
@@ -59,10 +60,11 @@ struct Record {
 
 /// The paper's seconds per iteration (RTX 4090, its Head scene, 32 spp) of the method a row
 /// corresponds to.
-fn paper_figure(model: ModelKind, method: &str) -> &'static str {
-    match (model, method) {
-        (ModelKind::Learned, "ours") => "1.40 (ours)",
-        (ModelKind::Volpath, "ad") => "2.28 (PSDR-VOL, depth 6)",
+fn paper_figure(model: ModelKind, method: &str, spp_factor: u32) -> &'static str {
+    match (model, method, spp_factor) {
+        (ModelKind::Learned, "ours", 1) => "1.40 (ours)",
+        (ModelKind::Learned, "ours", 2) => "2.80 (ours)",
+        (ModelKind::Volpath, "ad", 1) => "2.28 (PSDR-VOL, depth 6)",
         _ => "—",
     }
 }
@@ -134,18 +136,21 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     let targets = TargetView::of_dataset(&ds, "the timing dataset")?;
     let base = ds.truth.context("the timing dataset has no medium")?;
     let nets = crate::common::LearnedArgs::shipped_model()?;
-    for (model, method) in all_pairs() {
-        if record
-            .rows
-            .iter()
-            .any(|r| r.model == model && r.method == method.name())
-        {
+    // Every pair at the workload's spp, and the paper's method at twice that (its Table 1).
+    let runs = all_pairs().into_iter().map(|(m, e)| (m, e, spp)).chain([(
+        ModelKind::Learned,
+        DiffMethod::Ours,
+        2 * spp,
+    )]);
+    for (model, method, spp) in runs {
+        let done = |r: &TimingRow| r.model == model && r.method == method.name() && r.spp == spp;
+        if record.rows.iter().any(done) {
             continue;
         }
-        let pb = crate::common::progress(0, &format!("{model} × {method}"));
-        let row = measure(&accel, &nets, base, &targets, model, method, &settings)?;
+        let pb = crate::common::progress(0, &format!("{model} × {method}, {spp} spp"));
+        let row = measure(&accel, &nets, base, &targets, model, method, spp, &settings)?;
         pb.finish_and_clear();
-        println!("{model} × {method}: {:.3} s/it", row.mean());
+        println!("{model} × {method}, {spp} spp: {:.3} s/it", row.mean());
         record.rows.push(row);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
@@ -199,7 +204,7 @@ fn tables(r: &Record, quick: bool) -> (String, String) {
     let mut md = format!(
         "Seconds per iteration, {res}² × {spp} spp, one view per iteration, iterations 1–{last} \
          of {n} (mean ± standard error){quick}\n\n\
-         | model | estimator | s/it | paper (RTX 4090) |\n|---|---|---|---|\n",
+         | model | estimator | spp | s/it | paper (RTX 4090) |\n|---|---|---|---|---|\n",
         res = r.res,
         spp = s.spp,
         last = s.iterations - 1,
@@ -210,20 +215,22 @@ fn tables(r: &Record, quick: bool) -> (String, String) {
             ""
         },
     );
-    let mut csv = String::from("model,estimator,seconds_per_iteration,std_error,iterations\n");
+    let mut csv = String::from("model,estimator,spp,seconds_per_iteration,std_error,iterations\n");
     for row in &r.rows {
         md.push_str(&format!(
-            "| {} | {} | {:.3} ± {:.3} | {} |\n",
+            "| {} | {} | {} | {:.3} ± {:.3} | {} |\n",
             row.model,
             row.method,
+            row.spp,
             row.mean(),
             row.std_error(),
-            paper_figure(row.model, &row.method)
+            paper_figure(row.model, &row.method, row.spp / s.spp.max(1))
         ));
         csv.push_str(&format!(
-            "{},{},{},{},{}\n",
+            "{},{},{},{},{},{}\n",
             row.model,
             row.method,
+            row.spp,
             row.mean(),
             row.std_error(),
             row.seconds.len()
@@ -231,9 +238,10 @@ fn tables(r: &Record, quick: bool) -> (String, String) {
     }
     if let Some(p) = r.prb {
         md.push_str(&format!(
-            "| Mitsuba 3 PRB (`prbvolpath`) | — | {p:.3} | not given |\n"
+            "| Mitsuba 3 PRB (`prbvolpath`) | — | {} | {p:.3} | not given |\n",
+            s.spp
         ));
-        csv.push_str(&format!("mitsuba-prb,,{p},,{}\n", s.iterations));
+        csv.push_str(&format!("mitsuba-prb,,{},{p},,{}\n", s.spp, s.iterations));
     }
     (md, csv)
 }

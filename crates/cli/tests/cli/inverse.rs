@@ -855,8 +855,8 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     );
 }
 
-/// `experiment timing --quick`: one row per model × estimator with a positive time, the paper's
-/// figures beside ours and the PRB row absent without Mitsuba; the tables are written; a second
+/// `experiment timing --quick`: one row per model × estimator with a positive time (and the
+/// paper's method at twice the samples, as its Table 1), the paper's figures beside ours and the PRB row absent without Mitsuba; the tables are written; a second
 /// run measures nothing again; other settings in the same folder are refused.
 #[test]
 fn experiment_timing_quick_times_every_model_and_estimator() {
@@ -867,23 +867,24 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     let pairs: Vec<String> = rows
         .iter()
-        .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(" × "))
+        .map(|l| l.split(',').take(3).collect::<Vec<_>>().join(" "))
         .collect();
     assert_eq!(
         pairs,
         [
-            "learned × ours",
-            "learned × ours-alpha-offsets",
-            "learned × naive",
-            "learned × fd",
-            "volpath × ad",
-            "volpath × fd",
-            "dipole × ad",
-            "dipole × fd"
+            "learned ours 4",
+            "learned ours-alpha-offsets 4",
+            "learned naive 4",
+            "learned fd 4",
+            "volpath ad 4",
+            "volpath fd 4",
+            "dipole ad 4",
+            "dipole fd 4",
+            "learned ours 8"
         ]
     );
     for l in &rows {
-        let s: f64 = l.split(',').nth(2).unwrap().parse().unwrap();
+        let s: f64 = l.split(',').nth(3).unwrap().parse().unwrap();
         assert!(s > 0.0 && s.is_finite(), "{l}");
     }
     assert!(r.stdout.contains("1.40 (ours)") && r.stdout.contains("QUICK"));
