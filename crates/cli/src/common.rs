@@ -274,15 +274,6 @@ impl From<SpawnOffsetArg> for volpath::SpawnOffset {
     }
 }
 
-/// Which forward model renders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Method {
-    /// Volumetric path tracer (ground truth).
-    Volpath,
-    /// Learned shape-adaptive BSSRDF (Vicini et al. 2019 as used by Son et al. 2024).
-    Learned,
-}
-
 /// The `--help` heading of the options a user rarely needs: the defaults are the measured best.
 pub const RESEARCH_OPTIONS: &str = "Research options (the defaults are the measured best)";
 /// The `--help` heading of the learned BSSRDF's options.
@@ -292,11 +283,11 @@ pub const LEARNED_OPTIONS: &str = "Learned BSSRDF options (the defaults are the 
 #[derive(clap::Args, Clone, Debug)]
 pub struct LearnedArgs {
     /// The forward model: `learned` (the learned BSSRDF shipped in `models/`, built into the
-    /// binary; the default), a learned model file (translucent safetensors format, written by
-    /// `translucent train` or `translucent model import-son24`; `shipped` names the built-in
-    /// one), `volpath` (the volumetric path tracer: in `optimize` the volumetric baseline, in
-    /// `render` the same as `--method volpath`) or `dipole` (the planar dipole baseline of Deng
-    /// et al. 2022).
+    /// binary; the default of `optimize`), a learned model file (translucent safetensors format,
+    /// written by `translucent train` or `translucent model import-son24`; `shipped` names the
+    /// built-in one), `volpath` (the volumetric path tracer: the default of `render` and
+    /// `validate-mitsuba`, in `optimize` the volumetric baseline) or `dipole` (the planar dipole
+    /// baseline of Deng et al. 2022).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub model: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
@@ -461,6 +452,30 @@ impl LearnedArgs {
         match &self.model {
             Some(path) => load_model_arg(path),
             None => Self::shipped_model(),
+        }
+    }
+
+    /// The renderer of `render` and `validate-mitsuba`: `--model`, `default` when it is not
+    /// given; an error for the `--method` these commands once took.
+    pub fn renderer(
+        &self,
+        method: &Option<String>,
+        default: inverse::forward::ModelKind,
+    ) -> Result<inverse::forward::ModelKind> {
+        if let Some(m) = method {
+            bail!(
+                "--method {m}: the renderer is chosen with --model (learned, volpath, dipole or a model file)"
+            );
+        }
+        Ok(self.kind_or(default))
+    }
+
+    /// Which forward model `--model` names, `default` when it is not given (`render` and
+    /// `validate-mitsuba` render with the volumetric path tracer unless told otherwise).
+    pub fn kind_or(&self, default: inverse::forward::ModelKind) -> inverse::forward::ModelKind {
+        match self.model {
+            None => default,
+            Some(_) => self.kind(),
         }
     }
 

@@ -10,7 +10,7 @@
 //!
 //! With `--as-dataset` the output is a dataset folder instead (`dataset.json` beside the images,
 //! the rendered medium as its truth, the renderer in its `render` block; DATASET.md). Rendering a
-//! dataset's truth with `--method learned --as-dataset` gives targets that the learned model
+//! dataset's truth with `--model learned --as-dataset` gives targets that the learned model
 //! explains exactly: an optimisation on them measures the estimator and the optimiser alone,
 //! without the model's error against the volumetric path tracer (docs/notes/light-side.md, "The
 //! light side on convex surfaces").
@@ -19,12 +19,13 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use inverse::forward::ModelKind;
 use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
-    LearnedArgs, Method, ShadowArg, SpawnOffsetArg, build_accel, check_output_free,
-    render_views_dipole, render_views_learned_with, render_views_with, write_outputs,
+    LearnedArgs, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, render_views_dipole,
+    render_views_learned_with, render_views_with, write_outputs,
 };
 
 #[derive(Args)]
@@ -47,10 +48,9 @@ pub struct RenderArgs {
     /// Russian roulette starts after this many scattering events.
     #[arg(long, default_value_t = 5)]
     pub rr_depth: u32,
-    /// Forward model: the volumetric path tracer or the learned BSSRDF (the shipped model unless
-    /// --model is given).
-    #[arg(long, value_enum, default_value = "volpath")]
-    pub method: Method,
+    /// Replaced by `--model` (learned, volpath, dipole or a model file).
+    #[arg(long, hide = true)]
+    pub method: Option<String>,
     #[command(flatten)]
     pub learned: LearnedArgs,
     /// Sample free flights with one channel and ratio weights (Mitsuba's RGB scheme) instead of
@@ -118,44 +118,37 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         spawn_offset: a.spawn_offset.into(),
         ..Default::default()
     };
-    let method = match a.learned.kind() {
-        inverse::forward::ModelKind::Volpath => Some(Method::Volpath),
-        inverse::forward::ModelKind::Learned => Some(a.method),
-        inverse::forward::ModelKind::Dipole => None,
-    };
-    let (rep, renderer) = match method {
-        None => (
+    let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
+        ModelKind::Dipole => (
             render_views_dipole(&accel, &desc.medium, views, spp, seed, a.derivatives)?,
             "planar dipole".to_string(),
         ),
-        Some(method) => match method {
-            Method::Volpath => (
-                render_views_with(
-                    &accel,
-                    &desc.medium,
-                    views,
-                    spp,
-                    seed,
-                    &settings,
-                    a.derivatives,
-                ),
-                "volpath".to_string(),
+        ModelKind::Volpath => (
+            render_views_with(
+                &accel,
+                &desc.medium,
+                views,
+                spp,
+                seed,
+                &settings,
+                a.derivatives,
             ),
-            Method::Learned => {
-                let model = a.learned.load_model()?;
-                let rep = render_views_learned_with(
-                    &accel,
-                    &desc.medium,
-                    views,
-                    spp,
-                    seed,
-                    &model,
-                    a.learned.settings(),
-                    a.derivatives,
-                )?;
-                (rep, format!("learned BSSRDF ({})", a.learned.describe()))
-            }
-        },
+            "volpath".to_string(),
+        ),
+        ModelKind::Learned => {
+            let model = a.learned.load_model()?;
+            let rep = render_views_learned_with(
+                &accel,
+                &desc.medium,
+                views,
+                spp,
+                seed,
+                &model,
+                a.learned.settings(),
+                a.derivatives,
+            )?;
+            (rep, format!("learned BSSRDF ({})", a.learned.describe()))
+        }
     };
     if a.as_dataset {
         let mut ds = Dataset::from_scene(&desc);

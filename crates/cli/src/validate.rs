@@ -20,14 +20,15 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use geometry::LightBins;
+use inverse::forward::ModelKind;
 use rayon::prelude::*;
 use scene::scene_file::ViewDesc;
 use scene::{Dataset, Image};
 use volpath::{Progressive, VolpathScene, VolpathSettings, shadow_lists};
 
 use crate::common::{
-    LearnedArgs, Method, RenderReport, ShadowArg, SpawnOffsetArg, build_accel, check_output_free,
-    progress, render_views, render_views_learned, write_outputs,
+    LearnedArgs, RenderReport, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, progress,
+    render_views, render_views_learned, write_outputs,
 };
 use crate::compare::pair_stats;
 
@@ -55,10 +56,9 @@ pub struct ValidateArgs {
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Forward model: the volumetric path tracer or the learned BSSRDF (the shipped model unless
-    /// --model is given).
-    #[arg(long, value_enum, default_value = "volpath")]
-    pub method: Method,
+    /// Replaced by `--model` (learned, volpath, dipole or a model file).
+    #[arg(long, hide = true)]
+    pub method: Option<String>,
     #[command(flatten)]
     pub learned: LearnedArgs,
     /// Shadow-ray transmittance estimator of the volumetric tracer.
@@ -233,18 +233,26 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let t0 = Instant::now();
     let mut spp = a.spp.or(ds.render.spp).unwrap_or(1024);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
-    let rep = match (a.method, budget) {
-        (Method::Volpath, Some(budget)) => {
+    let learned = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
+        ModelKind::Volpath => false,
+        ModelKind::Learned => true,
+        ModelKind::Dipole => bail!(
+            "validate-mitsuba checks the volumetric path tracer or a learned model; --model \
+             dipole is neither"
+        ),
+    };
+    let rep = match (learned, budget) {
+        (false, Some(budget)) => {
             let (images, reached) =
                 render_equal_time(&accel, &medium, &views, a.seed, &settings, budget);
             spp = reached;
             images
         }
-        (Method::Volpath, None) => render_views(&accel, &medium, &views, spp, a.seed, &settings),
-        (Method::Learned, Some(_)) => bail!(
-            "--equal-time renders with the volumetric path tracer; drop it or --method learned"
+        (false, None) => render_views(&accel, &medium, &views, spp, a.seed, &settings),
+        (true, Some(_)) => bail!(
+            "--equal-time renders with the volumetric path tracer; drop it or --model learned"
         ),
-        (Method::Learned, None) => {
+        (true, None) => {
             let model = a.learned.load_model()?;
             render_views_learned(
                 &accel,
@@ -339,7 +347,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         None => println!("time: ours {per_view:.3} s/view at {spp} spp"),
     }
     println!("wrote {}", a.out.display());
-    if failures > 0 && a.method == Method::Learned {
+    if failures > 0 && learned {
         println!(
             "{failures} view(s) outside the volumetric tolerances (reported, not enforced for the \
              learned BSSRDF, an approximate model)"

@@ -230,7 +230,7 @@ fn bad_projection_reach() {
                 "-q",
                 "render",
                 "scene.toml",
-                "--method",
+                "--model",
                 "learned",
                 "--out",
                 "out",
@@ -351,4 +351,25 @@ fn bad_scale_with_a_mesh_file() {
         ],
     );
     assert_stderr_has(&r, &["--scale", "cube.ply", "built-in shapes"]);
+}
+
+/// `render --method` (the renderer's former option) is an error that names `--model`, so that
+/// `--method` means only the gradient estimator of `optimize`.
+#[test]
+fn render_method_points_to_model() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "scene.toml",
+            "--method",
+            "learned",
+            "--out",
+            "o",
+        ],
+    );
+    assert_stderr_has(&r, &["--method learned", "--model"]);
 }

@@ -288,7 +288,7 @@ fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
             "--out",
             "l",
             "--derivatives",
-            "--method",
+            "--model",
             "learned",
             "--spp",
             "2",

@@ -494,7 +494,7 @@ fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
     assert_stderr_has(&bad, &["--grazing-cos", "(0, 1)"]);
 }
 
-/// `render --method learned --as-dataset` makes a dataset of the learned model's own images (its
+/// `render --model learned --as-dataset` makes a dataset of the learned model's own images (its
 /// truth the rendered medium); `bench loss-scan` at the truth with the targets' seed renders the
 /// very same images, so the decorrelated loss is exactly 0, and `--cosine-table` writes one row per
 /// (light, camera) cosine bin.
@@ -507,7 +507,7 @@ fn learned_targets_as_a_dataset_and_the_cosine_table() {
         "-q",
         "render",
         "ds",
-        "--method",
+        "--model",
         "learned",
         "--spp",
         "2",
