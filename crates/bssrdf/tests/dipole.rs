@@ -58,7 +58,11 @@ fn half_space_estimate_is_the_total_diffuse_reflectance() {
     }
     for (c, e) in est.iter().enumerate() {
         let want = scene.profiles()[c].total_reflectance();
-        eprintln!("channel {c}: {} ± {} against {want}", e.mean(), e.std_error());
+        eprintln!(
+            "channel {c}: {} ± {} against {want}",
+            e.mean(),
+            e.std_error()
+        );
         assert!(
             e.z_score(want).abs() < 4.5,
             "channel {c}: {} ± {} vs the closed form {want}",
@@ -163,7 +167,10 @@ fn probe_sampler_passes_chi2_on_a_sphere() {
     assert!(rest < n as f64, "the density integrates to more than 1");
     expected[cells] = n as f64 - rest;
     let r = chi2_test(&observed, &expected, 5.0);
-    eprintln!("χ² = {:.1} on {} dof, p = {:.3}", r.statistic, r.dof, r.p_value);
+    eprintln!(
+        "χ² = {:.1} on {} dof, p = {:.3}",
+        r.statistic, r.dof, r.p_value
+    );
     assert!(
         r.p_value > 1e-3,
         "χ² = {:.1} on {} dof, p = {:.2e}\nobserved {observed:?}\nexpected {expected:?}",
