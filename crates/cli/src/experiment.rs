@@ -426,6 +426,39 @@ pub(crate) fn run_args(
     o
 }
 
+/// The blob dataset of the single-dataset experiments in `dir`: `views` views of `res`² on the
+/// paper's rig (one fixed light), `medium`, targets by the volumetric path tracer at `spp`
+/// (depth 32, seed `seed`); rendered unless `dir` holds it already.
+pub(crate) fn blob_dataset(
+    dir: &Path,
+    views: usize,
+    res: u32,
+    medium: Medium,
+    spp: u32,
+    seed: u64,
+) -> Result<Dataset> {
+    if dir.join("dataset.json").exists() {
+        return Ok(Dataset::load(dir)?);
+    }
+    println!(
+        "dataset: blob, {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}",
+        medium.sigma_t, medium.albedo
+    );
+    make_dataset(
+        &paper_rig(views, res),
+        MeshSource::Shape(Shape::from_name("blob")?),
+        medium,
+        RenderOpts {
+            spp,
+            seed,
+            max_depth: 32,
+            shadow: Default::default(),
+        },
+        dir,
+        false,
+    )
+}
+
 /// The baseline model a `--methods` entry names (`dipole`, `volpath`), if it names one.
 pub(crate) fn baseline_model(method: &str) -> Option<ModelKind> {
     method

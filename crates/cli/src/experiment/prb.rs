@@ -14,12 +14,10 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use geometry::Shape;
 use plot::{Figure, Panel, Series};
-use scene::{Dataset, MeshSource};
 
 use super::report::{Step, read_steps};
-use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::dataset_cmd::random_medium;
 use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 
 #[derive(Args)]
@@ -52,23 +50,7 @@ pub fn run(a: &PrbArgs) -> Result<()> {
     };
     let _lock = scene::fsutil::lock_folder(&a.out)?;
     let data = a.out.join("data");
-    if !data.join("dataset.json").exists() {
-        println!("dataset: blob, {views} views {res}² at {target_spp} spp");
-        make_dataset(
-            &paper_rig(views, res),
-            MeshSource::Shape(Shape::from_name("blob")?),
-            random_medium(a.seed),
-            RenderOpts {
-                spp: target_spp,
-                seed: a.seed,
-                max_depth: 32,
-                shadow: Default::default(),
-            },
-            &data,
-            false,
-        )?;
-    }
-    let truth = Dataset::load(&data)?
+    let truth = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?
         .truth
         .context("the dataset has no medium")?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();

@@ -14,14 +14,12 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 use bssrdf::diff::DiffMethod;
 use clap::Args;
-use geometry::Shape;
 use inverse::forward::ModelKind;
 use inverse::optimize::TargetView;
 use inverse::timing::{TimingRow, TimingSettings, all_pairs, measure};
-use scene::{Dataset, MeshSource};
 use serde::{Deserialize, Serialize};
 
-use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::dataset_cmd::random_medium;
 
 #[derive(Args)]
 pub struct TimingArgs {
@@ -80,24 +78,7 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     }
     let _lock = scene::fsutil::lock_folder(&a.out)?;
     let data = a.out.join("data");
-    let ds = if data.join("dataset.json").exists() {
-        Dataset::load(&data)?
-    } else {
-        println!("dataset: blob, {views} views {res}² at {target_spp} spp");
-        make_dataset(
-            &paper_rig(views, res),
-            MeshSource::Shape(Shape::from_name("blob")?),
-            random_medium(a.seed),
-            RenderOpts {
-                spp: target_spp,
-                seed: a.seed,
-                max_depth: 32,
-                shadow: Default::default(),
-            },
-            &data,
-            false,
-        )?
-    };
+    let ds = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {
         bail!(
             "{} holds a dataset of another resolution; use another --out",

@@ -13,12 +13,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use geometry::Shape;
 use plot::{Figure, Panel, Series};
-use scene::{Medium, MeshSource};
+use scene::Medium;
 
 use super::report::read_steps;
-use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig};
 use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 
 #[derive(Args)]
@@ -78,22 +76,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
     };
     let _lock = scene::fsutil::lock_folder(&a.out)?;
     let data = a.out.join("data");
-    if !data.join("dataset.json").exists() {
-        println!("dataset: blob, {views} views {res}² at {target_spp} spp, σ_t = 80, α = 0.9");
-        make_dataset(
-            &paper_rig(views, res),
-            MeshSource::Shape(Shape::from_name("blob")?),
-            TRUTH,
-            RenderOpts {
-                spp: target_spp,
-                seed: a.seed,
-                max_depth: 32,
-                shadow: Default::default(),
-            },
-            &data,
-            false,
-        )?;
-    }
+    super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed)?;
     let mut curves = Vec::new();
     let mut md = format!(
         "σ_t alone, α fixed at 0.9, grey medium (σ_t = 80), {views} views {res}², {iterations} \
