@@ -459,6 +459,53 @@ pub(crate) fn blob_dataset(
     )
 }
 
+/// Mitsuba 3's PRB (`tools/mitsuba/prb_optimize.py`, run by `python`) on the dataset `data`
+/// into `out`: `iterations` × `spp`, one view per iteration, seed `seed`. Returns its mean
+/// seconds per iteration after the first (from its `result.json`).
+pub(crate) fn run_prb(
+    python: &Path,
+    data: &Path,
+    out: &Path,
+    iterations: u32,
+    spp: u32,
+    seed: u64,
+) -> Result<f64> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
+    let status = std::process::Command::new(python)
+        .arg(&script)
+        .arg(data)
+        .args(["--iterations", &iterations.to_string()])
+        .args(["--spp", &spp.to_string()])
+        .args(["--seed", &seed.to_string()])
+        .args(["--views-per-iter", "1", "--print-every", "50"])
+        .args(["--overwrite", "--out"])
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !status.success() {
+        bail!(
+            "{} {} failed ({status})",
+            python.display(),
+            script.display()
+        );
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json"))?)?;
+    v["seconds_per_iteration"]
+        .as_f64()
+        .context("PRB's result.json has no seconds_per_iteration")
+}
+
+/// The workload of the single-dataset experiments (views, resolution, target spp, iterations,
+/// spp): the paper's (40 views of 256², targets at 128 spp, `iterations` × 32 spp), or the
+/// smoke test's with `quick` (4 views of 32², 4 spp, 6 iterations × 2 spp).
+pub(crate) fn workload(quick: bool, iterations: u32) -> (usize, u32, u32, u32, u32) {
+    if quick {
+        (4, 32, 4, 6, 2)
+    } else {
+        (40, 256, 128, iterations, 32)
+    }
+}
+
 /// The baseline model a `--methods` entry names (`dipole`, `volpath`), if it names one.
 pub(crate) fn baseline_model(method: &str) -> Option<ModelKind> {
     method

@@ -10,9 +10,8 @@
 //! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use plot::{Figure, Panel, Series};
 
@@ -43,11 +42,7 @@ pub struct PrbArgs {
 const CONVERGED: f64 = 0.10;
 
 pub fn run(a: &PrbArgs) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = if a.quick {
-        (4, 32, 4, 6, 2)
-    } else {
-        (40, 256, 128, a.iterations, 32)
-    };
+    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let _lock = scene::fsutil::lock_folder(&a.out)?;
     let data = a.out.join("data");
     let truth = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?
@@ -179,30 +174,6 @@ fn prb(python: &Path, data: &Path, out: &Path, iterations: u32, spp: u32, seed: 
             return Ok(());
         }
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
-    let status = Command::new(python)
-        .arg(&script)
-        .arg(data)
-        .args(["--iterations", &iterations.to_string()])
-        .args(["--spp", &spp.to_string()])
-        .args(["--seed", &seed.to_string()])
-        .args([
-            "--views-per-iter",
-            "1",
-            "--print-every",
-            "50",
-            "--overwrite",
-            "--out",
-        ])
-        .arg(out)
-        .status()
-        .with_context(|| format!("running {}", python.display()))?;
-    if !status.success() {
-        bail!(
-            "{} {} failed ({status})",
-            python.display(),
-            script.display()
-        );
-    }
+    super::run_prb(python, data, out, iterations, spp, seed)?;
     Ok(())
 }

@@ -8,8 +8,7 @@
 //! Rows are kept in `OUT/timing.json` as they finish: an interrupted run continues with the
 //! missing ones, and a finished one prints its table again; other settings need another `--out`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use bssrdf::diff::DiffMethod;
@@ -136,7 +135,14 @@ pub fn run(a: &TimingArgs) -> Result<()> {
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
     if let (Some(py), None) = (&a.mitsuba_python, record.prb) {
-        record.prb = Some(prb(py, &data, &a.out.join("prb"), &settings)?);
+        record.prb = Some(super::run_prb(
+            py,
+            &data,
+            &a.out.join("prb"),
+            settings.iterations,
+            settings.spp,
+            0,
+        )?);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
     let (md, csv) = tables(&record, a.quick);
@@ -145,38 +151,6 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     std::fs::write(a.out.join("timing.csv"), csv)?;
     println!("wrote {} (timing.md, timing.csv)", a.out.display());
     Ok(())
-}
-
-/// Mitsuba's PRB on the dataset: its mean seconds per iteration after the first.
-fn prb(python: &Path, data: &Path, out: &Path, s: &TimingSettings) -> Result<f64> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
-    let status = Command::new(python)
-        .arg(&script)
-        .arg(data)
-        .args(["--iterations", &s.iterations.to_string()])
-        .args(["--spp", &s.spp.to_string()])
-        .args([
-            "--views-per-iter",
-            "1",
-            "--seed",
-            "0",
-            "--overwrite",
-            "--out",
-        ])
-        .arg(out)
-        .status()
-        .with_context(|| format!("running {}", python.display()))?;
-    if !status.success() {
-        bail!(
-            "{} {} failed ({status})",
-            python.display(),
-            script.display()
-        );
-    }
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json"))?)?;
-    v["seconds_per_iteration"]
-        .as_f64()
-        .context("PRB's result.json has no seconds_per_iteration")
 }
 
 /// The Markdown and CSV tables.

@@ -69,11 +69,7 @@ const VARIANTS: [Variant; 3] = [
 ];
 
 pub fn run(a: &VolumetricArgs) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = if a.quick {
-        (4, 32, 4, 6, 2)
-    } else {
-        (40, 256, 128, a.iterations, 32)
-    };
+    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let _lock = scene::fsutil::lock_folder(&a.out)?;
     let data = a.out.join("data");
     super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed)?;
