@@ -328,6 +328,7 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                 log_y: false,
                 series,
                 reference_lines: vec![],
+                bands: Vec::new(),
             });
         }
     }

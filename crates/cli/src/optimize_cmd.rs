@@ -495,6 +495,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
         opt.history(),
         &estimate,
         truth.as_ref(),
+        uncertainty.as_ref(),
         &a.out.join("convergence.png"),
     )?;
     rerender(a, &opt, &ds, &estimate)?;
@@ -667,7 +668,11 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     for p in &problems {
         println!("  FAILED: {}", p.message());
     }
-    println!("wrote {}", a.out.display());
+    println!(
+        "wrote {} (result.json, convergence.png/.svg, final/contact-sheet.png: every target \
+         beside its re-render and difference)",
+        a.out.display()
+    );
     Ok(())
 }
 
@@ -706,40 +711,56 @@ fn print_estimate(est: &Params, truth: Option<&Params>) {
     }
 }
 
-/// Re-renders every view at the estimate next to its target, with error images.
+/// Views re-rendered at the end of a run, at most: evenly spread over larger datasets.
+const RERENDER_VIEWS: usize = 48;
+
+/// Re-renders the views at the estimate next to their targets, with error images, and the
+/// contact sheet of them all (`final/contact-sheet.png`).
 fn rerender(a: &OptimizeArgs, opt: &Optimizer, ds: &Dataset, est: &Params) -> Result<()> {
     let dir = a.out.join("final");
     std::fs::create_dir_all(&dir)?;
-    // The first views only, to keep the end of a run short.
-    let n = ds.views.len().min(8);
+    let n = ds.views.len();
+    let k = n.min(RERENDER_VIEWS);
+    let chosen: Vec<usize> = (0..k).map(|i| i * n / k).collect();
+    let pb = progress(k as u64, "re-renders");
     let mut imgs = Vec::new();
-    for (i, v) in ds.views.iter().take(n).enumerate() {
+    for &i in &chosen {
+        let v = &ds.views[i];
         let rs = RenderSettings {
             spp: a.final_spp,
             seed: a.seed ^ 0xF1AA_1000,
             view: i as u64,
         };
         imgs.push(opt.render(est, &v.camera, &v.light, &rs)?);
+        pb.inc(1);
     }
-    let targets: Vec<Image> = ds
-        .views
+    pb.finish_and_clear();
+    let targets: Vec<&Image> = chosen
         .iter()
-        .take(n)
-        .filter_map(|v| v.image.clone())
+        .filter_map(|&i| ds.views[i].image.as_ref())
         .collect();
-    let exposure = scene::image::auto_exposure(&targets);
-    for (i, (img, t)) in imgs.iter().zip(&targets).enumerate() {
+    let exposure = scene::image::auto_exposure(
+        &targets
+            .iter()
+            .take(8)
+            .map(|&t| t.clone())
+            .collect::<Vec<_>>(),
+    );
+    for ((img, t), &i) in imgs.iter().zip(&targets).zip(&chosen) {
         // Named by the view's index in the dataset (the same as i without --view-subset).
         let index = opt.config().view_subset.as_ref().map_or(i, |s| s[i]);
         write_view(&dir, &format!("view_{index:03}"), img, t, exposure)?;
     }
     // The first four views at a glance: targets above, re-renders below.
-    let k = imgs.len().min(targets.len()).min(4);
-    let overview = Image::grid(
-        &[targets[..k].iter().collect(), imgs[..k].iter().collect()],
-        2,
-    );
+    let m = imgs.len().min(targets.len()).min(4);
+    let overview = Image::grid(&[targets[..m].to_vec(), imgs[..m].iter().collect()], 2);
     overview.write_png(&dir.join("overview.png"), exposure, true)?;
+    let renders: Vec<&Image> = imgs.iter().collect();
+    report::contact_sheet(&targets, &renders, exposure)?.write_png(
+        &dir.join("contact-sheet.png"),
+        1.0,
+        true,
+    )?;
     Ok(())
 }
 

@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plot::{Figure, Panel, Series};
+use plot::{Band, Figure, Panel, Series};
+use scene::image::Image;
 use serde_json::json;
 
 use crate::optimize::{InverseError, IterationRecord, OptimizeConfig};
@@ -155,14 +156,36 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
     out
 }
 
-/// `convergence.png`: σ_t and α per channel against the iteration (truth dashed) and the loss.
+/// `convergence.png` and `.svg` beside it: σ_t and α per channel against the iteration, with
+/// the truth dashed and the 95 % interval of the estimate shaded when they are known, and the
+/// loss relative to each view's final level (raw values faint, their running median solid).
 pub fn write_plots(
     history: &[IterationRecord],
     final_params: &Params,
     truth: Option<&Params>,
+    uncertainty: Option<&crate::uncertainty::Uncertainty>,
     path: &Path,
 ) -> Result<(), InverseError> {
     let n = history.len();
+    let bands = |intervals: Option<[Option<[f64; 2]>; 3]>| -> Vec<Band> {
+        let Some(iv) = intervals else {
+            return Vec::new();
+        };
+        (0..3)
+            .filter_map(|c| {
+                iv[c].map(|[lo, hi]| {
+                    Band::constant(
+                        format!("95 % interval {}", CHANNELS[c]),
+                        0.0,
+                        n as f64,
+                        lo,
+                        hi,
+                    )
+                    .coloured(c)
+                })
+            })
+            .collect()
+    };
     let series = |f: &dyn Fn(&Params, usize) -> f64| -> Vec<Series> {
         (0..3)
             .map(|c| {
@@ -195,6 +218,7 @@ pub fn write_plots(
                 log_y: false,
                 series: series(&sig),
                 reference_lines: refs(&sig),
+                bands: bands(uncertainty.map(|u| u.sigma_t)),
             },
             Panel {
                 title: "albedo α".into(),
@@ -203,6 +227,7 @@ pub fn write_plots(
                 log_y: false,
                 series: series(&alb),
                 reference_lines: refs(&alb),
+                bands: bands(uncertainty.map(|u| u.albedo)),
             },
             Panel {
                 title: "loss ÷ the view's final level (1: converged)".into(),
@@ -211,13 +236,60 @@ pub fn write_plots(
                 log_y: true,
                 series: relative_loss_series(history),
                 reference_lines: vec![("final level".into(), 1.0)],
+                bands: Vec::new(),
             },
         ],
         3,
     );
-    fig.write_png(path, true)
-        .map_err(|e| InverseError::Invalid(format!("cannot draw {}: {e}", path.display())))
+    let draw_err = |e: plot::PlotError| InverseError::Invalid(e.to_string());
+    fig.write_png(path, true).map_err(draw_err)?;
+    fig.write_svg(&path.with_extension("svg"), true)
+        .map_err(draw_err)
 }
+
+/// Largest side of one tile of the contact sheet, in pixels.
+pub const CONTACT_TILE: u32 = 128;
+
+/// The contact sheet of a run: for every view its target, its re-render at the estimate and
+/// the signed difference (re-render − target, blue–white–red at one range shared by all views),
+/// side by side; [`CONTACT_COLUMNS`] views per row. Targets and re-renders are scaled by
+/// `exposure`; tiles are box-filtered to at most [`CONTACT_TILE`] pixels a side. The image is
+/// meant for [`Image::write_png`] at exposure 1.
+pub fn contact_sheet(
+    targets: &[&Image],
+    renders: &[&Image],
+    exposure: f32,
+) -> Result<Image, InverseError> {
+    if targets.len() != renders.len() || targets.is_empty() {
+        return Err(InverseError::Invalid(format!(
+            "a contact sheet needs one re-render per target ({} targets, {} re-renders)",
+            targets.len(),
+            renders.len()
+        )));
+    }
+    // One difference range for all views: the automatic range of all of them side by side.
+    let row = |v: &[&Image]| Image::grid(&[v.to_vec()], 0);
+    let (_, range) = Image::false_colour_diff_with_range(&row(renders), &row(targets), None)?;
+    let mut tiles: Vec<Vec<Image>> = Vec::new();
+    for (t, r) in targets.iter().zip(renders) {
+        let (diff, _) = Image::false_colour_diff_with_range(r, t, Some(range))?;
+        let factor = t.width.max(t.height).div_ceil(CONTACT_TILE).max(1);
+        let small = |im: &Image| im.downsample(factor);
+        tiles.push(vec![
+            small(&t.scaled(exposure))?,
+            small(&r.scaled(exposure))?,
+            small(&diff)?,
+        ]);
+    }
+    let rows: Vec<Vec<&Image>> = tiles
+        .chunks(CONTACT_COLUMNS)
+        .map(|views| views.iter().flatten().collect())
+        .collect();
+    Ok(Image::grid(&rows, 2))
+}
+
+/// Views per row of the contact sheet (three tiles each).
+pub const CONTACT_COLUMNS: usize = 4;
 
 /// The loss of each iteration over its views' final level, and its running median.
 ///
@@ -275,7 +347,7 @@ fn relative_loss_series(history: &[IterationRecord]) -> Vec<Series> {
         })
         .collect();
     vec![
-        Series::new("per iteration", pts),
+        Series::faint("per iteration", pts),
         Series::new(format!("running median of {WINDOW}"), median),
     ]
 }
@@ -298,6 +370,47 @@ mod tests {
             crop_origins: vec![],
             seconds: 0.0,
         }
+    }
+
+    /// Five views of 40×30: two rows of sheet (four views of three tiles, then one), 2-pixel
+    /// gaps; a view re-rendered exactly is white in the difference, and the difference scale is
+    /// shared (the view with the larger error saturates, the smaller one does not).
+    #[test]
+    fn the_contact_sheet_shows_every_view_on_one_scale() {
+        let img = |v: f32| {
+            let mut i = Image::new(40, 30);
+            for p in &mut i.data {
+                *p = [v; 3];
+            }
+            i
+        };
+        let targets: Vec<Image> = (0..5).map(|_| img(0.5)).collect();
+        let renders = [img(0.5), img(0.6), img(0.9), img(0.5), img(0.5)];
+        let t: Vec<&Image> = targets.iter().collect();
+        let r: Vec<&Image> = renders.iter().collect();
+        let sheet = contact_sheet(&t, &r, 1.0).unwrap();
+        assert_eq!((sheet.width, sheet.height), (12 * 40 + 11 * 2, 2 * 30 + 2));
+        // The difference tile of view v (row v / 4, column v % 4).
+        let diff = |v: usize| {
+            let x = ((v % 4) * 3 + 2) as u32 * 42 + 20;
+            let y = (v / 4) as u32 * 32 + 15;
+            sheet.get(x, y)
+        };
+        assert_eq!(diff(0), [1.0; 3], "no difference: white");
+        assert_eq!(diff(4), [1.0; 3]);
+        assert_eq!(diff(2), [1.0, 0.0, 0.0], "the largest error saturates red");
+        let p = diff(1);
+        assert!(
+            p[0] == 1.0 && p[1] > 0.6 && p[1] < 0.8,
+            "a quarter of the range: {p:?}"
+        );
+        // Targets and re-renders keep their values at exposure 1.
+        assert_eq!(
+            sheet.get(4 * 42 + 20, 15),
+            [0.6; 3],
+            "the re-render of view 1"
+        );
+        assert!(contact_sheet(&t, &r[..2], 1.0).is_err());
     }
 
     /// Two views 1000× apart in brightness whose losses fall by e⁻ⁱᐟ¹⁰ to a floor: the relative

@@ -59,6 +59,7 @@ pub fn write_history(
                     Series::new("validation", pts(&|r| r.val.total)),
                 ],
                 reference_lines: vec![],
+                bands: Vec::new(),
             },
             Panel {
                 title: "validation terms".into(),
@@ -72,6 +73,7 @@ pub fn write_history(
                     Series::new("energy score", pts(&|r| r.val.energy)),
                 ],
                 reference_lines: vec![],
+                bands: Vec::new(),
             },
             Panel {
                 title: "validation absorption RMSE".into(),
@@ -83,6 +85,7 @@ pub fn write_history(
                     pts(&|r| r.val.absorption_mse.sqrt()),
                 )],
                 reference_lines: vec![],
+                bands: Vec::new(),
             },
             Panel {
                 title: "learning rate".into(),
@@ -91,6 +94,7 @@ pub fn write_history(
                 log_y: true,
                 series: vec![Series::new("lr", pts(&|r| r.lr as f64))],
                 reference_lines: vec![],
+                bands: Vec::new(),
             },
         ],
         2,

@@ -1,7 +1,8 @@
 //! Line charts as PNG (and SVG) for training curves and convergence plots.
 //!
-//! A [`Figure`] is a grid of [`Panel`]s; a panel holds line [`Series`] (x, y) and optional
-//! horizontal reference lines (e.g. the ground truth of a parameter). PNGs are drawn into an RGB
+//! A [`Figure`] is a grid of [`Panel`]s; a panel holds line [`Series`] (x, y), shaded
+//! [`Band`]s (x, lo, hi) under them (an interval, a mean ± s.d.) and optional horizontal
+//! reference lines (e.g. the ground truth of a parameter). PNGs are drawn into an RGB
 //! buffer with plotters' bitmap backend and encoded with `image` (no system libraries); text uses
 //! the embedded DejaVu Sans (licence in `assets/DejaVuSans-LICENSE.txt`). Files are written
 //! atomically and never replace an existing file unless asked.
@@ -43,6 +44,8 @@ pub struct Series {
     pub label: String,
     /// Points (x, y); non-finite points are skipped.
     pub points: Vec<(f64, f64)>,
+    /// Drawn thin and pale, behind the other lines (e.g. raw values under their running mean).
+    pub faint: bool,
 }
 
 impl Series {
@@ -51,7 +54,43 @@ impl Series {
         Self {
             label: label.into(),
             points,
+            faint: false,
         }
+    }
+
+    /// A faint series: thin and pale, drawn before the others.
+    pub fn faint(label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            faint: true,
+            ..Self::new(label, points)
+        }
+    }
+}
+
+/// A shaded range under a panel's lines: between `lo` and `hi` at each `x`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Band {
+    /// Legend label.
+    pub label: String,
+    /// Points (x, lo, hi), in order of x; non-finite points are skipped.
+    pub points: Vec<(f64, f64, f64)>,
+    /// Palette index of its colour: the colour of the series with that index.
+    pub colour: usize,
+}
+
+impl Band {
+    /// A band of constant `[lo, hi]` from `x0` to `x1` (e.g. a 95 % interval).
+    pub fn constant(label: impl Into<String>, x0: f64, x1: f64, lo: f64, hi: f64) -> Self {
+        Self {
+            label: label.into(),
+            points: vec![(x0, lo, hi), (x1, lo, hi)],
+            colour: 0,
+        }
+    }
+
+    /// The same band in the colour of series `colour`.
+    pub fn coloured(self, colour: usize) -> Self {
+        Self { colour, ..self }
     }
 }
 
@@ -70,6 +109,8 @@ pub struct Panel {
     pub series: Vec<Series>,
     /// Horizontal dashed reference lines (label, y).
     pub reference_lines: Vec<(String, f64)>,
+    /// Shaded ranges, drawn under the lines.
+    pub bands: Vec<Band>,
 }
 
 /// A grid of panels.
@@ -215,6 +256,14 @@ fn ranges(panel: &Panel) -> Option<(f64, f64, f64, f64)> {
             ys = (ys.0.min(y), ys.1.max(y));
         }
     }
+    for b in &panel.bands {
+        for &(x, lo, hi) in &b.points {
+            if x.is_finite() && ok_y(lo) && ok_y(hi) {
+                xs = (xs.0.min(x), xs.1.max(x));
+                ys = (ys.0.min(lo.min(hi)), ys.1.max(lo.max(hi)));
+            }
+        }
+    }
     if !(xs.0.is_finite() && ys.0.is_finite()) {
         return None;
     }
@@ -264,8 +313,47 @@ fn draw_panel<DB: DrawingBackend>(
                 .y_label_formatter(&|v| tick(*v))
                 .draw()
                 .map_err(|e| e.to_string())?;
-            for (i, s) in panel.series.iter().enumerate() {
+            for b in &panel.bands {
+                let colour = PALETTE[b.colour % PALETTE.len()];
+                let pts: Vec<(f64, f64, f64)> = b
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|&(x, lo, hi)| x.is_finite() && $ok(lo) && $ok(hi))
+                    .collect();
+                if pts.len() < 2 {
+                    continue;
+                }
+                let outline: Vec<(f64, f64)> = pts
+                    .iter()
+                    .map(|&(x, lo, _)| (x, lo))
+                    .chain(pts.iter().rev().map(|&(x, _, hi)| (x, hi)))
+                    .collect();
+                chart
+                    .draw_series(std::iter::once(Polygon::new(
+                        outline,
+                        colour.mix(0.18).filled(),
+                    )))
+                    .map_err(|e| e.to_string())?
+                    .label(&b.label)
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 5), (x + 18, y + 5)], colour.mix(0.18).filled())
+                    });
+            }
+            // Faint series first, so that the others are drawn over them.
+            let order = panel
+                .series
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| s.faint)
+                .chain(panel.series.iter().enumerate().filter(|(_, s)| !s.faint));
+            for (i, s) in order {
                 let colour = PALETTE[i % PALETTE.len()];
+                let style = if s.faint {
+                    colour.mix(0.3).stroke_width(1)
+                } else {
+                    colour.stroke_width(2)
+                };
                 let pts: Vec<(f64, f64)> = s
                     .points
                     .iter()
@@ -273,12 +361,10 @@ fn draw_panel<DB: DrawingBackend>(
                     .filter(|&(x, y)| x.is_finite() && $ok(y))
                     .collect();
                 chart
-                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .draw_series(LineSeries::new(pts, style))
                     .map_err(|e| e.to_string())?
                     .label(&s.label)
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                    });
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
             }
             // Reference line k is dashed in the colour of series k (e.g. the truth of channel k
             // next to its estimate); black when there are more lines than series.
@@ -301,7 +387,10 @@ fn draw_panel<DB: DrawingBackend>(
                     .label(label.as_str())
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], colour));
             }
-            if !panel.series.is_empty() || !panel.reference_lines.is_empty() {
+            if !panel.series.is_empty()
+                || !panel.reference_lines.is_empty()
+                || !panel.bands.is_empty()
+            {
                 chart
                     .configure_series_labels()
                     .background_style(WHITE.mix(0.8))
@@ -368,14 +457,19 @@ mod tests {
                     log_y: true,
                     series: vec![Series::new("train", curve.clone())],
                     reference_lines: vec![],
+                    bands: Vec::new(),
                 },
                 Panel {
                     title: "sigma_t".into(),
                     x_label: "iteration".into(),
                     y_label: "σ_t".into(),
                     log_y: false,
-                    series: vec![Series::new("estimate", curve)],
+                    series: vec![
+                        Series::faint("raw", curve.clone()),
+                        Series::new("estimate", curve),
+                    ],
                     reference_lines: vec![("truth".into(), 0.5)],
+                    bands: vec![Band::constant("interval", 0.0, 49.0, 0.4, 0.6).coloured(1)],
                 },
                 Panel {
                     title: "empty".into(),
@@ -438,5 +532,17 @@ mod tests {
         let (x0, x1, y0, y1) = ranges(&p).unwrap();
         assert_eq!((x0, x1), (1.5, 2.5));
         assert!(y0 > 0.0 && y0 < 4.0 && y1 > 4.0);
+    }
+
+    #[test]
+    fn bands_widen_the_ranges() {
+        let p = Panel {
+            series: vec![Series::new("a", vec![(0.0, 1.0), (1.0, 2.0)])],
+            bands: vec![Band::constant("b", -1.0, 3.0, 0.0, 5.0)],
+            ..Default::default()
+        };
+        let (x0, x1, y0, y1) = ranges(&p).unwrap();
+        assert_eq!((x0, x1), (-1.0, 3.0));
+        assert!(y0 < 0.0 && y1 > 5.0, "{y0} {y1}");
     }
 }

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use plot::{Figure, Panel, Series};
+use plot::{Band, Figure, Panel, Series};
 
 use super::report::{Row, read_trajectory};
 use super::{AccuracyArgs, accuracy};
@@ -107,16 +107,17 @@ fn band_figure(starts: &[&Row]) -> Result<Figure> {
                 (c[0][k].0, m, sd)
             };
             let s: Vec<(f64, f64, f64)> = (0..n).map(stat).collect();
-            let mut series = vec![
-                Series::new("mean", s.iter().map(|p| (p.0, p.1)).collect()),
-                Series::new("mean + s.d.", s.iter().map(|p| (p.0, p.1 + p.2)).collect()),
-                Series::new("mean − s.d.", s.iter().map(|p| (p.0, p.1 - p.2)).collect()),
-            ];
+            let mut series = vec![Series::new("mean", s.iter().map(|p| (p.0, p.1)).collect())];
             series.extend(
                 c.iter()
                     .enumerate()
-                    .map(|(i, pts)| Series::new(format!("start {i}"), pts.clone())),
+                    .map(|(i, pts)| Series::faint(format!("start {i}"), pts.clone())),
             );
+            let band = Band {
+                label: "mean ± s.d.".into(),
+                points: s.iter().map(|p| (p.0, p.1 - p.2, p.1 + p.2)).collect(),
+                colour: 0,
+            };
             Panel {
                 title: format!("{title} over {} random starts", c.len()),
                 x_label: "iteration".into(),
@@ -124,6 +125,7 @@ fn band_figure(starts: &[&Row]) -> Result<Figure> {
                 log_y: false,
                 series,
                 reference_lines: Vec::new(),
+                bands: vec![band],
             }
         })
         .collect();

@@ -106,6 +106,7 @@ fn error_figure(case: &str, rows: &[&Row]) -> Result<Figure> {
         log_y: true,
         series,
         reference_lines: Vec::new(),
+        bands: Vec::new(),
     };
     Ok(Figure::new(
         vec![

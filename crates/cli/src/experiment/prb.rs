@@ -132,6 +132,7 @@ pub fn run(a: &PrbArgs) -> Result<()> {
             })
             .collect(),
         reference_lines: Vec::new(),
+        bands: Vec::new(),
     };
     let pct = |p: &Step| 100.0 * err_t(p);
     let fig = Figure::new(

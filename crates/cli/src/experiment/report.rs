@@ -229,6 +229,7 @@ pub(super) fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
                     })
                     .collect(),
                 reference_lines: vec![(format!("truth {}", CH[c]), truth)],
+                bands: Vec::new(),
             });
         }
     }

@@ -143,6 +143,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
             })
             .collect(),
         reference_lines: Vec::new(),
+        bands: Vec::new(),
     };
     let fig = Figure::new(
         vec![

@@ -66,10 +66,12 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
     for f in [
         "iterations.csv",
         "convergence.png",
+        "convergence.svg",
         "checkpoint.json",
         "final/view_000.png",
         "final/view_000_diff.png",
         "final/overview.png",
+        "final/contact-sheet.png",
     ] {
         assert!(d.join("o").join(f).exists(), "missing {f}");
     }
