@@ -39,11 +39,16 @@ use serde::{Deserialize, Serialize};
 
 /// The light-side exit law of the learned renderer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum ExitLaw {
-    /// f(α; μ_cam, μ_l) from half-space walks (this module; the default).
+    /// The exit direction of half-space walks, given the camera direction (default).
+    ///
+    /// f(α; μ_cam, μ_l) from half-space walks (this module).
     #[default]
     HalfSpace,
+    /// The cosine law Sw·cos θ_l of Vicini et al. 2019 and Son et al. 2024.
+    ///
     /// The cosine law Sw(w_l)·cos θ_l of VKJ19 and SON24 (docs/model.md §1).
     Cosine,
 }

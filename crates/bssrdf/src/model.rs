@@ -156,11 +156,16 @@ pub enum ModelError {
 
 /// Frame convention the model's inputs and outputs are meant for (docs/model.md §10 A4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FrameConvention {
+    /// Vicini et al. 2019's frames.
+    ///
     /// VKJ19: refracted, polynomial-aligned incident direction; light-space frame (+e1, +e2,
     /// −d_in) for both features and output.
     #[serde(rename = "vkj19")]
     Vkj19,
+    /// Son et al. 2024's released code's frames.
+    ///
     /// SON24's choices: features in (−e1, −e2, wi) built from the unrefracted wi, output in
     /// the shading-normal frame.
     #[serde(rename = "son24-compat")]

@@ -37,6 +37,35 @@ pub enum ProjectionRule {
     Vkj19,
 }
 
+/// The family of a [`ProjectionRule`], by name (`son24`, `vkj19`): what a user chooses; the
+/// reach of `son24` is a separate setting.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ProjectionKind {
+    /// Bounded: along the polynomial gradient, within the reach (in units of σ_n) plus 0.01,
+    /// in a single pass (Son et al. 2024).
+    #[default]
+    Son24,
+    /// 2σ_n² first, then unbounded (Vicini et al. 2019).
+    Vkj19,
+}
+
+impl ProjectionKind {
+    /// The rule of this kind; `max_dist_scale` is the reach of `Son24`.
+    pub fn rule(self, max_dist_scale: f32) -> ProjectionRule {
+        match self {
+            ProjectionKind::Vkj19 => ProjectionRule::Vkj19,
+            ProjectionKind::Son24 => match ProjectionRule::default() {
+                ProjectionRule::Son24 { origin_offset, .. } => ProjectionRule::Son24 {
+                    max_dist_scale,
+                    origin_offset,
+                },
+                rule => rule,
+            },
+        }
+    }
+}
+
 /// The reach SON24's scripts use (`--maxDistScale 2.0`), in units of σ_n.
 pub const SON24_MAX_DIST_SCALE: f32 = 2.0;
 /// Our default reach in units of σ_n (see the module documentation for the measurement).

@@ -59,20 +59,18 @@ pub struct LearnedBenchArgs {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Light-side exit law of the learned renders: `half-space` (default) or `cosine`
-    /// (VKJ19/SON24's Sw·cos θ_l).
-    #[arg(long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
-    pub exit_law: String,
-    /// Projection rule of the learned renders: `son24` (default) or `vkj19`.
-    #[arg(long, default_value = "son24", value_parser = ["son24", "vkj19"])]
-    pub projection: String,
+    /// Light-side exit law of the learned renders.
+    #[arg(long, value_enum, default_value_t)]
+    pub exit_law: bssrdf::exit::ExitLaw,
+    /// Projection rule of the learned renders.
+    #[arg(long, value_enum, default_value_t)]
+    pub projection: bssrdf::projection::ProjectionKind,
     /// Reach of the `son24` projection in units of σ_n (SON24: 2; default 8).
     #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
-    /// Light-side incidence of the learned renders: `directional` (default) or `isotropic`
-    /// (VKJ19/SON24).
-    #[arg(long, default_value = "directional", value_parser = ["directional", "isotropic"])]
-    pub incidence: String,
+    /// Light-side incidence of the learned renders.
+    #[arg(long, value_enum, default_value_t)]
+    pub incidence: bssrdf::render::Incidence,
 }
 
 /// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
@@ -171,20 +169,9 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     for planar in [false, true] {
                         let settings = bssrdf::render::LearnedSettings {
                             planar_features: planar,
-                            projection: crate::common::projection_rule(
-                                &a.projection,
-                                a.max_dist_scale,
-                            ),
-                            exit: if a.exit_law == "cosine" {
-                                bssrdf::exit::ExitLaw::Cosine
-                            } else {
-                                bssrdf::exit::ExitLaw::HalfSpace
-                            },
-                            incidence: if a.incidence == "isotropic" {
-                                bssrdf::render::Incidence::Isotropic
-                            } else {
-                                bssrdf::render::Incidence::Directional
-                            },
+                            projection: a.projection.rule(a.max_dist_scale),
+                            exit: a.exit_law,
+                            incidence: a.incidence,
                             ..Default::default()
                         };
                         let rep = render_views_learned(

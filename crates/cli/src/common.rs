@@ -231,53 +231,14 @@ pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], wha
     accel
 }
 
-/// Estimator of the volumetric tracer's shadow-ray transmittance (`--shadow`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum ShadowArg {
-    /// exp(−σ_t ℓ) from the exact inside length of the shadow segment (one all-hits query per
-    /// scattering vertex): the least noise per second.
-    #[default]
-    Exact,
-    /// Delta tracking with the smallest σ_t as sampling rate, as Mitsuba 3 does: a deep vertex
-    /// costs one short query (about 1.25× the paths per second, 1.4× the variance per path).
-    Tracked,
-}
-
-impl From<ShadowArg> for volpath::ShadowTransmittance {
-    fn from(a: ShadowArg) -> Self {
-        match a {
-            ShadowArg::Tracked => volpath::ShadowTransmittance::Tracked,
-            ShadowArg::Exact => volpath::ShadowTransmittance::Exact,
-        }
-    }
-}
-
-/// Where the volumetric tracer's rays continue after crossing the boundary (`--spawn-offset`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum SpawnOffsetArg {
-    /// A few hundred ulps off the surface (≈ 2·10⁻⁶ units): the medium starts where the mesh
-    /// says.
-    #[default]
-    Robust,
-    /// Mitsuba 3's spawn_ray offset, (1 + max|p|)·8.9·10⁻⁵ along the normal: entering rays skip
-    /// that sliver of medium, which darkens Mitsuba's images by ≈ σ_t·10⁻⁴/cos θ_light
-    /// (0.1–0.7 % on the reference sphere). For like-for-like comparisons with Mitsuba renders.
-    Mitsuba,
-}
-
-impl From<SpawnOffsetArg> for volpath::SpawnOffset {
-    fn from(a: SpawnOffsetArg) -> Self {
-        match a {
-            SpawnOffsetArg::Robust => volpath::SpawnOffset::Robust,
-            SpawnOffsetArg::Mitsuba => volpath::SpawnOffset::Mitsuba,
-        }
-    }
-}
-
 /// The `--help` heading of the options a user rarely needs: the defaults are the measured best.
-pub const RESEARCH_OPTIONS: &str = "Research options (the defaults are the measured best)";
+pub const RESEARCH_OPTIONS: &str =
+    "Advanced: research options (the defaults are the measured best)";
 /// The `--help` heading of the learned BSSRDF's options.
-pub const LEARNED_OPTIONS: &str = "Learned BSSRDF options (the defaults are the measured best)";
+pub const LEARNED_OPTIONS: &str =
+    "Advanced: learned BSSRDF options (the defaults are the measured best)";
+/// The `--help` heading of a run's outputs and checks after the fit.
+pub const CHECK_OPTIONS: &str = "Advanced: outputs and checks after the fit";
 
 /// Options of the learned BSSRDF, shared by the commands that render.
 #[derive(clap::Args, Clone, Debug)]
@@ -288,25 +249,23 @@ pub struct LearnedArgs {
     /// built-in one), `volpath` (the volumetric path tracer: the default of `render` and
     /// `validate-mitsuba`, in `optimize` the volumetric baseline) or `dipole` (the planar dipole
     /// baseline of Deng et al. 2022).
-    #[arg(help_heading = LEARNED_OPTIONS, long)]
+    #[arg(long)]
     pub model: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
     /// goes along −n(x_o).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub planar_features: bool,
-    /// Projection rule: `son24` (bounded, `--max-dist-scale`·σ_n + 0.01, single pass) or `vkj19`
-    /// (2σ_n², then unbounded).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "son24", value_parser = ["son24", "vkj19"])]
-    pub projection: String,
+    /// Projection rule of the proposals onto the mesh.
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub projection: bssrdf::projection::ProjectionKind,
     /// Reach of the `son24` projection in units of σ_n (SON24's scripts: 2; ours: 8, measured in
     /// docs/notes/light-side.md). Proposals farther than this from the mesh along the polynomial
     /// gradient are invalid samples (value 0).
     #[arg(help_heading = LEARNED_OPTIONS, long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
-    /// Frame convention of features and outputs: the model's own (default), `vkj19` or
-    /// `son24-compat` (docs/model.md A4).
-    #[arg(help_heading = LEARNED_OPTIONS, long, value_parser = ["model", "vkj19", "son24-compat"], default_value = "model")]
-    pub frames: String,
+    /// Frame convention of features and outputs (default: the model's own; docs/model.md A4).
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum)]
+    pub frames: Option<bssrdf::model::FrameConvention>,
     /// Keep the polynomial descriptor exactly as fitted while σ_t, α change (SON24) instead of
     /// rescaling it to the current σ_n (c_m·k^(deg−1), k = σ_n/σ_n,fit; the default). Only
     /// matters when the features were fitted at another medium (optimize).
@@ -316,32 +275,21 @@ pub struct LearnedArgs {
     /// (the reference path: identical images, slower).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
     pub bvh_camera_rays: bool,
-    /// Light-side exit law: `half-space` (the exit direction of half-space walks of the medium,
-    /// conditioned on the camera direction; default) or `cosine` (Sw·cos θ_l of VKJ19/SON24).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "half-space", value_parser = ["half-space", "cosine"])]
-    pub exit_law: String,
-    /// Light-side incidence: `directional` (light that enters obliquely leaves mostly ahead of
-    /// its entry point, by half-space walks; default) or `isotropic` (no dependence on the
-    /// light's azimuth, as VKJ19/SON24).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "directional", value_parser = ["directional", "isotropic"])]
-    pub incidence: String,
-    /// Where the entry points come from: `decoder` (the model's VAE decoder, the paper's method;
-    /// default) or `walks` (random walks in the same local cubic, conditioned on escape: the
-    /// distribution the decoder was trained to imitate; a diagnostic of the decoder, slower at
-    /// low albedo, not available with `--method naive`).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "decoder", value_parser = ["decoder", "walks"])]
-    pub entry_sampler: String,
-    /// Light side's curvature correction: `ball` (the light term times exact/model of walks in
-    /// balls at the camera point's curvature, bssrdf::curvature; default; for media with g = 0
-    /// and η = 1, otherwise none) or `none` (the half-space light side without the correction).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "ball", value_parser = ["none", "ball"])]
-    pub light_curvature: String,
-    /// How a pixel's samples are spread over the colour channels: `stratified` (the channels
-    /// take turns, each gets spp/3 samples placed by a scrambled Sobol sequence over film
-    /// jitter and latent; default) or `one-hot` (a random channel per sample, weight 3: the
-    /// paper's scheme, noisier on coloured media).
-    #[arg(help_heading = LEARNED_OPTIONS, long, default_value = "stratified", value_parser = ["stratified", "one-hot"])]
-    pub pixel_sampling: String,
+    /// Light-side exit law.
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub exit_law: bssrdf::exit::ExitLaw,
+    /// Light-side incidence.
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub incidence: bssrdf::render::Incidence,
+    /// Where the entry points come from (`walks` is not available with `--estimator naive`).
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub entry_sampler: bssrdf::render::EntrySampler,
+    /// Curvature correction of the light side.
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub light_curvature: bssrdf::render::LightCurvature,
+    /// How a pixel's samples are spread over the colour channels.
+    #[arg(help_heading = LEARNED_OPTIONS, long, value_enum, default_value_t)]
+    pub pixel_sampling: bssrdf::render::PixelSampling,
 }
 
 /// `--max-dist-scale`: a finite, positive multiple of σ_n.
@@ -359,21 +307,10 @@ pub fn parse_reach(s: &str) -> std::result::Result<f32, String> {
     }
 }
 
-/// The projection rule named on the command line (`son24` with reach `max_dist_scale`·σ_n, or
-/// `vkj19`).
-pub fn projection_rule(name: &str, max_dist_scale: f32) -> bssrdf::projection::ProjectionRule {
-    match name {
-        "vkj19" => bssrdf::projection::ProjectionRule::Vkj19,
-        _ => match bssrdf::projection::ProjectionRule::default() {
-            bssrdf::projection::ProjectionRule::Son24 { origin_offset, .. } => {
-                bssrdf::projection::ProjectionRule::Son24 {
-                    max_dist_scale,
-                    origin_offset,
-                }
-            }
-            rule => rule,
-        },
-    }
+/// The command-line name of an option's value.
+pub fn value_name<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
 }
 
 impl LearnedArgs {
@@ -383,14 +320,18 @@ impl LearnedArgs {
             .model
             .as_ref()
             .map_or("shipped".to_string(), |p| p.display().to_string());
-        let projection = match self.projection.as_str() {
-            "vkj19" => "vkj19 projection".to_string(),
-            _ => format!("son24 projection (reach {}σ_n)", self.max_dist_scale),
+        use bssrdf::render::{EntrySampler, LightCurvature, PixelSampling};
+        let projection = match self.projection {
+            bssrdf::projection::ProjectionKind::Vkj19 => "vkj19 projection".to_string(),
+            bssrdf::projection::ProjectionKind::Son24 => {
+                format!("son24 projection (reach {}σ_n)", self.max_dist_scale)
+            }
         };
+
         format!(
             "model {model}, {} exit law, {} incidence, {projection}{}{}{}{}{}",
-            self.exit_law,
-            self.incidence,
+            value_name(&self.exit_law),
+            value_name(&self.incidence),
             if self.planar_features {
                 ", planar features"
             } else {
@@ -401,17 +342,17 @@ impl LearnedArgs {
             } else {
                 ""
             },
-            if self.entry_sampler == "walks" {
+            if self.entry_sampler == EntrySampler::Walks {
                 ", entry points from walks (no decoder)"
             } else {
                 ""
             },
-            if self.light_curvature == "none" {
+            if self.light_curvature == LightCurvature::None {
                 ", light side without curvature correction"
             } else {
                 ", curvature-corrected light side"
             },
-            if self.pixel_sampling == "one-hot" {
+            if self.pixel_sampling == PixelSampling::OneHot {
                 ", one-hot channels"
             } else {
                 ""
@@ -421,30 +362,16 @@ impl LearnedArgs {
 
     pub fn settings(&self) -> bssrdf::render::LearnedSettings {
         bssrdf::render::LearnedSettings {
-            projection: projection_rule(&self.projection, self.max_dist_scale),
+            projection: self.projection.rule(self.max_dist_scale),
             planar_features: self.planar_features,
-            frames: match self.frames.as_str() {
-                "vkj19" => Some(bssrdf::model::FrameConvention::Vkj19),
-                "son24-compat" => Some(bssrdf::model::FrameConvention::Son24Compat),
-                _ => None,
-            },
+            frames: self.frames,
             frozen_descriptor: self.frozen_descriptor,
             bvh_camera_rays: self.bvh_camera_rays,
-            exit: match self.exit_law.as_str() {
-                "cosine" => bssrdf::exit::ExitLaw::Cosine,
-                _ => bssrdf::exit::ExitLaw::HalfSpace,
-            },
-            incidence: match self.incidence.as_str() {
-                "isotropic" => bssrdf::render::Incidence::Isotropic,
-                _ => bssrdf::render::Incidence::Directional,
-            },
-            entry: bssrdf::render::EntrySampler::from_name(&self.entry_sampler).unwrap_or_default(),
-            light_curvature: match self.light_curvature.as_str() {
-                "ball" => bssrdf::render::LightCurvature::Ball,
-                _ => bssrdf::render::LightCurvature::None,
-            },
-            sampling: bssrdf::render::PixelSampling::from_name(&self.pixel_sampling)
-                .unwrap_or_default(),
+            exit: self.exit_law,
+            incidence: self.incidence,
+            entry: self.entry_sampler,
+            light_curvature: self.light_curvature,
+            sampling: self.pixel_sampling,
         }
     }
 

@@ -45,8 +45,8 @@ pub struct RigArgs {
     #[arg(long, default_value_t = 2.0)]
     pub radius: f32,
     /// Light placement: `attached` (moves with each camera, offset up-left of it) or `fixed`.
-    #[arg(long, default_value = "attached", value_parser = ["attached", "fixed"])]
-    pub light: String,
+    #[arg(long, value_enum, default_value_t)]
+    pub light: scene::rig::RigLightKind,
     /// Fixed light position "x,y,z" (with --light fixed).
     #[arg(long, default_value = "1.2,1.6,0.8")]
     pub light_position: String,
@@ -94,11 +94,11 @@ impl RigArgs {
             );
             Ok(Vec3::new(p[0], p[1], p[2]))
         };
-        let light = match self.light.as_str() {
-            "fixed" => RigLight::Fixed {
+        let light = match self.light {
+            scene::rig::RigLightKind::Fixed => RigLight::Fixed {
                 position: v3(&self.light_position, "--light-position")?,
             },
-            _ => RigLight::Attached {
+            scene::rig::RigLightKind::Attached => RigLight::Attached {
                 offset: v3(&self.light_offset, "--light-offset")?,
             },
         };
@@ -221,7 +221,7 @@ pub struct DatasetArgs {
     pub max_depth: u32,
     /// Shadow-ray transmittance estimator of the volumetric tracer.
     #[arg(long, value_enum, default_value_t)]
-    pub shadow: crate::common::ShadowArg,
+    pub shadow: volpath::ShadowTransmittance,
     /// Output dataset folder.
     #[arg(long)]
     pub out: PathBuf,
@@ -329,7 +329,7 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
             spp: a.spp,
             seed: a.seed,
             max_depth: a.max_depth,
-            shadow: a.shadow.into(),
+            shadow: a.shadow,
         },
         &a.out,
         a.overwrite,

@@ -412,7 +412,7 @@ pub(crate) fn run_args(
     match baseline_model(method) {
         // A baseline model with its default estimator.
         Some(m) => o.learned.model = Some(m.name().into()),
-        None => o.method = Some(method.to_string()),
+        None => o.method = Some(method.parse().expect("methods are checked before the runs")),
     }
     o.budget = a.budget;
     o.scaled_sigma_t = a.scaled_sigma_t;

@@ -29,8 +29,14 @@ pub struct GradcheckArgs {
     /// α at which to differentiate (default: the dataset's truth).
     #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true)]
     pub albedo: Option<[f32; 3]>,
-    /// Methods (comma-separated; `fd` is the reference and is always added).
-    #[arg(long, value_delimiter = ',', default_value = "ours,naive")]
+    /// Gradient estimators of the learned BSSRDF (comma-separated; `fd` is the reference and is
+    /// always added).
+    #[arg(
+        long = "estimators",
+        alias = "methods",
+        value_delimiter = ',',
+        default_value = "ours,naive"
+    )]
     pub methods: Vec<String>,
     /// Samples per pixel.
     #[arg(long, default_value_t = 64)]

@@ -12,7 +12,10 @@ mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
+#[cfg(test)]
+mod docs_options;
 mod experiment;
+mod generate_cmd;
 mod gradcheck_cmd;
 mod model_cmd;
 mod optimize_cmd;
@@ -24,7 +27,7 @@ mod validate;
 use std::path::PathBuf;
 
 use anyhow::Result;
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 
 const UNITS_HELP: &str = "\
 Units and conventions: lengths in scene units (default objects are about 1 unit across, centred \
@@ -74,12 +77,16 @@ enum Command {
     /// Train the learned BSSRDF: generate data with our random walks, fit the networks.
     #[command(subcommand)]
     Train(train_cmd::TrainCommand),
-    /// Speed measurements (results go into BENCHMARKS.md).
-    #[command(subcommand)]
-    Bench(bench::BenchCommand),
     /// The paper's experiments, each one command that prints a table and draws plots.
     #[command(subcommand)]
     Experiment(experiment::ExperimentCommand),
+    /// Shell completions and man pages.
+    #[command(subcommand)]
+    Generate(generate_cmd::GenerateCommand),
+    /// The maintainers' measurements behind BENCHMARKS.md (speed, model accuracy, noise); not
+    /// in the main help (`translucent bench --help` lists them).
+    #[command(subcommand, hide = true)]
+    Bench(bench::BenchCommand),
 }
 
 #[derive(Args)]
@@ -104,7 +111,7 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    let cli = parse_args();
     let filter =
         tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| {
             tracing_subscriber::EnvFilter::new(if cli.quiet { "warn" } else { "info" })
@@ -120,6 +127,59 @@ fn main() {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }
+}
+
+/// The command line with negative numbers taken as values everywhere, so that `--spp -1` or
+/// `--init-sigma-t -5` reaches a validation that names the option, not clap's "unexpected
+/// argument '-1'".
+fn parse_args() -> Cli {
+    fn negatives_are_values(cmd: clap::Command) -> clap::Command {
+        let names: Vec<String> = cmd
+            .get_subcommands()
+            .map(|s| s.get_name().to_string())
+            .collect();
+        names
+            .into_iter()
+            .fold(cmd.allow_negative_numbers(true), |c, n| {
+                c.mut_subcommand(n, negatives_are_values)
+            })
+    }
+    let matches = negatives_are_values(Cli::command())
+        .try_get_matches()
+        .unwrap_or_else(|e| negative_count_error(e).exit());
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
+/// A negative value for a count (`--spp -1`, an unsigned integer): says so in our words; other
+/// errors unchanged.
+fn negative_count_error(e: clap::Error) -> clap::Error {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    let value = match e.get(ContextKind::InvalidValue) {
+        Some(ContextValue::String(v)) => v.clone(),
+        _ => return e,
+    };
+    let arg = match e.get(ContextKind::InvalidArg) {
+        Some(ContextValue::String(a)) => a.clone(),
+        _ => return e,
+    };
+    // Only the unsigned-integer parser's own error ("-1 is not in 0..=4294967295"): a value
+    // parser of ours already says what is wrong.
+    let from_integer_parser = std::error::Error::source(&e).is_some_and(|s| {
+        let m = s.to_string();
+        s.downcast_ref::<std::num::ParseIntError>().is_some() || m.contains(" is not in 0..")
+    });
+    if e.kind() != ErrorKind::ValueValidation || !value.starts_with('-') || !from_integer_parser {
+        return e;
+    }
+    let option = arg.split_whitespace().next().unwrap_or(&arg).to_string();
+    Cli::command().error(
+        ErrorKind::ValueValidation,
+        format!(
+            "{option} {value}: this option counts something (samples, views, iterations, …) and \
+             cannot be negative; fix: give a whole number, e.g. {option} {}",
+            value.trim_start_matches('-')
+        ),
+    )
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -138,6 +198,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::ValidateMitsuba(a) => validate::run(&a),
         Command::Bench(b) => bench::run(&b),
         Command::Experiment(e) => experiment::run(&e),
+        Command::Generate(g) => generate_cmd::run(&g, Cli::command()),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),
         Command::Optimize(a) => optimize_cmd::run(&a),

@@ -37,19 +37,24 @@ pub struct OptimizeArgs {
     /// Output folder.
     #[arg(long, default_value = "out/optimize")]
     pub out: PathBuf,
-    /// Gradient estimator of the model (`--model`): for the learned BSSRDF ours (default),
-    /// ours-alpha-offsets, naive or fd; for `volpath` and `dipole` ad (default) or fd.
-    #[arg(long)]
-    pub method: Option<String>,
+    /// Gradient estimator of the model (`--model`). The learned BSSRDF takes ours (default),
+    /// ours-alpha-offsets, naive and fd; `volpath` and `dipole` take ad (default) and fd.
+    #[arg(
+        long = "estimator",
+        alias = "method",
+        value_enum,
+        value_name = "ESTIMATOR"
+    )]
+    pub method: Option<DiffMethod>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
     /// semantics; default: the dataset's own, else 32).
     #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub max_depth: Option<u32>,
     #[command(flatten)]
     pub budget: IterationArgs,
-    /// Image loss: l2 or l1.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value = "l2", value_parser = ["l2", "l1"])]
-    pub loss: String,
+    /// Image loss.
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_enum, default_value_t)]
+    pub loss: Loss,
     /// The single-render gradient 2(I − T)·∂I/∂θ (the paper's; biased by the covariance of I and
     /// ∂I/∂θ) instead of the default: ∂ℓ/∂I from one render and ∂I/∂θ from an independent one.
     #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
@@ -123,25 +128,25 @@ pub struct OptimizeArgs {
     pub primal: Primal,
     /// Fit only these views of the dataset (indices, e.g. `0,3,5`; default: all). The
     /// re-renders and the bias correction use the same views; `--resume` keeps the run's own.
-    #[arg(long, value_delimiter = ',', value_name = "I,J,…")]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, value_delimiter = ',', value_name = "I,J,…")]
     pub view_subset: Option<Vec<usize>>,
     /// Checkpoint every N iterations.
-    #[arg(long, default_value_t = 10)]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 10)]
     pub checkpoint_every: u32,
     /// Samples per pixel of the final re-renders.
-    #[arg(long, default_value_t = 64)]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 64)]
     pub final_spp: u32,
     /// Views for the 95 % intervals at the end (two derivative renders each, spread evenly
     /// over the dataset; 0: no intervals).
-    #[arg(long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
     pub uncertainty_views: usize,
     /// Samples per pixel of the interval renders.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
     pub uncertainty_spp: u32,
     /// Views re-rendered at the estimate by the volumetric path tracer (twice, at the dataset's
     /// samples per pixel) to check that the estimate reproduces the images without the learned
     /// model (0: no check).
-    #[arg(long, default_value_t = 4)]
+    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 4)]
     pub consistency_views: usize,
     /// Seed.
     #[arg(long, default_value_t = 0)]
@@ -194,20 +199,18 @@ impl OptimizeArgs {
 }
 
 impl OptimizeArgs {
-    /// The estimator's name: `--method`, or the model's default.
+    /// The estimator's name: `--estimator`, or the model's default.
     pub fn estimator(&self) -> String {
         self.method
-            .clone()
-            .unwrap_or_else(|| self.learned.kind().estimators()[0].name().to_string())
+            .unwrap_or(self.learned.kind().estimators()[0])
+            .name()
+            .to_string()
     }
 }
 
 pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     let model = a.learned.kind();
-    let method: DiffMethod = match &a.method {
-        Some(m) => m.parse()?,
-        None => model.estimators()[0],
-    };
+    let method = a.method.unwrap_or(model.estimators()[0]);
     let mut c = OptimizeConfig::new(Params {
         sigma_t: a.init_sigma_t.map(|v| v as f64),
         albedo: a.init_albedo.map(|v| v as f64),
@@ -225,7 +228,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     c.spp = a.budget.spp;
     c.views_per_iter = a.budget.views_per_iter;
     c.view_subset = a.view_subset.clone();
-    c.loss = if a.loss == "l1" { Loss::L1 } else { Loss::L2 };
+    c.loss = a.loss;
     c.two_renders = !a.single_render;
     c.split_samples = !a.full_renders;
     anyhow::ensure!(

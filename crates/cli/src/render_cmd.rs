@@ -24,8 +24,8 @@ use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
 use crate::common::{
-    LearnedArgs, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, render_views_dipole,
-    render_views_learned_with, render_views_with, write_outputs,
+    LearnedArgs, build_accel, check_output_free, render_views_dipole, render_views_learned_with,
+    render_views_with, write_outputs,
 };
 
 #[derive(Args)]
@@ -59,11 +59,10 @@ pub struct RenderArgs {
     pub single_channel: bool,
     /// Shadow-ray transmittance estimator of the volumetric tracer.
     #[arg(long, value_enum, default_value_t)]
-    pub shadow: ShadowArg,
-    /// Ray origins after boundary crossings: `robust` (exact medium) or `mitsuba` (Mitsuba 3's
-    /// 10⁻⁴ spawn offset, for like-for-like comparisons with its renders).
+    pub shadow: volpath::ShadowTransmittance,
+    /// Ray origins after boundary crossings.
     #[arg(long, value_enum, default_value_t)]
-    pub spawn_offset: SpawnOffsetArg,
+    pub spawn_offset: volpath::SpawnOffset,
     /// Also write each view's derivatives with respect to σ_t and α (`view_XXX_d_sigma_t`,
     /// `view_XXX_d_albedo`: EXR and a false-colour PNG).
     #[arg(long)]
@@ -114,8 +113,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         } else {
             ChannelSampling::SpectralMis
         },
-        shadow: a.shadow.into(),
-        spawn_offset: a.spawn_offset.into(),
+        shadow: a.shadow,
+        spawn_offset: a.spawn_offset,
         ..Default::default()
     };
     let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {

@@ -118,8 +118,8 @@ pub struct FitArgs {
     /// proposals against the walks' exits, plus the absorption term: fits the exit distribution
     /// directly; `learn::energy`). `energy` is meant as a fine-tuning stage after `cvae`
     /// (`--init`).
-    #[arg(long, default_value = "cvae", value_parser = ["cvae", "energy"])]
-    pub objective: String,
+    #[arg(long, value_enum, default_value_t)]
+    pub objective: learn::train::ObjectiveKind,
     /// Latent draws per training row of the energy objective.
     #[arg(long, default_value_t = 8)]
     pub draws: usize,
@@ -187,7 +187,7 @@ pub fn energy_stage(cvae: &FitArgs, out: PathBuf) -> FitArgs {
     FitArgs {
         out,
         init: Some(cvae.out.join("model.safetensors")),
-        objective: "energy".into(),
+        objective: learn::train::ObjectiveKind::Energy,
         draws: ENERGY_DRAWS,
         energy_weight: ENERGY_WEIGHT,
         steps: ENERGY_STEPS,

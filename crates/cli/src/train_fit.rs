@@ -78,12 +78,12 @@ pub fn train_config(a: &FitArgs) -> Result<TrainConfig> {
         seed: a.seed,
         eval_every: a.eval_every.max(1),
         checkpoint_every: a.checkpoint_every.max(1),
-        objective: match a.objective.as_str() {
-            "energy" => Objective::EnergyScore {
+        objective: match a.objective {
+            learn::train::ObjectiveKind::Energy => Objective::EnergyScore {
                 draws: a.draws,
                 weight: a.energy_weight,
             },
-            _ => Objective::Cvae,
+            learn::train::ObjectiveKind::Cvae => Objective::Cvae,
         },
     })
 }

@@ -27,8 +27,8 @@ use scene::{Dataset, Image};
 use volpath::{Progressive, VolpathScene, VolpathSettings, shadow_lists};
 
 use crate::common::{
-    LearnedArgs, RenderReport, ShadowArg, SpawnOffsetArg, build_accel, check_output_free, progress,
-    render_views, render_views_learned, write_outputs,
+    LearnedArgs, RenderReport, build_accel, check_output_free, progress, render_views,
+    render_views_learned, write_outputs,
 };
 use crate::compare::pair_stats;
 
@@ -63,13 +63,13 @@ pub struct ValidateArgs {
     pub learned: LearnedArgs,
     /// Shadow-ray transmittance estimator of the volumetric tracer.
     #[arg(long, value_enum, default_value_t)]
-    pub shadow: ShadowArg,
+    pub shadow: volpath::ShadowTransmittance,
     /// Ray origins after boundary crossings. Default `mitsuba`: emulate Mitsuba 3's spawn offset
     /// (entering rays skip a 10⁻⁴ sliver of medium, which makes Mitsuba's images 0.1–0.7 %
     /// darker than the exact medium on the reference sphere), so that both renders estimate the
     /// same thing; `robust` renders the exact medium, as `translucent render` does.
     #[arg(long, value_enum, default_value = "mitsuba")]
-    pub spawn_offset: SpawnOffsetArg,
+    pub spawn_offset: volpath::SpawnOffset,
     /// Tolerance on |mean ratio − 1| for lit views.
     #[arg(long, default_value_t = 0.01)]
     pub lit_tolerance: f64,
@@ -224,8 +224,8 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let accel = build_accel(mesh, &warnings, &ds.mesh.describe());
     let settings = VolpathSettings {
         max_depth: ds.render.max_depth.unwrap_or(32),
-        shadow: a.shadow.into(),
-        spawn_offset: a.spawn_offset.into(),
+        shadow: a.shadow,
+        spawn_offset: a.spawn_offset,
         ..Default::default()
     };
     let views: Vec<ViewDesc> = ds.views.iter().map(|v| v.desc()).collect();
@@ -282,8 +282,8 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         medium.g,
         medium.eta,
         match a.spawn_offset {
-            SpawnOffsetArg::Mitsuba => "mitsuba (Mitsuba 3's 1e-4 ray offset emulated)",
-            SpawnOffsetArg::Robust => "robust (exact medium)",
+            volpath::SpawnOffset::Mitsuba => "mitsuba (Mitsuba 3's 1e-4 ray offset emulated)",
+            volpath::SpawnOffset::Robust => "robust (exact medium)",
         }
     );
     println!(

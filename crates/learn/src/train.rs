@@ -97,6 +97,17 @@ pub struct TrainConfig {
     pub objective: Objective,
 }
 
+/// A training objective by name (the settings of [`Objective`] aside).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ObjectiveKind {
+    /// The conditional VAE (default).
+    #[default]
+    Cvae,
+    /// The energy score of the decoder's proposals against the exits: a fine-tuning stage.
+    Energy,
+}
+
 /// What a training run minimises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind")]

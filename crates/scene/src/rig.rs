@@ -47,6 +47,17 @@ pub fn rig_up(dir: Vec3) -> Vec3 {
     }
 }
 
+/// Where the light of a rig is, by name (the data of [`RigLight`] aside).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum RigLightKind {
+    /// Moves with each camera, offset from it (a flash; default).
+    #[default]
+    Attached,
+    /// One position for every view.
+    Fixed,
+}
+
 /// Where the light of a rig sits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RigLight {

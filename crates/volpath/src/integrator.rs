@@ -51,11 +51,16 @@ pub enum ChannelSampling {
 
 /// Where a ray continues after crossing the object's boundary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SpawnOffset {
+    /// The medium starts where the mesh says (default).
+    ///
     /// [`offset_origin`]: a few hundred ulps off the surface (about 2·10⁻⁶ at |p| ≈ 0.1), the
-    /// least that avoids self-intersection: the medium starts where the mesh says (default).
+    /// least that avoids self-intersection.
     #[default]
     Robust,
+    /// Mitsuba 3's 10⁻⁴ ray offset, for like-for-like comparisons with its renders.
+    ///
     /// What Mitsuba 3's `Interaction::spawn_ray` does: p + (1 + max_i |p_i|)·ε_ray·n, with
     /// ε_ray = 1500·2⁻²⁴ ≈ 8.9·10⁻⁵ and n the geometric normal on the ray's side (checked against
     /// Mitsuba 3.9.1: 9.99·10⁻⁵ at |p| = 0.125). A ray entering the medium skips a sliver of that

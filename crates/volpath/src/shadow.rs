@@ -38,11 +38,16 @@ use crate::rng::Sampler;
 
 /// Estimator of the shadow ray's transmittance (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ShadowTransmittance {
+    /// exp(−σ_t ℓ) from the exact inside length: the least noise per second (default).
+    ///
     /// Closed-form exp(−σ_t ℓ) from the exact inside length (one all-hits query). The default:
     /// the least noise per second of render time (measured in docs/notes/tracer-speed.md).
     #[default]
     Exact,
+    /// Delta tracking, as Mitsuba 3: more paths per second, more noise per path.
+    ///
     /// Delta tracking with the smallest extinction as the sampling rate (Mitsuba 3's scheme):
     /// more paths per second, more noise per path.
     Tracked,

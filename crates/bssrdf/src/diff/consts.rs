@@ -40,7 +40,8 @@ impl<'a> Consts<'a> {
         let m = &scene.medium;
         if ds.method == DiffMethod::Naive && scene.settings.entry == EntrySampler::Walks {
             return Err(RenderError::Medium(
-                "the naive estimator differentiates the decoder's output and needs the decoder;                  use --entry-sampler decoder with --method naive"
+                "the naive estimator differentiates the decoder's output and needs the decoder; \
+                 use --entry-sampler decoder with --estimator naive"
                     .into(),
             ));
         }

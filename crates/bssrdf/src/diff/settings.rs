@@ -11,17 +11,24 @@ pub const NAIVE_STEP: f32 = 1e-3;
 
 /// How the derivatives are estimated (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum DiffMethod {
     /// Correlated offset samples for σ_t, S_abs derivative for α (the paper's method).
     #[default]
     Ours,
+    /// As `ours`, with α also by offset samples (slower).
+    ///
     /// σ_t as `Ours`; α by offset samples at α ± Δα (networks, σ_n and light side), keeping the
     /// α-dependence of the sample positions that `Ours` detaches.
     OursAlphaOffsets,
+    /// Visibility held fixed: without the boundary term.
+    ///
     /// Sample-position derivative with visibility held fixed (interior term only).
     Naive,
-    /// Brute-force central differences of full renders (reference).
+    /// Central differences of full renders (a reference, slow).
     Fd,
+    /// Analytic derivatives of each sample (the volumetric path tracer, the dipole).
+    ///
     /// The volumetric path tracer's analytic derivative of each path (`volpath::derivative`):
     /// not an estimator of the learned model, which refuses it.
     Ad,
@@ -119,9 +126,12 @@ pub struct DiffSettings {
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Primal {
+    /// An unperturbed sample of its own.
     Sample,
+    /// The mean of the two σ_t offset samples (default: a third less work, O(Δ²) bias).
     #[default]
     OffsetMean,
 }
@@ -168,10 +178,15 @@ pub struct DiffImages {
 
 /// Image loss, averaged over the 3·W·H pixel channels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Loss {
+    /// Mean squared difference (default).
+    ///
     /// ℓ = (1/N) Σ (I − T)²; ∂ℓ/∂I = 2(I − T)/N.
     #[default]
     L2,
+    /// Mean absolute difference.
+    ///
     /// ℓ = (1/N) Σ |I − T|; ∂ℓ/∂I = sign(I − T)/N (0 at I = T).
     L1,
 }

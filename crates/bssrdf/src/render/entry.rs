@@ -21,11 +21,16 @@ use crate::projection::project;
 /// Whether the light's direction of incidence moves the light around its entry point
 /// ([`crate::incidence`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Incidence {
+    /// Light entering obliquely leaves mostly ahead of its entry point (default).
+    ///
     /// The half-space factor A(α; μ_l, ρ, ψ) of [`crate::incidence`].
     #[default]
     Directional,
+    /// No dependence on the light's azimuth, as Vicini et al. 2019 and Son et al. 2024.
+    ///
     /// No factor (A = 1): the light side is isotropic in azimuth, as in VKJ19 and SON24.
     Isotropic,
 }
@@ -40,10 +45,15 @@ impl Incidence {
 /// Whether the light term is corrected for the curvature at the camera point
 /// ([`crate::curvature`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum LightCurvature {
     /// No correction: the half-space light side.
+    ///
+    /// The light term as on a plane, whatever the curvature at the camera point.
     None,
+    /// Corrected by walks in balls of the surface's curvature (default; g = 0, η = 1 only).
+    ///
     /// C = exact/model of balls ([`crate::curvature::CurvatureTable`]; g = 0, η = 1 only).
     #[default]
     Ball,

@@ -31,12 +31,17 @@ use crate::nn::LATENT_DIM;
 
 /// How the samples of a pixel are assigned to channels and placed in the sample space.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum PixelSampling {
+    /// The channels take turns, with scrambled Sobol samples per channel (default).
+    ///
     /// Channels in turn with a random offset per pixel, weights spp/n_c, and per-channel
     /// Owen-scrambled Sobol jitter and latents (module docs).
     #[default]
     Stratified,
+    /// A random channel per sample (the paper's scheme; noisier on coloured media).
+    ///
     /// A uniformly random channel per sample with weight 3 and independent latents
     /// (docs/model.md A13; the paper's scheme).
     OneHot,

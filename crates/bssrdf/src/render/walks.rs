@@ -34,11 +34,14 @@ pub const MAX_TRIES: u32 = 1024;
 
 /// Where the entry points come from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum EntrySampler {
     /// The model's decoder (the paper's method).
     #[default]
     Decoder,
+    /// Random walks, conditioned on escape: a diagnostic of the decoder, slower.
+    ///
     /// Random walks in the light-space descriptor, conditioned on escape (module docs).
     Walks,
 }

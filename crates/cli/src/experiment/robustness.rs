@@ -84,8 +84,8 @@ pub struct RobustnessArgs {
     /// on Debian also `apt-get install libllvm19`).
     #[arg(long, default_value = "tools/mitsuba/render_dataset.py")]
     pub mitsuba_script: PathBuf,
-    /// The Python interpreter that runs `--mitsuba-script`.
-    #[arg(long, default_value = "python3")]
+    /// The Python interpreter (with Mitsuba 3) that runs `--mitsuba-script`.
+    #[arg(long = "mitsuba-python", default_value = "python3")]
     pub python: PathBuf,
 }
 

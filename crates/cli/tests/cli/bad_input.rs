@@ -243,6 +243,31 @@ fn bad_projection_reach() {
     }
 }
 
+/// Negative numbers reach a validation that names the option: a negative count says it cannot
+/// be negative (not clap's "unexpected argument '-1'"), a negative medium says what is wrong.
+#[test]
+fn negative_numbers_are_values_with_clear_errors() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    let r = fails(t.path(), &["-q", "render", "scene.toml", "--spp", "-1"]);
+    assert_stderr_has(&r, &["--spp -1", "cannot be negative", "--spp 1"]);
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "dataset",
+            "--sigma-t",
+            "-5",
+            "--out",
+            "d",
+            "--views",
+            "1",
+        ],
+    );
+    assert_stderr_has(&r, &["sigma_t", "-5", "fix"]);
+    assert!(!t.path().join("d").exists());
+}
+
 #[test]
 fn bad_threads_zero() {
     let t = tmp();

@@ -301,3 +301,60 @@ fn validate_mitsuba_equal_time_reaches_an_spp_that_reproduces_its_images() {
     );
     assert_stderr_has(&r, &["--spp"]);
 }
+
+/// Completions and man pages come from the command line itself: every user command is in them,
+/// the maintainers' `bench` is not, and a second `generate man` refuses to replace the pages.
+#[test]
+fn generate_writes_completions_and_man_pages() {
+    let t = tmp();
+    let d = t.path();
+    for shell in ["bash", "zsh", "fish"] {
+        let r = ok(d, &["generate", "completions", shell]);
+        assert_stdout_has(&r, &["translucent", "optimize", "--init-sigma-t"]);
+    }
+    let r = ok(d, &["generate", "man", "--out", "man"]);
+    assert_stdout_has(&r, &["man pages"]);
+    for page in [
+        "translucent.1",
+        "translucent-optimize.1",
+        "translucent-experiment-robustness.1",
+    ] {
+        let text = std::fs::read_to_string(d.join("man").join(page)).unwrap();
+        assert!(text.contains(".TH"), "{page} is not a man page");
+    }
+    assert!(!d.join("man/translucent-bench.1").exists());
+    assert!(!d.join("man/translucent-help.1").exists());
+    assert_stderr_has(
+        &fails(d, &["generate", "man", "--out", "man"]),
+        &["--overwrite"],
+    );
+    ok(d, &["generate", "man", "--out", "man", "--overwrite"]);
+    // The main help lists the user's commands and not the maintainers' diagnostics.
+    let help = ok(d, &["--help"]).stdout;
+    assert!(help.contains("optimize") && help.contains("generate"));
+    assert!(!help.contains("bench"), "{help}");
+    assert!(
+        help.lines().count() <= 30,
+        "the main help is longer than a screen:\n{help}"
+    );
+}
+
+/// `optimize --help` puts at most ~15 options before the first "Advanced" heading.
+#[test]
+fn optimize_help_shows_the_user_s_options_first() {
+    let t = tmp();
+    let help = ok(t.path(), &["optimize", "--help"]).stdout;
+    let first_advanced = help
+        .find("Advanced")
+        .expect("optimize --help has an Advanced heading");
+    let before = help[..first_advanced]
+        .lines()
+        // An option's line is indented by at most 6 spaces; its possible values by more.
+        .filter(|l| l.trim_start().starts_with('-') && l.len() - l.trim_start().len() <= 6)
+        .count();
+    assert!(
+        before <= 16,
+        "{before} options before the first Advanced heading:\n{}",
+        &help[..first_advanced]
+    );
+}

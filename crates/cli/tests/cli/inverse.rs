@@ -90,7 +90,7 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
             "ds",
             "--out",
             "o2",
-            "--method",
+            "--estimator",
             "magic",
         ],
     );
@@ -833,9 +833,9 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     // The same command into a fresh folder, with an invalid model × estimator pair.
     let mut fresh = TINY_OPTIMIZE.to_vec();
     fresh[4] = "o2";
-    let bad = [&fresh[..], &["--model", "volpath", "--method", "ours"]].concat();
+    let bad = [&fresh[..], &["--model", "volpath", "--estimator", "ours"]].concat();
     assert_stderr_has(&fails(d, &bad), &["volpath", "no estimator \"ours\"", "ad"]);
-    let bad = [&fresh[..], &["--method", "ad"]].concat();
+    let bad = [&fresh[..], &["--estimator", "ad"]].concat();
     assert_stderr_has(
         &fails(d, &bad),
         &["learned", "ours, ours-alpha-offsets, naive, fd"],
@@ -850,6 +850,7 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     assert!(!d.join("o3/bootstrap").exists());
     assert!(d.join("o3/final/view_000.exr").is_file());
     fresh[4] = "o4";
+    // `--method`, the option's former name, still parses (hidden from the help).
     let bad = [&fresh[..], &["--model", "dipole", "--method", "naive"]].concat();
     assert_stderr_has(
         &fails(d, &bad),
