@@ -148,12 +148,20 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     }
     for m in &a.methods {
         if baseline_model(m).is_none() {
-            m.parse::<bssrdf::diff::DiffMethod>().map_err(|_| {
-                anyhow::anyhow!(
-                    "--methods: unknown method {m:?} (expected ours, ours-alpha-offsets, naive, \
-                     fd, or a baseline model: dipole, volpath)"
-                )
-            })?;
+            m.parse::<bssrdf::diff::DiffMethod>()
+                .ok()
+                .filter(|d| ModelKind::Learned.estimators().contains(d))
+                .ok_or_else(|| {
+                    let names = |it: &mut dyn Iterator<Item = &'static str>| {
+                        it.collect::<Vec<_>>().join(", ")
+                    };
+                    anyhow::anyhow!(
+                        "--methods: unknown method {m:?} (expected an estimator of the learned \
+                         model: {}, or a baseline model: {})",
+                        names(&mut ModelKind::Learned.estimators().iter().map(|d| d.name())),
+                        names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
+                    )
+                })?;
         }
     }
     let shapes: Vec<Shape> = a
