@@ -157,8 +157,10 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
 }
 
 /// `convergence.png` and `.svg` beside it: σ_t and α per channel against the iteration, with
-/// the truth dashed and the 95 % interval of the estimate shaded when they are known, and the
-/// loss relative to each view's final level (raw values faint, their running median solid).
+/// the truth dashed and the 95 % interval of this fit shaded when they are known, and the loss
+/// relative to each view's final level (raw values faint, their running median solid). The
+/// interval is the fit's own (`uncertainty`): the one `result.json` reports also carries the
+/// bias correction and the tracer's sensitivity check.
 pub fn write_plots(
     history: &[IterationRecord],
     final_params: &Params,
@@ -175,7 +177,7 @@ pub fn write_plots(
             .filter_map(|c| {
                 iv[c].map(|[lo, hi]| {
                     Band::constant(
-                        format!("95 % interval {}", CHANNELS[c]),
+                        format!("95 % interval of this fit {}", CHANNELS[c]),
                         0.0,
                         n as f64,
                         lo,
