@@ -50,6 +50,11 @@ pub struct OptimizeArgs {
     /// semantics; default: the dataset's own, else 32).
     #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub max_depth: Option<u32>,
+    /// A volumetric refinement: the last N of --iterations use the volumetric path tracer
+    /// (estimator `ad`, depth --max-depth) from where the model's fit has got to, and replace
+    /// the bias correction (docs/notes/default-model.md; not yet measured on the suite).
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", default_value_t = 0)]
+    pub refine: u32,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss.
@@ -217,7 +222,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     });
     c.model = model;
     c.method = method;
-    if model == ModelKind::Volpath {
+    if model == ModelKind::Volpath || a.refine > 0 {
         let depth = match a.max_depth {
             Some(d) => d,
             None => Dataset::load(&a.dataset)?.render.max_depth.unwrap_or(32),
@@ -225,6 +230,7 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
         c.volpath_max_depth = Some(depth);
     }
     c.iterations = a.budget.iterations;
+    c.refine_iterations = a.refine;
     c.spp = a.budget.spp;
     c.views_per_iter = a.budget.views_per_iter;
     c.view_subset = a.view_subset.clone();
@@ -506,8 +512,9 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     print_summary(&estimate, truth.as_ref(), opt.history().len(), spi);
     let (mut shown, mut shown_u) = (estimate, uncertainty.clone());
     // The volumetric model is the simulator the correction would use: it has no bias of its own
-    // to measure, and a correction would only add a second recovery's noise.
-    if a.bc.enabled() && a.learned.kind() == ModelKind::Learned {
+    // to measure, and a correction would only add a second recovery's noise. The same holds
+    // after a volumetric refinement.
+    if a.bc.enabled() && opt.config().final_model() == ModelKind::Learned {
         // The model's own fit stays in convergence.png and final/; result.json reports the
         // corrected medium.
         let c = bias_correction::correct(a, &ds, &estimate, &base)?;
@@ -560,7 +567,7 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     });
     // The tracer's own curvature against the learned model's: nothing to check when the
     // tracer is the model.
-    let learned_model = opt.config().model == ModelKind::Learned;
+    let learned_model = opt.config().final_model() == ModelKind::Learned;
     let sensitivity = uncertainty
         .as_ref()
         .filter(|_| learned_model)

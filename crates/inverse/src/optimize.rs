@@ -88,6 +88,12 @@ pub struct OptimizeConfig {
     pub method: DiffMethod,
     /// Iterations.
     pub iterations: u32,
+    /// The last this many of `iterations` use the volumetric path tracer (estimator `ad`, depth
+    /// `volpath_max_depth`) instead of `model`, from where the model's fit has got to: a
+    /// refinement without the model's bias (docs/notes/default-model.md). 0: none. (Left out
+    /// of the JSON when 0, so runs written before the option compare equal.)
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub refine_iterations: u32,
     /// Samples per pixel per iteration.
     pub spp: u32,
     /// Views rendered per iteration.
@@ -165,6 +171,10 @@ pub struct OptimizeConfig {
     /// here so that a resumed run uses the same views. (Left out of the JSON when `None`.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub view_subset: Option<Vec<usize>>,
+}
+
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 fn default_view_weight_floor() -> f64 {
@@ -269,6 +279,18 @@ impl OptimizeConfig {
             return Err("views per iteration and spp must be at least 1".into());
         }
         self.model.check_estimator(self.method)?;
+        if self.refine_iterations > self.iterations {
+            return Err(format!(
+                "refine_iterations = {} is more than the run's {} iterations",
+                self.refine_iterations, self.iterations
+            ));
+        }
+        if self.refine_iterations > 0 && self.model == ModelKind::Volpath {
+            return Err(
+                "refine_iterations with the volumetric model: the tracer is the model already"
+                    .into(),
+            );
+        }
         if self.volpath_max_depth == Some(0) {
             return Err("volpath_max_depth = 0: the tracer needs a depth of at least 1".into());
         }
@@ -322,6 +344,21 @@ impl OptimizeConfig {
         Ok(())
     }
 
+    /// The forward model of iteration `k`: `model`, or the volumetric path tracer in the last
+    /// `refine_iterations`.
+    pub fn model_at(&self, k: u32) -> ModelKind {
+        if self.refine_iterations > 0 && k >= self.iterations - self.refine_iterations {
+            ModelKind::Volpath
+        } else {
+            self.model
+        }
+    }
+
+    /// The forward model that makes the estimate: the model of the last iteration.
+    pub fn final_model(&self) -> ModelKind {
+        self.model_at(self.iterations.saturating_sub(1))
+    }
+
     /// The α-first iterations actually used: `albedo_warmup`, but at most a third of the run.
     pub fn effective_albedo_warmup(&self) -> u32 {
         self.albedo_warmup.min(self.iterations / 3)
@@ -338,6 +375,7 @@ impl OptimizeConfig {
             volpath_max_depth: None,
             method: DiffMethod::Ours,
             iterations: 300,
+            refine_iterations: 0,
             spp: 32,
             views_per_iter: 1,
             crop: None,
@@ -440,6 +478,10 @@ pub struct IterationGradient {
 pub struct Optimizer<'a> {
     config: OptimizeConfig,
     forward: Box<dyn ForwardModel + 'a>,
+    /// Which model `forward` is ([`OptimizeConfig::model_at`]).
+    forward_kind: ModelKind,
+    accel: &'a Accel,
+    networks: &'a ShapeAdaptiveModel,
     base: Medium,
     targets: Vec<TargetView<'a>>,
     adam: Adam,
@@ -471,12 +513,16 @@ impl<'a> Optimizer<'a> {
         init_medium
             .validate("initial parameters")
             .map_err(|e| InverseError::Invalid(e.to_string()))?;
-        let mut forward = forward_model(&config, accel, model);
+        let forward_kind = config.model_at(0);
+        let mut forward = forward_model(&config, forward_kind, accel, model);
         forward.prepare(&init_medium)?;
         let u = config.params.encode(&config.init);
         let adam = Adam::new(u.len(), adam_config(&config));
         let parts = Parts {
             forward,
+            forward_kind,
+            accel,
+            networks: model,
             adam,
             u,
             history: Vec::new(),
@@ -502,6 +548,9 @@ impl<'a> Optimizer<'a> {
             weights,
             config,
             forward: p.forward,
+            forward_kind: p.forward_kind,
+            accel: p.accel,
+            networks: p.networks,
             base,
             targets,
             adam: p.adam,
@@ -716,7 +765,13 @@ impl<'a> Optimizer<'a> {
         let k = self.iteration();
         let p = self.params();
         let c = &self.config;
-        if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
+        let kind = c.model_at(k);
+        if kind != self.forward_kind {
+            // The refinement begins: the tracer from here on, at the current parameters.
+            let mut forward = forward_model(c, kind, self.accel, self.networks);
+            forward.prepare(&p.medium(&self.base))?;
+            (self.forward, self.forward_kind) = (forward, kind);
+        } else if c.refit_every > 0 && k > 0 && k.is_multiple_of(c.refit_every) {
             self.forward.prepare(&p.medium(&self.base))?;
         }
         let IterationGradient {
@@ -859,6 +914,9 @@ pub(crate) fn decorrelated_gradient(
 /// The state of a run (what a fresh start and a resume provide differently).
 struct Parts<'a> {
     forward: Box<dyn ForwardModel + 'a>,
+    forward_kind: ModelKind,
+    accel: &'a Accel,
+    networks: &'a ShapeAdaptiveModel,
     adam: Adam,
     u: Vec<f32>,
     history: Vec<IterationRecord>,
@@ -881,19 +939,25 @@ fn adam_parts(o: &Optimizer) -> AdamState {
     o.adam.state()
 }
 
-/// The forward model `config.model` over `accel`, not yet prepared (`model`: the learned
-/// model's networks).
+/// The forward model `kind` (`config.model`, or the refinement's tracer) over `accel`, not yet
+/// prepared (`model`: the learned model's networks). The refinement's tracer differentiates
+/// per path (`ad`).
 pub(crate) fn forward_model<'a>(
     config: &OptimizeConfig,
+    kind: ModelKind,
     accel: &'a Accel,
     model: &'a ShapeAdaptiveModel,
 ) -> Box<dyn ForwardModel + 'a> {
     let differencing = Differencing {
-        method: config.method,
+        method: if kind == config.model {
+            config.method
+        } else {
+            DiffMethod::Ad
+        },
         delta_rel: config.delta_rel,
         delta_albedo: DiffSettings::default().delta_albedo,
     };
-    match config.model {
+    match kind {
         ModelKind::Learned => Box::new(Learned::new(
             accel,
             model,

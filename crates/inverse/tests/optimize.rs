@@ -581,3 +581,81 @@ fn non_finite_gradient_names_iteration_and_view_and_keeps_the_last_good_state() 
         assert!(r.d_sigma_t.iter().chain(&r.d_albedo).all(|v| v.is_finite()));
     }
 }
+
+/// `refine_iterations`: the last iterations of a run use the volumetric path tracer. After the
+/// run, the optimiser renders exactly as a run of the tracer itself does (and not as the
+/// learned model does), a run resumed from a checkpoint inside the refinement ends where the
+/// uninterrupted one does, the setting is left out of the JSON when 0, and impossible settings
+/// are refused.
+#[test]
+fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
+    use inverse::forward::ModelKind;
+    let s = setup();
+    let mut c = config(6);
+    c.refine_iterations = 2;
+    c.volpath_max_depth = Some(8);
+    assert_eq!(c.model_at(3), ModelKind::Learned);
+    assert_eq!(c.model_at(4), ModelKind::Volpath);
+    assert_eq!(c.final_model(), ModelKind::Volpath);
+    assert_eq!(serde_json::to_value(&c).unwrap()["refine_iterations"], 2);
+    assert!(
+        serde_json::to_value(config(6))
+            .unwrap()
+            .get("refine_iterations")
+            .is_none()
+    );
+
+    let mut full = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    full.run(None, |_, _| {}).unwrap();
+    let p = full.params();
+    let (camera, light) = &s.views[0];
+    let rs = RenderSettings {
+        spp: 4,
+        seed: 3,
+        view: 0,
+    };
+    let refined = full.render(&p, camera, light, &rs).unwrap();
+    let mut tracer = c.clone();
+    (tracer.model, tracer.method, tracer.refine_iterations) =
+        (ModelKind::Volpath, bssrdf::diff::DiffMethod::Ad, 0);
+    let by_tracer = Optimizer::new(tracer, &s.accel, &s.model, s.truth, targets(&s))
+        .unwrap()
+        .render(&p, camera, light, &rs)
+        .unwrap();
+    assert_eq!(
+        refined.data, by_tracer.data,
+        "the refinement renders with the tracer"
+    );
+    let mut learned = c.clone();
+    learned.refine_iterations = 0;
+    let by_model = Optimizer::new(learned, &s.accel, &s.model, s.truth, targets(&s))
+        .unwrap()
+        .render(&p, camera, light, &rs)
+        .unwrap();
+    assert_ne!(refined.data, by_model.data);
+
+    // Interrupted inside the refinement and resumed: the same end.
+    let dir = tempfile::tempdir().unwrap();
+    let ck = dir.path().join("checkpoint.json");
+    let mut part = c.clone();
+    part.iterations = 5;
+    part.refine_iterations = 1;
+    let mut part = Optimizer::new(part, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    part.run(Some((&ck, 1)), |_, _| {}).unwrap();
+    let mut ckpt = Checkpoint::read(&ck).unwrap();
+    ckpt.config.refine_iterations = 2;
+    let mut resumed =
+        Optimizer::resume(ckpt, Some(6), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    resumed.run(None, |_, _| {}).unwrap();
+    let (a, b) = (resumed.params(), full.params());
+    for ch in 0..3 {
+        assert!((a.albedo[ch] - b.albedo[ch]).abs() < 1e-9, "{a:?} vs {b:?}");
+    }
+
+    let mut bad = c.clone();
+    bad.refine_iterations = 7;
+    assert!(bad.check().unwrap_err().contains("refine_iterations"));
+    let mut bad = c;
+    (bad.model, bad.method) = (ModelKind::Volpath, bssrdf::diff::DiffMethod::Ad);
+    assert!(bad.check().unwrap_err().contains("refine_iterations"));
+}

@@ -59,6 +59,10 @@ pub struct RobustnessArgs {
     pub model: inverse::forward::ModelKind,
     #[command(flatten)]
     pub budget: IterationArgs,
+    /// A volumetric refinement of every run: its last N iterations with the volumetric path
+    /// tracer (`optimize --refine`), instead of the bias correction.
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", default_value_t = 0)]
+    pub refine: u32,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
@@ -621,12 +625,14 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     o.budget = a.budget;
     o.seed = a.seed + rep;
     o.final_spp = 16;
+    o.refine = a.refine;
     if a.quick {
         o.budget.iterations = 12;
         o.budget.spp = 4;
         o.uncertainty_views = 3;
         o.uncertainty_spp = 4;
         o.consistency_views = 2;
+        o.refine = o.refine.min(o.budget.iterations / 2);
     }
     o
 }

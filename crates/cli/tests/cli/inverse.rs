@@ -856,6 +856,22 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
         &fails(d, &bad),
         &["dipole", "no estimator \"naive\"", "ad, fd"],
     );
+    // A volumetric refinement of the learned fit: its last iteration with the tracer, and no
+    // bias correction after it.
+    fresh[4] = "o5";
+    ok(d, &[&fresh[..], &["--refine", "1"]].concat());
+    let res = read_json(&d.join("o5/result.json"));
+    assert_eq!(res["config"]["refine_iterations"], 1);
+    assert_eq!(
+        res["config"]["model"],
+        Value::Null,
+        "the learned model is the run's model"
+    );
+    assert!(res["config"]["volpath_max_depth"].as_u64().unwrap() > 0);
+    assert!(!d.join("o5/bootstrap").exists());
+    assert!(res.get("sensitivity").is_none_or(Value::is_null));
+    let bad = [&fresh[..], &["--refine", "4", "--overwrite"]].concat();
+    assert_stderr_has(&fails(d, &bad), &["refine_iterations", "3 iterations"]);
 }
 
 /// `experiment timing --quick`: one row per model × estimator with a positive time (and the

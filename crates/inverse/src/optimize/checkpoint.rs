@@ -135,8 +135,15 @@ impl<'a> Optimizer<'a> {
         } else {
             config.init
         };
-        let mut forward = super::forward_model(&config, accel, model);
-        forward.prepare(&fit_at.medium(&base))?;
+        let forward_kind = config.model_at(k);
+        let mut forward = super::forward_model(&config, forward_kind, accel, model);
+        // In the refinement the tracer needs no fit; it is prepared at the current parameters.
+        let prepare_at = if forward_kind == config.model {
+            fit_at
+        } else {
+            config.params.decode(&checkpoint.u)
+        };
+        forward.prepare(&prepare_at.medium(&base))?;
         let adam = Adam::from_state(
             adam_config(&config),
             AdamState {
@@ -150,6 +157,9 @@ impl<'a> Optimizer<'a> {
         }
         let parts = Parts {
             forward,
+            forward_kind,
+            accel,
+            networks: model,
             adam,
             u: checkpoint.u,
             history: checkpoint.history,
