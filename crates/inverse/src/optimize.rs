@@ -633,13 +633,15 @@ impl<'a> Optimizer<'a> {
             .chain(std::iter::once((p.sigma_t, p.albedo)))
             .collect();
         let spread = iterate_covariance(&iterates);
-        let cov = add_covariances(acc.covariance(s.model_brightness_sd), spread);
-        let images = add_covariances(acc.covariance(0.0), spread);
+        let fixed = [c.params.fix_sigma_t, c.params.fix_albedo];
+        let cov = add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread);
+        let images = add_covariances(acc.covariance_fixed(0.0, fixed), spread);
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
         u.view_bread = (0..k)
             .map(|i| i * n / k)
             .zip(acc.view_breads().iter().copied())
             .collect();
+        u.fixed = fixed;
         if c.params.fix_sigma_t {
             u.sigma_t = [None; 3];
             u.sd_ln_sigma_t = [None; 3];

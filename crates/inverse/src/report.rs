@@ -114,7 +114,8 @@ pub fn add_assessment(
 /// images leave open and which capture would settle it.
 pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<String> {
     const CH: [&str; 3] = ["R", "G", "B"];
-    let fmt = |v: f64, i: Option<[f64; 2]>, p: usize| match i {
+    let fmt = |v: f64, i: Option<[f64; 2]>, fixed: bool, p: usize| match i {
+        _ if fixed => format!("{v:.p$} (fixed)"),
         Some([lo, hi]) => format!("{v:.p$} [{lo:.p$}, {hi:.p$}]"),
         None => format!("{v:.p$} [no finite interval]"),
     };
@@ -123,19 +124,27 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
         out.push(format!(
             "  {}: σ_t = {}  α = {}",
             CH[c],
-            fmt(est.sigma_t[c], u.sigma_t[c], 1),
-            fmt(est.albedo[c], u.albedo[c], 4)
+            fmt(est.sigma_t[c], u.sigma_t[c], u.fixed[0], 1),
+            fmt(est.albedo[c], u.albedo[c], u.fixed[1], 4)
         ));
     }
     let open_t: Vec<&str> = (0..3)
-        .filter(|&c| !u.determined_sigma_t[c])
+        .filter(|&c| !u.fixed[0] && !u.determined_sigma_t[c])
         .map(|c| CH[c])
         .collect();
     let open_a: Vec<&str> = (0..3)
-        .filter(|&c| !u.determined_albedo[c])
+        .filter(|&c| !u.fixed[1] && !u.determined_albedo[c])
         .map(|c| CH[c])
         .collect();
-    if !open_t.is_empty() {
+    if !open_t.is_empty() && u.fixed[1] {
+        out.push(format!(
+            "σ_t is NOT determined by these images in {} (with α fixed, its interval from the \
+             images alone spans more than ±{:.0} %): more views, more samples per iteration, or \
+             views with the light beside or behind the object narrow it.",
+            open_t.join(", "),
+            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
+        ));
+    } else if !open_t.is_empty() {
         out.push(format!(
             "σ_t is NOT determined by these images in {} (from the images alone its interval \
              spans more than ±{:.0} %): their brightness trades σ_t against α. Views with the \
@@ -372,6 +381,25 @@ mod tests {
             crop_origins: vec![],
             seconds: 0.0,
         }
+    }
+
+    /// A run that keeps α fixed: α is shown as fixed, not as undetermined, and an open σ_t is
+    /// not blamed on a trade with α.
+    #[test]
+    fn a_fixed_albedo_is_reported_as_fixed() {
+        use crate::uncertainty::Uncertainty;
+        let wide = Some([0.3f64.powi(2), 0.0, 0.0]);
+        let mut u = Uncertainty::new([72.0; 3], [0.9; 3], [wide; 3], [wide; 3], 4);
+        (u.albedo, u.fixed) = ([None; 3], [false, true]);
+        let est = Params {
+            sigma_t: [72.0; 3],
+            albedo: [0.9; 3],
+        };
+        let text = interval_lines(&est, &u).join("\n");
+        assert!(text.contains("α = 0.9000 (fixed)"), "{text}");
+        assert!(!text.contains("α is NOT determined"), "{text}");
+        assert!(text.contains("σ_t is NOT determined") && text.contains("with α fixed"));
+        assert!(!text.contains("trades σ_t against α"), "{text}");
     }
 
     /// Five views of 40×30: two rows of sheet (four views of three tiles, then one), 2-pixel

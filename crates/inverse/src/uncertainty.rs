@@ -160,6 +160,18 @@ impl Accumulator {
     /// (`model_brightness_sd` = s_b), or `None` for a channel whose A is not positive definite
     /// or with fewer than two views.
     pub fn covariance(&self, model_brightness_sd: f64) -> [Option<[f64; 3]>; 3] {
+        self.covariance_fixed(model_brightness_sd, [false, false])
+    }
+
+    /// [`Accumulator::covariance`] when the run keeps a parameter fixed (`fixed`: [σ_t, α]): the
+    /// other one's variance is then its own, B_kk/A_kk² + s_b²·(j_k/A_kk)², not the marginal of
+    /// the pair (which would add the valley along which the fixed parameter cannot move). The
+    /// fixed parameter's entries are 0.
+    pub fn covariance_fixed(
+        &self,
+        model_brightness_sd: f64,
+        fixed: [bool; 2],
+    ) -> [Option<[f64; 3]>; 3] {
         let v = self.g.len();
         std::array::from_fn(|c| {
             if v < 2 {
@@ -167,10 +179,15 @@ impl Accumulator {
             }
             let [a00, a01, a11] = self.a[c];
             let det = a00 * a11 - a01 * a01;
-            if !(a00 > 0.0 && a11 > 0.0 && det > 0.0 && det.is_finite()) {
-                return None;
-            }
-            let inv = [a11 / det, -a01 / det, a00 / det];
+            let inv = match fixed {
+                [true, true] => return None,
+                [false, true] if a00 > 0.0 && a00.is_finite() => [1.0 / a00, 0.0, 0.0],
+                [true, false] if a11 > 0.0 && a11.is_finite() => [0.0, 0.0, 1.0 / a11],
+                [false, false] if a00 > 0.0 && a11 > 0.0 && det > 0.0 && det.is_finite() => {
+                    [a11 / det, -a01 / det, a00 / det]
+                }
+                _ => return None,
+            };
             let mean = [0, 1].map(|k| self.g.iter().map(|g| g[c][k]).sum::<f64>() / v as f64);
             let mut b = [0.0; 3];
             for g in &self.g {
@@ -262,6 +279,10 @@ pub struct Uncertainty {
     /// per channel in (ln σ_t, α)).
     #[serde(skip)]
     pub view_bread: Vec<(usize, [[f64; 3]; 3])>,
+    /// The parameters the run kept fixed, [σ_t, α]: they have no interval, and are not
+    /// "undetermined".
+    #[serde(skip)]
+    pub fixed: [bool; 2],
 }
 
 impl Uncertainty {
@@ -318,6 +339,7 @@ impl Uncertainty {
             covariance: cov,
             images,
             view_bread: Vec::new(),
+            fixed: [false, false],
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
                      error, the spread of the last iterates"
                 .into(),
@@ -547,6 +569,85 @@ mod tests {
             let f = covered[k] as f64 / trials as f64;
             assert!((0.907..=0.983).contains(&f), "parameter {k}: coverage {f}");
         }
+    }
+
+    /// The first parameter alone, the second held at its truth (as `fix_albedo` holds α): the
+    /// least-squares estimate of the first and its interval from [`Accumulator::covariance_fixed`]
+    /// must cover the truth in 95 % of trials (the same binomial tolerance as above), on
+    /// columns so correlated (ρ ≈ 0.9) that the pair's marginal interval would be about 2.3×
+    /// wider: the fixed parameter's valley must not widen the interval.
+    #[test]
+    fn a_fixed_parameter_leaves_the_other_s_own_interval() {
+        let truth = [0.3, -0.2];
+        let (trials, views, pixels) = (400, 30, 40);
+        let mut covered = 0usize;
+        let mut widening = Vec::new();
+        let mut rng = Sampler::new(5, 6, 7, 8);
+        let mut gauss = || {
+            let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        };
+        for _ in 0..trials {
+            let mut data = Vec::new();
+            for v in 0..views {
+                let noise = 0.05 * (1.0 + (v % 5) as f64);
+                let rows: Vec<([f64; 2], f64)> = (0..pixels)
+                    .map(|_| {
+                        let x = 1.0 + 0.5 * gauss();
+                        let j = [x, 0.9 * x + 0.2 * gauss()];
+                        let t = j[0] * truth[0] + j[1] * truth[1] + noise * gauss();
+                        (j, t)
+                    })
+                    .collect();
+                data.push(rows);
+            }
+            let (mut a00, mut b0) = (0.0, 0.0);
+            for rows in &data {
+                for (j, t) in rows {
+                    a00 += j[0] * j[0];
+                    b0 += j[0] * (t - j[1] * truth[1]);
+                }
+            }
+            let est = b0 / a00;
+            let mut acc = Accumulator::default();
+            for rows in &data {
+                acc.add_rows(rows.iter().map(|(j, t)| {
+                    let v = j[0] * est + j[1] * truth[1];
+                    (0, [*j, *j], [v, v], *t)
+                }));
+            }
+            let own = acc.covariance_fixed(0.0, [false, true])[0].expect("a00 > 0");
+            assert_eq!(
+                (own[1], own[2]),
+                (0.0, 0.0),
+                "the fixed parameter has no variance"
+            );
+            let pair = acc.covariance(0.0)[0].expect("positive definite");
+            widening.push((pair[0] / own[0]).sqrt());
+            if (est - truth[0]).abs() <= Z95 * own[0].sqrt() {
+                covered += 1;
+            }
+        }
+        let f = covered as f64 / trials as f64;
+        assert!((0.907..=0.983).contains(&f), "coverage {f}");
+        let w = widening.iter().sum::<f64>() / trials as f64;
+        assert!(w > 2.0, "the marginal interval is only {w:.2}× wider");
+        assert!(
+            acc_none_when_both_fixed(),
+            "both fixed: no interval to give"
+        );
+    }
+
+    fn acc_none_when_both_fixed() -> bool {
+        let mut acc = Accumulator::default();
+        for v in 0..3 {
+            acc.add_rows((0..10).map(|p| {
+                let j = [1.0 + p as f64, 2.0 - p as f64];
+                (0, [j, j], [1.0; 2], v as f64)
+            }));
+        }
+        acc.covariance_fixed(0.0, [true, true])[0].is_none()
+            && acc.covariance_fixed(0.0, [false, true])[0].is_some()
     }
 
     /// A direction the images do not see (the second parameter has no effect): no interval.
