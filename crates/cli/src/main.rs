@@ -51,33 +51,47 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Render a hidden medium, recover it from the images, print truth against estimate.
+    ///
     /// The whole round trip on the built-in scene: render a bumpy blob in a hidden paper-range
-    /// medium, recover σ_t and α from the images (`ours`, then one bias-correction step), print
-    /// truth against estimate and write the plots.
+    /// medium, recover σ_t and α from the images with `optimize`'s defaults, print truth
+    /// against estimate and write the plots.
     Demo(demo::DemoArgs),
-    /// Render every view of a scene file (TOML/JSON, see SCENE.md) or dataset folder.
+    /// Render a scene file (TOML/JSON, see SCENE.md) or a dataset's views.
     Render(render_cmd::RenderArgs),
-    /// Render a multi-view dataset (dataset.json + EXRs, see DATASET.md) with the volumetric tracer.
+    /// Render a multi-view dataset (dataset.json + EXRs, see DATASET.md).
+    ///
+    /// The views are rendered by the volumetric path tracer.
     Dataset(dataset_cmd::DatasetArgs),
-    /// Compare images A against reference B: mean ratio, RMSE, relative MSE, false-colour diffs.
+    /// Compare images A against reference B (ratios, errors, difference images).
+    ///
+    /// Per image: mean ratio, RMSE, relative MSE, and false-colour differences.
     Compare(CompareArgs),
-    /// Render a Mitsuba 3 reference-render folder (scene.json + mesh + view_XXX.exr) with our
-    /// volumetric path tracer and check per-view means against Mitsuba's.
+    /// Check our tracer against a Mitsuba 3 reference folder.
+    ///
+    /// Renders a Mitsuba 3 reference-render folder (scene.json + mesh + view_XXX.exr) with our
+    /// volumetric path tracer and checks the per-view means against Mitsuba's.
     #[command(name = "validate-mitsuba")]
     ValidateMitsuba(validate::ValidateArgs),
-    /// Model files of the learned BSSRDF: import the reference weights, show a model.
+    /// Model files of the learned BSSRDF: import reference weights, show a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
-    /// Recover σ_t and α from a dataset's images by differentiable rendering with the learned
-    /// BSSRDF (Son et al. 2024): Adam, checkpoints, convergence plots, result.json.
+    /// Recover σ_t and α from a dataset's images, with 95 % intervals.
+    ///
+    /// Differentiable rendering with the learned BSSRDF (Son et al. 2024) or a baseline model:
+    /// Adam, checkpoints, intervals, a consistency check, convergence plots, result.json.
     Optimize(Box<optimize_cmd::OptimizeArgs>),
-    /// Derivative images ∂I/∂σ_t, ∂I/∂α of one view by several estimators against finite
+    /// Derivative images of one view by each estimator against finite differences.
+    ///
+    /// ∂I/∂σ_t and ∂I/∂α of one view by several gradient estimators against central
     /// differences (Son et al. Fig. 3, 5).
     Gradcheck(Box<gradcheck_cmd::GradcheckArgs>),
-    /// Train the learned BSSRDF: generate data with our random walks, fit the networks.
+    /// Train the learned BSSRDF from our random walks.
+    ///
+    /// Generates training data with random walks and fits the networks.
     #[command(subcommand)]
     Train(train_cmd::TrainCommand),
-    /// The paper's experiments, each one command that prints a table and draws plots.
+    /// The paper's experiments and the robustness suite, with tables and plots.
     #[command(subcommand)]
     Experiment(experiment::ExperimentCommand),
     /// Shell completions and man pages.
