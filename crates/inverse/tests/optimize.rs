@@ -642,10 +642,18 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     part.refine_iterations = 1;
     let mut part = Optimizer::new(part, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
     part.run(Some((&ck, 1)), |_, _| {}).unwrap();
+    // The checkpoint of iteration 5 of the full run's settings (its first four iterations are
+    // those of `full`, its fifth the first of the refinement).
     let mut ckpt = Checkpoint::read(&ck).unwrap();
-    ckpt.config.refine_iterations = 2;
+    (ckpt.config.iterations, ckpt.config.refine_iterations) = (6, 2);
+    let mut longer = Checkpoint::read(&ck).unwrap();
+    longer.config.refine_iterations = 1;
+    assert!(
+        Optimizer::resume(longer, Some(6), &s.accel, &s.model, s.truth, targets(&s)).is_err(),
+        "extending a refined run would move its refinement"
+    );
     let mut resumed =
-        Optimizer::resume(ckpt, Some(6), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        Optimizer::resume(ckpt, None, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
     resumed.run(None, |_, _| {}).unwrap();
     let (a, b) = (resumed.params(), full.params());
     for ch in 0..3 {

@@ -121,6 +121,14 @@ impl<'a> Optimizer<'a> {
     ) -> Result<Self, InverseError> {
         let mut config = checkpoint.config;
         if let Some(n) = iterations {
+            if config.refine_iterations > 0 && n != config.iterations {
+                // The refinement is the run's last iterations: extending the run would move it.
+                return Err(InverseError::Invalid(format!(
+                    "the run ends with {} iterations of refinement; it cannot be resumed to {n} \
+                     iterations instead of {} (start a new run)",
+                    config.refine_iterations, config.iterations
+                )));
+            }
             config.iterations = n;
         }
         let k = checkpoint.history.len() as u32;
