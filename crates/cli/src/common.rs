@@ -307,6 +307,20 @@ pub fn parse_reach(s: &str) -> std::result::Result<f32, String> {
     }
 }
 
+/// `cmd` with `f` applied to it and to every subcommand under it.
+pub fn for_every_command(
+    cmd: clap::Command,
+    f: &dyn Fn(clap::Command) -> clap::Command,
+) -> clap::Command {
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|s| s.get_name().to_string())
+        .collect();
+    names.into_iter().fold(f(cmd), |c, n| {
+        c.mut_subcommand(n, |s| for_every_command(s, f))
+    })
+}
+
 /// The command-line name of an option's value.
 pub fn value_name<T: clap::ValueEnum>(v: &T) -> String {
     v.to_possible_value()

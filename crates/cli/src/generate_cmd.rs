@@ -62,15 +62,7 @@ pub fn run(g: &GenerateCommand, mut cmd: clap::Command) -> Result<()> {
 
 /// The command tree without clap's `help` subcommands (no page of their own).
 fn without_help_subcommands(cmd: clap::Command) -> clap::Command {
-    let names: Vec<String> = cmd
-        .get_subcommands()
-        .map(|s| s.get_name().to_string())
-        .collect();
-    names
-        .into_iter()
-        .fold(cmd.disable_help_subcommand(true), |c, n| {
-            c.mut_subcommand(n, without_help_subcommands)
-        })
+    crate::common::for_every_command(cmd, &|c| c.disable_help_subcommand(true))
 }
 
 fn is_page(p: &Path) -> bool {

@@ -147,18 +147,7 @@ fn main() {
 /// `--init-sigma-t -5` reaches a validation that names the option, not clap's "unexpected
 /// argument '-1'".
 fn parse_args() -> Cli {
-    fn negatives_are_values(cmd: clap::Command) -> clap::Command {
-        let names: Vec<String> = cmd
-            .get_subcommands()
-            .map(|s| s.get_name().to_string())
-            .collect();
-        names
-            .into_iter()
-            .fold(cmd.allow_negative_numbers(true), |c, n| {
-                c.mut_subcommand(n, negatives_are_values)
-            })
-    }
-    let matches = negatives_are_values(Cli::command())
+    let matches = common::for_every_command(Cli::command(), &|c| c.allow_negative_numbers(true))
         .try_get_matches()
         .unwrap_or_else(|e| negative_count_error(e).exit());
     Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())

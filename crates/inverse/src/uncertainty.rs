@@ -503,6 +503,32 @@ mod tests {
     use super::*;
     use base::rng::Sampler;
 
+    /// One trial's data of a linear model I_p(θ) = J_p·θ: per view, `pixels` rows (Jacobian
+    /// row from `jacobian`, target with Gaussian noise whose scale differs between views).
+    fn linear_views(
+        rng: &mut Sampler,
+        truth: [f64; 2],
+        views: usize,
+        pixels: usize,
+        jacobian: fn(&mut dyn FnMut() -> f64) -> [f64; 2],
+    ) -> Vec<Vec<([f64; 2], f64)>> {
+        let mut gauss = || {
+            let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        };
+        (0..views)
+            .map(|v| {
+                let noise = 0.05 * (1.0 + (v % 5) as f64);
+                (0..pixels)
+                    .map(|_| {
+                        let j = jacobian(&mut gauss);
+                        (j, j[0] * truth[0] + j[1] * truth[1] + noise * gauss())
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// A linear model I_p(θ) = J_p·θ with Gaussian target noise of per-view scale (views
     /// differ in noise, as real views differ in brightness): the least-squares estimate's
     /// 95 % intervals from the sandwich must cover the truth in 95 % of trials. Binomial
@@ -516,24 +542,10 @@ mod tests {
         let (trials, views, pixels) = (400, 30, 40);
         let mut covered = [0usize; 2];
         let mut rng = Sampler::new(1, 2, 3, 4);
-        let mut gauss = || {
-            let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
-            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-        };
         for _ in 0..trials {
-            // Per view: pixels with a Jacobian row and noise.
-            let mut data = Vec::new();
-            for v in 0..views {
-                let noise = 0.05 * (1.0 + (v % 5) as f64);
-                let rows: Vec<([f64; 2], f64)> = (0..pixels)
-                    .map(|_| {
-                        let j = [1.0 + 0.5 * gauss(), 0.8 * gauss()];
-                        let t = j[0] * truth[0] + j[1] * truth[1] + noise * gauss();
-                        (j, t)
-                    })
-                    .collect();
-                data.push(rows);
-            }
+            let data = linear_views(&mut rng, truth, views, pixels, |g| {
+                [1.0 + 0.5 * g(), 0.8 * g()]
+            });
             // The least-squares estimate.
             let (mut a, mut b) = ([0.0; 3], [0.0; 2]);
             for rows in &data {
@@ -583,24 +595,11 @@ mod tests {
         let mut covered = 0usize;
         let mut widening = Vec::new();
         let mut rng = Sampler::new(5, 6, 7, 8);
-        let mut gauss = || {
-            let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
-            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-        };
         for _ in 0..trials {
-            let mut data = Vec::new();
-            for v in 0..views {
-                let noise = 0.05 * (1.0 + (v % 5) as f64);
-                let rows: Vec<([f64; 2], f64)> = (0..pixels)
-                    .map(|_| {
-                        let x = 1.0 + 0.5 * gauss();
-                        let j = [x, 0.9 * x + 0.2 * gauss()];
-                        let t = j[0] * truth[0] + j[1] * truth[1] + noise * gauss();
-                        (j, t)
-                    })
-                    .collect();
-                data.push(rows);
-            }
+            let data = linear_views(&mut rng, truth, views, pixels, |g| {
+                let x = 1.0 + 0.5 * g();
+                [x, 0.9 * x + 0.2 * g()]
+            });
             let (mut a00, mut b0) = (0.0, 0.0);
             for rows in &data {
                 for (j, t) in rows {
