@@ -1,10 +1,10 @@
 //! `translucent demo`: the main job on the built-in default scene, the whole round trip. It renders
 //! a small multi-view dataset of the bumpy blob in a hidden medium drawn from the paper's ranges
 //! with the volumetric path tracer, then recovers σ_t and α from the images with the learned
-//! BSSRDF and the paper's gradient estimator (`translucent optimize`, method `ours`), corrects the
-//! estimate's bias by one parametric-bootstrap step (`optimize --bias-correction`; the learned
-//! model's own loss minimum lies below the true σ_t, docs/notes/learned-model-bias.md), prints
-//! truth against both estimates and writes the convergence plots and re-renders.
+//! BSSRDF and the paper's gradient estimator (`translucent optimize`, estimator `ours`), refined in
+//! its last half by the volumetric path tracer (`optimize --refine`; the learned model's own loss
+//! minimum lies off the true σ_t, docs/notes/learned-model-bias.md), prints the estimate with its
+//! interval against the truth and writes the convergence plots and re-renders.
 
 use std::path::PathBuf;
 
@@ -38,11 +38,10 @@ pub struct DemoArgs {
     /// Optimisation iterations of each recovery (0: only render the dataset).
     #[arg(long, default_value_t = 200)]
     pub iterations: u32,
-    /// Steps of the parametric-bootstrap bias correction (`optimize --bias-correction`): each
-    /// renders the dataset again with the volumetric path tracer at the current estimate and
-    /// recovers from those images, about one more recovery's time. 0: the plain estimate only.
-    #[arg(long, default_value_t = 1)]
-    pub bias_correction_steps: u32,
+    /// The volumetric refinement (`optimize --refine`): the last N iterations use the
+    /// volumetric path tracer. Default: half of --iterations; 0: the learned model alone.
+    #[arg(long, value_name = "N")]
+    pub refine: Option<u32>,
 }
 
 pub fn run(a: &DemoArgs) -> Result<()> {
@@ -121,32 +120,33 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     if a.iterations == 0 {
         return Ok(());
     }
+    let o = recovery_args(a);
+    let c = crate::optimize_cmd::config_of(&o)?;
     println!(
-        "recovering the medium from the images: learned BSSRDF (shipped model), estimator `ours`, \
-         {} iterations from σ_t = 50, α = 0.5 (Adam on ln σ_t and α, α alone for the first {}){}",
-        a.iterations,
-        inverse::optimize::OptimizeConfig {
-            iterations: a.iterations,
-            ..Default::default()
-        }
-        .effective_albedo_warmup(),
-        match a.bias_correction_steps {
+        "recovering the medium from the images: {} iterations from σ_t = 50, α = 0.5 (Adam on \
+         ln σ_t and α, α alone for the first {}), the learned BSSRDF (shipped model, estimator \
+         `ours`){}",
+        c.iterations,
+        c.effective_albedo_warmup(),
+        match c.refine_iterations {
             0 => String::new(),
-            k => format!(", then {k} bias-correction step(s) of the same size"),
+            k => format!(
+                " for the first {}, then the volumetric path tracer for the last {k}",
+                c.iterations - k
+            ),
         }
     );
-    crate::optimize_cmd::run(&recovery_args(a))
+    crate::optimize_cmd::run(&o)
 }
 
-/// The demo's recovery: `optimize`'s defaults with the demo's iterations, seed and bias
-/// correction, into `OUT/optimize`.
+/// The demo's recovery: `optimize`'s defaults with the demo's iterations, seed and refinement,
+/// into `OUT/optimize`.
 pub(crate) fn recovery_args(a: &DemoArgs) -> crate::optimize_cmd::OptimizeArgs {
     let mut o =
         crate::optimize_cmd::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
     o.overwrite = true;
-    o.bc.no_bias_correction = a.bias_correction_steps == 0;
-    o.bc.bias_correction_steps = a.bias_correction_steps.max(1);
+    o.refine = a.refine;
     o
 }

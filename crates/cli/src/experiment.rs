@@ -35,7 +35,7 @@ mod inits;
 mod planar;
 mod prb;
 mod report;
-mod robustness;
+pub(crate) mod robustness;
 mod timing;
 mod volumetric;
 
@@ -429,8 +429,10 @@ pub(crate) fn run_args(
     o.init_albedo = init.albedo.map(|v| v as f32);
     o.seed = a.seed;
     o.final_spp = 16;
-    // The experiment corrects its runs itself (rows `<method>+bc`).
+    // The experiment corrects its runs itself (rows `<method>+bc`), and compares the learned
+    // model's estimators on the learned model alone: no volumetric refinement.
     o.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
+    o.refine = Some(0);
     o
 }
 

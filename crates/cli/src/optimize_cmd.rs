@@ -50,11 +50,12 @@ pub struct OptimizeArgs {
     /// semantics; default: the dataset's own, else 32).
     #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub max_depth: Option<u32>,
-    /// A volumetric refinement: the last N of --iterations use the volumetric path tracer
-    /// (estimator `ad`, depth --max-depth) from where the model's fit has got to, and replace
-    /// the bias correction (docs/notes/default-model.md; not yet measured on the suite).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", default_value_t = 0)]
-    pub refine: u32,
+    /// The volumetric refinement: the last N of --iterations use the volumetric path tracer
+    /// (estimator `ad`, depth --max-depth) from where the learned model's fit has got to, in
+    /// place of the bias correction (docs/notes/default-model.md). Default: half of
+    /// --iterations with the learned model, none with the others; 0: the learned model alone.
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N")]
+    pub refine: Option<u32>,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss.
@@ -214,6 +215,15 @@ impl OptimizeArgs {
 }
 
 pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
+    config_for(a, || Ok(Dataset::load(&a.dataset)?.render.max_depth))
+}
+
+/// [`config_of`] with the dataset's own tracer depth from `dataset_depth`, asked only when the
+/// tracer is used and `--max-depth` is not given.
+fn config_for(
+    a: &OptimizeArgs,
+    dataset_depth: impl FnOnce() -> Result<Option<u32>>,
+) -> Result<OptimizeConfig> {
     let model = a.learned.kind();
     let method = a.method.unwrap_or(model.estimators()[0]);
     let mut c = OptimizeConfig::new(Params {
@@ -222,15 +232,23 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
     });
     c.model = model;
     c.method = method;
-    if model == ModelKind::Volpath || a.refine > 0 {
-        let depth = match a.max_depth {
-            Some(d) => d,
-            None => Dataset::load(&a.dataset)?.render.max_depth.unwrap_or(32),
-        };
-        c.volpath_max_depth = Some(depth);
-    }
     c.iterations = a.budget.iterations;
-    c.refine_iterations = a.refine;
+    c.refine_iterations = match a.refine {
+        Some(r) if r > 0 && a.bc.bias_correction => bail!(
+            "--bias-correction with --refine {r}: the correction is for the learned model alone; \
+             fix: drop one of the two (the refinement replaces the correction)"
+        ),
+        Some(r) => r,
+        // `--bias-correction` asks for the learned model alone with the correction.
+        None if a.bc.bias_correction => 0,
+        None => OptimizeConfig::default_refinement(model, a.budget.iterations),
+    };
+    if model == ModelKind::Volpath || c.refine_iterations > 0 {
+        c.volpath_max_depth = match a.max_depth {
+            Some(d) => Some(d),
+            None => dataset_depth()?,
+        };
+    }
     c.spp = a.budget.spp;
     c.views_per_iter = a.budget.views_per_iter;
     c.view_subset = a.view_subset.clone();
@@ -273,10 +291,28 @@ pub(crate) fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
 /// equal the checkpoint's ([`reuse::differing_settings`]), except the number of iterations (a
 /// run may be extended) and the view subset (a resumed run may leave it out). The error names
 /// each differing setting with both values.
+/// The (iterations, refinement) a resumed run goes on with: `--iterations`, and `--refine` when
+/// given; without it, a run already in its refinement keeps refining from where it began (a
+/// longer run refines longer), and one that has not reached it takes the default of its new
+/// length.
+fn resume_budget(a: &OptimizeArgs, c: &Checkpoint) -> Result<(u32, u32)> {
+    let n = a.budget.iterations;
+    let saved = &c.config;
+    let start = saved.iterations - saved.refine_iterations;
+    let refining = saved.refine_iterations > 0 && c.history.len() as u32 > start;
+    let r = match a.refine {
+        None if refining => n.saturating_sub(start),
+        _ => config_of(a)?.refine_iterations,
+    };
+    Ok((n, r))
+}
+
 fn check_resume_settings(now: &OptimizeConfig, saved: &OptimizeConfig, ckpt: &Path) -> Result<()> {
+    // The length and its refinement may change together (`Optimizer::resume` checks them).
     let json = |c: &OptimizeConfig| {
         let mut c = c.clone();
         c.view_subset = None;
+        c.refine_iterations = 0;
         serde_json::to_value(&c)
     };
     let diffs: Vec<String> = reuse::differing_settings(&json(now)?, &json(saved)?)
@@ -416,7 +452,8 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut opt = if let Some(c) = checkpoint {
-        Optimizer::resume(c, Some(a.budget.iterations), &accel, &model, base, targets)?
+        let budget = resume_budget(a, &c)?;
+        Optimizer::resume(c, Some(budget), &accel, &model, base, targets)?
     } else {
         if ckpt.exists() && !a.overwrite {
             bail!(
@@ -797,25 +834,37 @@ mod tests {
     fn optimize_demo_and_experiment_share_the_library_defaults() {
         let d = PathBuf::from("d");
         let o = OptimizeArgs::with_defaults(d.clone(), PathBuf::from("o"));
-        assert_eq!(config_of(&o).unwrap(), OptimizeConfig::default());
+        let no_depth = || Ok(None);
+        assert_eq!(config_for(&o, no_depth).unwrap(), OptimizeConfig::default());
         let demo =
             crate::demo::recovery_args(&crate::common::arg_defaults::<crate::demo::DemoArgs>(&[]));
         let expected = OptimizeConfig {
-            iterations: demo.budget.iterations,
             seed: demo.seed,
-            ..OptimizeConfig::default()
+            ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
-        assert_eq!(config_of(&demo).unwrap(), expected);
+        assert_eq!(config_for(&demo, no_depth).unwrap(), expected);
         let exp = crate::common::arg_defaults::<crate::experiment::AccuracyArgs>(&[]);
         let init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
         };
+        // The estimator comparison runs the learned model alone (`--refine 0`), the rest as
+        // the defaults.
         let run = crate::experiment::run_args(&exp, &d, &d, "ours", init);
         let expected = OptimizeConfig {
             seed: exp.seed,
+            refine_iterations: 0,
             ..OptimizeConfig::default()
         };
-        assert_eq!(config_of(&run).unwrap(), expected);
+        assert_eq!(config_for(&run, no_depth).unwrap(), expected);
+        // The robustness suite, which measures the defaults, runs them unchanged.
+        let suite =
+            crate::common::arg_defaults::<crate::experiment::robustness::RobustnessArgs>(&[]);
+        let run = crate::experiment::robustness::run_args(&suite, &d, &d, 0);
+        let expected = OptimizeConfig {
+            seed: suite.seed,
+            ..OptimizeConfig::default()
+        };
+        assert_eq!(config_for(&run, no_depth).unwrap(), expected);
     }
 }

@@ -88,9 +88,10 @@ impl Problem {
                 "the estimate does not reproduce the images in {} when rendered by the volumetric \
                  path tracer (brightness ratio {:.3?}, L2 {:.2?}× the noise floor): the \
                  recovery stopped at a medium that does not explain the images. With the learned \
-                 model, its error can move the estimate further than the bias correction (on by \
-                 default) brings it back: run more correction steps (--bias-correction-steps). \
-                 With any model, views that determine σ_t and more iterations help",
+                 model alone, its error can move the estimate: refine with the volumetric path \
+                 tracer (--refine, on by default) or run more correction steps \
+                 (--bias-correction-steps). With any model, views that determine σ_t and more \
+                 iterations help",
                 channels
                     .iter()
                     .map(|&c| CH[c])

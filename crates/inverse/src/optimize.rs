@@ -32,7 +32,8 @@ use crate::forward::volpath::Volpath;
 use crate::forward::{ForwardModel, ModelKind};
 use crate::params::{ParamSpec, Params};
 use crate::uncertainty::{
-    Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances, iterate_covariance,
+    Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
+    iterate_covariance, iterate_drift,
 };
 
 /// Errors of the inverse loop.
@@ -263,6 +264,12 @@ impl Default for OptimizeConfig {
     }
 }
 
+/// The share of a learned-model recovery's iterations that the defaults hand to the volumetric
+/// path tracer ([`OptimizeConfig::refine_iterations`]): the learned model crosses the flat part
+/// of the landscape cheaply, the tracer then removes the model's bias. Chosen on the robustness
+/// suite (docs/notes/default-model.md).
+pub const DEFAULT_REFINE_SHARE: f64 = 0.5;
+
 /// Largest number of views rendered per iteration (the views are drawn with replacement, so
 /// more than the targets is allowed; a bound keeps the per-iteration lists bounded).
 pub const MAX_VIEWS_PER_ITER: usize = 1 << 16;
@@ -364,18 +371,37 @@ impl OptimizeConfig {
         self.albedo_warmup.min(self.iterations / 3)
     }
 
+    /// The refinement the defaults give a run of `iterations` with `model`: the last
+    /// [`DEFAULT_REFINE_SHARE`] of them for the learned model, none for the others (the
+    /// volumetric model is the tracer already; the dipole is a baseline, run as it is).
+    pub fn default_refinement(model: ModelKind, iterations: u32) -> u32 {
+        match model {
+            ModelKind::Learned => (iterations as f64 * DEFAULT_REFINE_SHARE).floor() as u32,
+            _ => 0,
+        }
+    }
+
+    /// `iterations`, with the default refinement of a run that long
+    /// ([`OptimizeConfig::default_refinement`]).
+    pub fn with_iterations(mut self, iterations: u32) -> Self {
+        self.iterations = iterations;
+        self.refine_iterations = Self::default_refinement(self.model, iterations);
+        self
+    }
+
     /// The recovery's defaults from `init`, shared by `optimize`, `demo` and `experiment`: the
     /// budget of docs/model.md A12 (`ours`, 300 iterations, 32 spp, 1 view, L2, lr 0.015 and
     /// 0.02, ×0.85 every 50 iterations) with the settings that measured best
     /// (docs/notes/recovery-recipe.md, "Conclusions"): Adam on ln σ_t, the decorrelated
-    /// two-render gradient, and α alone for the first 30 iterations.
+    /// two-render gradient, α alone for the first 30 iterations, and the last half of the
+    /// iterations refined by the volumetric path tracer (docs/notes/default-model.md).
     pub fn new(init: Params) -> Self {
         Self {
             model: ModelKind::Learned,
             volpath_max_depth: None,
             method: DiffMethod::Ours,
             iterations: 300,
-            refine_iterations: 0,
+            refine_iterations: Self::default_refinement(ModelKind::Learned, 300),
             spp: 32,
             views_per_iter: 1,
             crop: None,
@@ -593,7 +619,7 @@ impl<'a> Optimizer<'a> {
 
     /// The uncertainty of the current parameters from the target images
     /// ([`crate::uncertainty`]): two independent derivative renders of `s.views` views spread
-    /// evenly over the targets, at `s.spp`, plus the spread of the last iterates. Parameters the
+    /// evenly over the targets, at `s.spp`, plus the spread and drift of the last iterates. Parameters the
     /// run keeps fixed get no interval.
     pub fn uncertainty(&self, s: &UncertaintySettings) -> Result<Uncertainty, InverseError> {
         let c = &self.config;
@@ -632,7 +658,9 @@ impl<'a> Optimizer<'a> {
             .map(|r| (r.params.sigma_t, r.params.albedo))
             .chain(std::iter::once((p.sigma_t, p.albedo)))
             .collect();
-        let spread = iterate_covariance(&iterates);
+        let (walk, drift) = (iterate_covariance(&iterates), iterate_drift(&iterates));
+        let spread: [[f64; 3]; 3] =
+            std::array::from_fn(|c| std::array::from_fn(|k| walk[c][k] + drift[c][k]));
         let fixed = [c.params.fix_sigma_t, c.params.fix_albedo];
         let cov = add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread);
         let images = add_covariances(acc.covariance_fixed(0.0, fixed), spread);

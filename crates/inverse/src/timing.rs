@@ -98,6 +98,8 @@ pub fn measure(
     c.method = method;
     c.spp = spp;
     c.iterations = settings.iterations;
+    // One forward model's iterations: no refinement by another.
+    c.refine_iterations = 0;
     c.seed = settings.seed;
     if model == ModelKind::Volpath {
         c.volpath_max_depth = Some(settings.volpath_max_depth);

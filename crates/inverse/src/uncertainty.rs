@@ -9,7 +9,7 @@
 //!   A = Σ_v Σ_p J_p J_pᵀ                       (Gauss–Newton: half the Hessian of L)
 //!   g_v = Σ_p J_p r_p                           (half the gradient of view v's loss)
 //!   B = V/(V − 1) · Σ_v (g_v − ḡ)(g_v − ḡ)ᵀ     (the views as independent draws of the capture)
-//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt,   d = A⁻¹ Σ_v Σ_p J_p I_p
+//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt + C_drift,   d = A⁻¹ Σ_v Σ_p J_p I_p
 //!
 //! (the M-estimator sandwich with views as clusters: White 1980, Liang & Zeger 1986). B holds
 //! whatever makes the views disagree at the estimate: the targets' noise, the renderer's noise
@@ -29,11 +29,15 @@
 //! the run: with one view and few samples per iteration Adam's steps are a random walk of about
 //! the learning rate around the minimum, and the estimate (the last iterate) is a draw from it.
 //! A short tail underestimates that walk's spread (on a case whose model is exact, the last
-//! tenth covered the truth in 79 % of pairs, the last third in 93 %).
+//! tenth covered the truth in 79 % of pairs, the last third in 93 %). C_drift = d dᵀ, with d the
+//! mean of the window's second half minus that of its first ([`iterate_drift`]), allows for a
+//! run that has not stopped moving: along a flat valley the iterates drift steadily towards a
+//! minimum they have not reached, and the estimate is at least that movement from its limit
+//! (docs/notes/default-model.md, "Intervals of a refined run").
 //!
 //! The 95 % interval is θ̂ ± 1.96·sd in (ln σ_t, α): σ_t·exp(±1.96·sd) and α ± 1.96·sd clamped
 //! to [0, 1]. A parameter is reported *determined* when the images constrain it: the interval
-//! from A⁻¹BA⁻¹ + C_opt alone (without the model-error terms) has σ_t's upper bound at most
+//! from A⁻¹BA⁻¹ + C_opt + C_drift alone (without the model-error terms) has σ_t's upper bound at most
 //! [`DETERMINED_SIGMA_T_RATIO`] times its lower one, or α's half-width at most
 //! [`DETERMINED_ALBEDO_HALF_WIDTH`]. The reported interval itself includes the model's error.
 //!
@@ -248,6 +252,31 @@ pub fn iterate_covariance(params: &[([f64; 3], [f64; 3])]) -> [[f64; 3]; 3] {
     })
 }
 
+/// The drift of the iterates `params` (σ_t, α per channel) as a covariance per channel in
+/// (ln σ_t, α): d dᵀ with d the mean of their second half minus the mean of their first half.
+/// A run still moving along a flat valley when it stops is further from its limit than its
+/// iterates' spread says; the movement over the window is the allowance for that (module docs,
+/// C_drift). Where the iterates are stationary, d is of the order of the spread's standard error.
+pub fn iterate_drift(params: &[([f64; 3], [f64; 3])]) -> [[f64; 3]; 3] {
+    let n = params.len();
+    if n < 2 {
+        return [[0.0; 3]; 3];
+    }
+    let (first, second) = params.split_at(n / 2);
+    let mean = |part: &[([f64; 3], [f64; 3])], c: usize| -> [f64; 2] {
+        let k = part.len() as f64;
+        [
+            part.iter().map(|(s, _)| s[c].ln()).sum::<f64>() / k,
+            part.iter().map(|(_, a)| a[c]).sum::<f64>() / k,
+        ]
+    };
+    std::array::from_fn(|c| {
+        let (a, b) = (mean(first, c), mean(second, c));
+        let d = [b[0] - a[0], b[1] - a[1]];
+        [d[0] * d[0], d[0] * d[1], d[1] * d[1]]
+    })
+}
+
 /// 95 % intervals, standard deviations and whether each parameter is determined.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Uncertainty {
@@ -341,7 +370,7 @@ impl Uncertainty {
             view_bread: Vec::new(),
             fixed: [false, false],
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
-                     error, the spread of the last iterates"
+                     error, the spread and drift of the last iterates"
                 .into(),
         }
     }
@@ -500,6 +529,34 @@ pub fn add_covariances(a: [Option<[f64; 3]>; 3], b: [[f64; 3]; 3]) -> [Option<[f
 
 #[cfg(test)]
 mod tests {
+    /// The drift term is the outer product of the movement between the window's halves: a
+    /// steady trend of 0.01 in ln σ_t and −0.001 in α per iteration over 20 iterates moves the
+    /// halves' means by 10 steps; iterates that only alternate about a point give none.
+    #[test]
+    fn drift_is_the_movement_between_the_halves_of_the_window() {
+        let trend: Vec<([f64; 3], [f64; 3])> = (0..20)
+            .map(|k| {
+                let k = k as f64;
+                ([50.0 * (0.01 * k).exp(); 3], [0.9 - 0.001 * k; 3])
+            })
+            .collect();
+        let d = iterate_drift(&trend);
+        for c in d {
+            assert!((c[0] - 0.01).abs() < 1e-12, "{c:?}");
+            assert!((c[1] + 0.001).abs() < 1e-12, "{c:?}");
+            assert!((c[2] - 1e-4).abs() < 1e-12, "{c:?}");
+        }
+        let still: Vec<([f64; 3], [f64; 3])> = (0..20)
+            .map(|k| ([if k % 2 == 0 { 49.0 } else { 51.0 }; 3], [0.9; 3]))
+            .collect();
+        assert!(
+            iterate_drift(&still)
+                .iter()
+                .flatten()
+                .all(|v| v.abs() < 1e-20)
+        );
+    }
+
     use super::*;
     use base::rng::Sampler;
 

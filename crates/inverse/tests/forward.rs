@@ -26,7 +26,10 @@ fn shipped() -> ShapeAdaptiveModel {
 
 #[test]
 fn each_model_accepts_only_its_own_estimators() {
-    let mut c = OptimizeConfig::default();
+    let mut c = OptimizeConfig {
+        refine_iterations: 0,
+        ..OptimizeConfig::default()
+    };
     for m in ModelKind::Learned.estimators() {
         c.method = *m;
         assert!(c.check().is_ok(), "learned × {}", m.name());
@@ -140,6 +143,7 @@ fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, itera
         model: model_kind,
         method,
         spp: 16,
+        refine_iterations: 0,
         ..OptimizeConfig::default()
     };
     let truth = Params::of(&s.truth);

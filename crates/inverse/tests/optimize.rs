@@ -89,6 +89,7 @@ fn config(iterations: u32) -> OptimizeConfig {
         albedo: [0.5; 3],
     });
     c.iterations = iterations;
+    c.refine_iterations = 0;
     c.spp = 8;
     c.views_per_iter = 2;
     c.lr_albedo = 0.03;
@@ -125,7 +126,7 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
     part.run(Some((&ck, 10)), |_, _| {}).unwrap();
     let mut resumed = Optimizer::resume(
         Checkpoint::read(&ck).unwrap(),
-        Some(40),
+        Some((40, 0)),
         &s.accel,
         &s.model,
         s.truth,
@@ -445,8 +446,8 @@ fn intervals_cover_the_truth_where_the_model_is_exact() {
                 image: img,
             })
             .collect();
-        let mut c = OptimizeConfig::new(truth);
-        c.iterations = 30;
+        let mut c = OptimizeConfig::new(truth).with_iterations(30);
+        c.refine_iterations = 0;
         c.spp = 8;
         c.seed = seed;
         let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets).unwrap();
@@ -646,11 +647,29 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     // those of `full`, its fifth the first of the refinement).
     let mut ckpt = Checkpoint::read(&ck).unwrap();
     (ckpt.config.iterations, ckpt.config.refine_iterations) = (6, 2);
-    let mut longer = Checkpoint::read(&ck).unwrap();
-    longer.config.refine_iterations = 1;
+    let longer = || Checkpoint::read(&ck).unwrap();
+    let e = Optimizer::resume(
+        longer(),
+        Some((6, 1)),
+        &s.accel,
+        &s.model,
+        s.truth,
+        targets(&s),
+    )
+    .err()
+    .expect("extending a refined run with the same refinement would move it");
+    assert!(e.to_string().contains("--refine 2"), "{e}");
+    // The same length with the refinement kept where it began is the full run.
     assert!(
-        Optimizer::resume(longer, Some(6), &s.accel, &s.model, s.truth, targets(&s)).is_err(),
-        "extending a refined run would move its refinement"
+        Optimizer::resume(
+            longer(),
+            Some((6, 2)),
+            &s.accel,
+            &s.model,
+            s.truth,
+            targets(&s)
+        )
+        .is_ok()
     );
     let mut resumed =
         Optimizer::resume(ckpt, None, &s.accel, &s.model, s.truth, targets(&s)).unwrap();

@@ -4,7 +4,7 @@
 //! spp), recovered from σ_t = 50, α = 0.5 at 32 spp and one view per iteration by the learned
 //! model (`ours`), by our volumetric baseline (`optimize --model volpath`) and, with
 //! `--mitsuba-python`, by Mitsuba 3's `prbvolpath` (`tools/mitsuba/prb_optimize.py`, its own
-//! Adam on ln σ_t and α). `optimize`'s defaults otherwise, without bias correction. Reports the
+//! Adam on ln σ_t and α). `optimize`'s defaults otherwise, without refinement or bias correction. Reports the
 //! σ_t and α errors (RMS over the channels) against iterations and against seconds
 //! (`OUT/prb.png`, `.svg`), and per run the final errors, s/it, and the first iteration after
 //! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
@@ -61,6 +61,8 @@ pub fn run(a: &PrbArgs) -> Result<()> {
         o.seed = a.seed;
         o.final_spp = 16;
         o.bc = BiasCorrectionArgs::off();
+        // The paper's method is the learned model alone: no volumetric refinement.
+        o.refine = Some(0);
         run_or_reuse(&o, name)?;
         runs.push((name.into(), read_steps(&dir.join("iterations.csv"))?));
     }

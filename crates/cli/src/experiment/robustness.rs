@@ -16,7 +16,8 @@
 //!   generator did not make: legs, ears and horns).
 //!
 //! Every case is rendered by the volumetric path tracer and recovered by `optimize` with its
-//! defaults (the bias correction included), `--seeds` times with independent renders and runs.
+//! defaults (the volumetric refinement included), `--seeds` times with independent renders and
+//! runs.
 //! The table gives, per case and channel, the σ_t error (corrected and uncorrected), whether the
 //! 95 % interval holds the truth, whether the images determine σ_t, the α error, the
 //! consistency (the uncorrected estimate re-rendered by the volumetric path tracer against the
@@ -30,6 +31,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
+use inverse::optimize::OptimizeConfig;
 use scene::rig::{Rig, RigLight};
 use scene::{Dataset, Medium, MeshSource, RenderInfo, SceneDesc};
 use volpath::rng::Sampler;
@@ -59,10 +61,10 @@ pub struct RobustnessArgs {
     pub model: inverse::forward::ModelKind,
     #[command(flatten)]
     pub budget: IterationArgs,
-    /// A volumetric refinement of every run: its last N iterations with the volumetric path
-    /// tracer (`optimize --refine`), instead of the bias correction.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", default_value_t = 0)]
-    pub refine: u32,
+    /// The volumetric refinement of every run (`optimize --refine`): its last N iterations with
+    /// the volumetric path tracer. Default: `optimize`'s.
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N")]
+    pub refine: Option<u32>,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
@@ -323,10 +325,17 @@ fn rgb(v: &serde_json::Value) -> [f64; 3] {
     std::array::from_fn(|c| v[c].as_f64().unwrap_or(f64::NAN))
 }
 
-fn intervals(v: &serde_json::Value) -> [Option<[f64; 2]>; 3] {
+/// The 95 % intervals of `v` (`interval95.sigma_t` or `.albedo`). Where the run measured its
+/// uncertainty (`measured`) but the images give a channel no finite interval, the interval is
+/// the parameter's whole range `whole` (which holds the truth: the run claims nothing there).
+fn intervals(v: &serde_json::Value, measured: bool, whole: [f64; 2]) -> [Option<[f64; 2]>; 3] {
     std::array::from_fn(|c| {
         let i = &v[c];
-        Some([i[0].as_f64()?, i[1].as_f64()?])
+        match (i[0].as_f64(), i[1].as_f64()) {
+            (Some(lo), Some(hi)) => Some([lo, hi]),
+            _ if measured => Some(whole),
+            _ => None,
+        }
     })
 }
 
@@ -340,14 +349,15 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
         estimate
     };
     let determined = &v["determined"]["sigma_t"];
+    let measured = v["uncertainty"].is_object() && estimate.iter().flatten().all(|x| x.is_finite());
     Ok(Outcome {
         case: case.clone(),
         rep,
         targets,
         estimate,
         uncorrected,
-        interval_sigma_t: intervals(&v["interval95"]["sigma_t"]),
-        interval_albedo: intervals(&v["interval95"]["albedo"]),
+        interval_sigma_t: intervals(&v["interval95"]["sigma_t"], measured, [0.0, f64::INFINITY]),
+        interval_albedo: intervals(&v["interval95"]["albedo"], measured, [0.0, 1.0]),
         determined_sigma_t: std::array::from_fn(|c| determined[c].as_bool().unwrap_or(false)),
         consistency_ratio: rgb(&v["consistency"]["mean_ratio"]),
         consistency_l2: rgb(&v["consistency"]["l2_over_noise"]),
@@ -632,7 +642,7 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
         o.uncertainty_views = 3;
         o.uncertainty_spp = 4;
         o.consistency_views = 2;
-        o.refine = o.refine.min(o.budget.iterations / 2);
+        o.refine = o.refine.map(|r| r.min(o.budget.iterations / 2));
     }
     o
 }
@@ -717,10 +727,16 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
         },
         if a.quick { 12 } else { a.budget.iterations },
         if a.quick { 4 } else { a.budget.spp },
-        if a.model == inverse::forward::ModelKind::Learned {
-            ", bias correction"
-        } else {
-            ""
+        {
+            let iterations = if a.quick { 12 } else { a.budget.iterations };
+            let default = OptimizeConfig::default_refinement(a.model, iterations);
+            match a.refine.unwrap_or(default) {
+                0 if a.model == inverse::forward::ModelKind::Learned => {
+                    ", bias correction".to_string()
+                }
+                0 => String::new(),
+                r => format!(", the last {r} by the volumetric path tracer"),
+            }
         },
         a.seeds,
         a.seed,
@@ -872,12 +888,24 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
         .flat_map(|o| o.albedo_error().map(f64::abs))
         .fold(0.0, f64::max);
     let failed = outcomes.iter().filter(|o| o.status != "ok").count();
+    let unbounded = outcomes
+        .iter()
+        .flat_map(|o| o.interval_sigma_t)
+        .filter(|i| i.is_some_and(|[_, hi]| hi.is_infinite()))
+        .count();
     let _ = writeln!(
         md,
-        "{head}- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %)",
+        "{head}- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %){}",
         100.0 * covered_t as f64 / pairs.max(1) as f64,
         100.0 * covered_a as f64 / pairs.max(1) as f64,
-        100.0 * (covered_t + covered_a) as f64 / (2 * pairs).max(1) as f64
+        100.0 * (covered_t + covered_a) as f64 / (2 * pairs).max(1) as f64,
+        match unbounded {
+            0 => String::new(),
+            k => format!(
+                "; σ_t in {k} of them has no finite interval (the images bound neither σ_t nor \
+                 α there), counted as holding the truth"
+            ),
+        }
     );
     if det.is_empty() {
         let _ = writeln!(md, "{ind}- σ_t determined in none of the {pairs} pairs");
@@ -951,4 +979,23 @@ fn renderers_named(outcomes: &[Outcome]) -> String {
         }
     }
     names.join(" and ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A channel without a finite interval in a run that measured its uncertainty is the
+    /// parameter's whole range (it holds the truth: the run claims nothing); a run without an
+    /// uncertainty has no interval at all, which holds nothing.
+    #[test]
+    fn a_channel_without_a_finite_interval_is_the_whole_range() {
+        let v = serde_json::json!([[1.0, 2.0], [null, null], null]);
+        let whole = [0.0, f64::INFINITY];
+        assert_eq!(
+            intervals(&v, true, whole),
+            [Some([1.0, 2.0]), Some(whole), Some(whole)]
+        );
+        assert_eq!(intervals(&v, false, whole), [Some([1.0, 2.0]), None, None]);
+    }
 }

@@ -4,9 +4,9 @@
 //! light, σ_t = 80, α = 0.9, targets by our volumetric path tracer at 128 spp), from σ_t = 50
 //! with α fixed at its true 0.9, by the learned model (`ours`, 32 spp) and by the volumetric
 //! baseline (`optimize --model volpath`, 32 and 128 spp), each with `optimize`'s defaults
-//! otherwise and without bias correction. Reports the σ_t error against iterations and against
-//! seconds (`OUT/volumetric.png`, `.svg`), and a table of final errors, s/it and total time
-//! (`OUT/volumetric.md`, `volumetric.csv`). Runs resume and are reused like `experiment
+//! otherwise and without refinement or bias correction. Reports the σ_t error against iterations
+//! and against seconds (`OUT/volumetric.png`, `.svg`), and a table of final errors, s/it and total
+//! time (`OUT/volumetric.md`, `volumetric.csv`). Runs resume and are reused like `experiment
 //! accuracy`'s.
 
 use std::path::PathBuf;
@@ -104,6 +104,8 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         o.seed = a.seed;
         o.final_spp = 16;
         o.bc = BiasCorrectionArgs::off();
+        // The paper's method is the learned model alone: no volumetric refinement.
+        o.refine = Some(0);
         let done = run_or_reuse(&o, &label)?;
         let t: Vec<(f64, f64, f64)> = read_steps(&dir.join("iterations.csv"))?
             .iter()

@@ -30,16 +30,18 @@ use crate::dataset_cmd::{RenderOpts, render_dataset};
 
 #[derive(Args, Clone, Copy, Debug)]
 pub struct BiasCorrectionArgs {
-    /// Skip the parametric-bootstrap bias correction. By default the dataset is rendered again
-    /// with the volumetric path tracer at the estimate (same views, lights, spp and seed),
-    /// recovered with the same settings, and 2θ̂ − θ̂₂ in (ln σ_t, α) is reported, with the
-    /// correction's size added to the 95 % intervals. It doubles the cost and is what makes
-    /// the estimate and its interval hold on data the learned model did not make. (Not with
-    /// `--model volpath`: the tracer is the simulator itself, with no bias to correct.)
-    #[arg(long)]
+    /// Skip the parametric-bootstrap bias correction of a learned-model run without refinement
+    /// (`--refine 0`): the dataset is rendered again with the volumetric path tracer at the
+    /// estimate (same views, lights, spp and seed), recovered with the same settings, and
+    /// 2θ̂ − θ̂₂ in (ln σ_t, α) is reported, with the correction's size added to the 95 %
+    /// intervals. It doubles the cost. (Not after a refinement, nor with `--model volpath`: the
+    /// tracer is the simulator itself, with no bias to correct.)
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
     pub no_bias_correction: bool,
-    /// (The default; accepted for older scripts.)
-    #[arg(long, hide = true, conflicts_with = "no_bias_correction")]
+    /// The learned model alone with the parametric-bootstrap bias correction, instead of the
+    /// volumetric refinement (`--refine 0`, whose correction is on unless
+    /// --no-bias-correction).
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, conflicts_with = "no_bias_correction")]
     pub bias_correction: bool,
     /// Steps of the iterated correction: step k renders at the previous corrected medium
     /// θ_{k−1}, recovers θ̂_k from it and moves to θ_k = θ_{k−1} + θ̂ − θ̂_k; a bias of constant

@@ -58,7 +58,7 @@ pub fn run_starts(a: &OptimizeArgs) -> Result<(Vec<Start>, usize)> {
         o.budget.iterations = iterations;
         o.bc = super::bias_correction::BiasCorrectionArgs::off();
         // The starts are compared by the model's loss; the chosen one's run refines.
-        o.refine = 0;
+        o.refine = Some(0);
         o.uncertainty_views = 0;
         o.consistency_views = 0;
         o.final_spp = 1;

@@ -46,25 +46,29 @@ fn demo_writes_dataset_reruns_and_protects_other_datasets() {
     ] {
         assert!(d.join(f).is_file(), "{f} missing");
     }
-    // By default the estimate is corrected by one bootstrap step, and the plain one is kept.
+    // By default the last half of the iterations (1 of 3) refine with the volumetric path
+    // tracer, which replaces the bias correction.
     let r = read_json(&d.join("optimize/result.json"));
+    assert_eq!(r["config"]["refine_iterations"], 1, "{r}");
+    assert!(r.get("bias_correction").is_none(), "{r}");
+    assert!(!d.join("optimize/bootstrap").exists());
+    let first = read(&d.join("view_000.exr"));
+    // The demo may overwrite its own folder; same arguments, same images.
+    ok(t.path(), &args);
+    assert_eq!(read(&d.join("view_000.exr")), first);
+    // `--refine 0`: the learned model alone, corrected by one bootstrap step as `optimize`
+    // does then, and the plain estimate kept.
+    let mut plain = args.to_vec();
+    plain.extend(["--refine", "0"]);
+    ok(t.path(), &plain);
+    let r = read_json(&d.join("optimize/result.json"));
+    assert!(r["config"].get("refine_iterations").is_none(), "{r}");
     assert_eq!(r["bias_correction"]["steps"].as_array().unwrap().len(), 1);
     assert!(r["estimate_uncorrected"]["sigma_t"].is_array());
     assert!(
         d.join("optimize/bootstrap/step-1/data/dataset.json")
             .is_file()
     );
-    let first = read(&d.join("view_000.exr"));
-    // The demo may overwrite its own folder; same arguments, same images.
-    ok(t.path(), &args);
-    assert_eq!(read(&d.join("view_000.exr")), first);
-    // `--bias-correction-steps 0`: the plain estimate only.
-    let mut plain = args.to_vec();
-    plain.extend(["--bias-correction-steps", "0"]);
-    ok(t.path(), &plain);
-    let r = read_json(&d.join("optimize/result.json"));
-    assert!(r.get("bias_correction").is_none(), "{r}");
-    assert!(r.get("estimate_uncorrected").is_none(), "{r}");
     // The demo's folder is a valid dataset: `render` reproduces it.
     ok(t.path(), &["-q", "render", "demo", "--out", "r"]);
     assert_eq!(read(&t.path().join("r/view_000.exr")), first);

@@ -171,12 +171,18 @@ fn assert_bootstrap_step(
 /// `optimize --bias-correction --bias-correction-steps 2`: each step simulates the dataset at
 /// the previous medium (θ̂, then θ₁) with the dataset's own spp, recovers from it with the same
 /// settings, and `result.json` reports θ₂ = θ₁ + θ̂ − θ̂₂' as `estimate` beside the optimiser's
-/// own; `--resume` reuses the steps, `--overwrite` drops them.
+/// own; `--resume` reuses the steps, `--overwrite` drops them. `--bias-correction` means the
+/// learned model alone: with a refinement it is refused.
 #[test]
 fn optimize_bias_correction_reports_the_iterated_correction() {
     let t = tmp();
     let d = t.path();
     make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let both = [&TINY_OPTIMIZE[..], &["--bias-correction", "--refine", "1"]].concat();
+    assert_stderr_has(
+        &fails(d, &both),
+        &["--bias-correction with --refine 1", "fix"],
+    );
     let mut args = TINY_OPTIMIZE.to_vec();
     args.extend(["--bias-correction", "--bias-correction-steps", "2"]);
     let run = ok(d, &args);
@@ -634,7 +640,7 @@ fn flash_capture_says_sigma_t_is_not_determined() {
             "0.9",
         ],
     );
-    let r = ok(d, &[&TINY_OPTIMIZE[..], &["--no-bias-correction"]].concat());
+    let r = ok(d, &TINY_OPTIMIZE);
     assert_stdout_has(
         &r,
         &[
@@ -642,7 +648,6 @@ fn flash_capture_says_sigma_t_is_not_determined() {
             "σ_t is NOT determined",
             "light beside or behind the object",
             "consistency",
-            "sensitivity to σ_t along the σ_t–α valley",
         ],
     );
     let res = read_json(&d.join("o/result.json"));
@@ -658,9 +663,17 @@ fn flash_capture_says_sigma_t_is_not_determined() {
     );
     assert!(res["status"].is_string(), "{res}");
     assert!(res["consistency"]["mean_ratio"].is_array(), "{res}");
+    assert_eq!(res["complete"], true);
+    // The learned model alone also measures the tracer's own sensitivity along the valley,
+    // which widens the interval where the model is surer than the images.
+    let mut plain = TINY_OPTIMIZE.to_vec();
+    plain[4] = "o2";
+    plain.extend(["--refine", "0", "--no-bias-correction"]);
+    let r = ok(d, &plain);
+    assert_stdout_has(&r, &["sensitivity to σ_t along the σ_t–α valley"]);
+    let res = read_json(&d.join("o2/result.json"));
     let ratio = res["sensitivity"]["ratio"].as_array().unwrap();
     assert!(ratio.iter().all(|r| r.as_f64().unwrap() >= 1.0), "{res}");
-    assert_eq!(res["complete"], true);
 }
 
 /// `experiment robustness --quick`: every one of the twelve cases is rendered, recovered and
@@ -702,26 +715,11 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
             let v: f64 = f[col(name)].parse().unwrap();
             assert!(v.is_finite() && v > 0.0, "{name} in {row}");
         }
-        // The tracer's curvature along the valley over the model's: a noisy estimate of any
-        // sign, NaN where the model's derivative images in the checked views are all zero.
+        // The tracer's curvature along the valley over the model's: not measured (NaN) where
+        // the defaults' refinement made the tracer the final model.
         let v: f64 = f[col("valley_curvature")].parse().unwrap();
-        assert!(!v.is_infinite(), "valley_curvature in {row}");
+        assert!(v.is_nan(), "valley_curvature in {row}");
     }
-    let measured = rows
-        .iter()
-        .filter(|r| {
-            let f: Vec<&str> = r.split(',').collect();
-            f[col("valley_curvature")]
-                .parse::<f64>()
-                .unwrap()
-                .is_finite()
-        })
-        .count();
-    assert!(
-        measured > rows.len() / 2,
-        "{measured} of {} rows measured",
-        rows.len()
-    );
     for capture in ["flash", "fixed", "turntable", "backlit"] {
         assert!(
             rows.iter().filter(|r| r.contains(capture)).count() == 9,

@@ -483,6 +483,7 @@ fn optimize_checkpoints(work: &Path) -> Res {
     };
     let mut plain = OptimizeConfig::new(init);
     plain.iterations = 2;
+    plain.refine_iterations = 0;
     plain.spp = 1;
     plain.albedo_warmup = 1;
     let mut varied = plain.clone();

@@ -110,28 +110,46 @@ impl<'a> Optimizer<'a> {
         Ok(())
     }
 
-    /// Resumes the run of `checkpoint` (its configuration wins; `iterations` may extend it).
+    /// Resumes the run of `checkpoint` (its configuration wins). `budget` = (iterations,
+    /// refine_iterations) may change the run's length and its refinement, as long as the
+    /// iterations done keep their forward model: the refinement may move only where the run has
+    /// not reached either start.
     pub fn resume(
         checkpoint: Checkpoint,
-        iterations: Option<u32>,
+        budget: Option<(u32, u32)>,
         accel: &'a Accel,
         model: &'a ShapeAdaptiveModel,
         base: Medium,
         targets: Vec<TargetView<'a>>,
     ) -> Result<Self, InverseError> {
         let mut config = checkpoint.config;
-        if let Some(n) = iterations {
-            if config.refine_iterations > 0 && n != config.iterations {
-                // The refinement is the run's last iterations: extending the run would move it.
+        let k = checkpoint.history.len() as u32;
+        if let Some((n, r)) = budget {
+            // The first iteration of the refinement (none: the run's length).
+            let start = |n: u32, r: u32| if r > 0 { n.saturating_sub(r) } else { u32::MAX };
+            let (was, will) = (
+                start(config.iterations, config.refine_iterations),
+                start(n, r),
+            );
+            if was.min(k) != will.min(k) {
+                let at = |s: u32| match s {
+                    u32::MAX => "never".to_string(),
+                    s => format!("from iteration {s}"),
+                };
                 return Err(InverseError::Invalid(format!(
-                    "the run ends with {} iterations of refinement; it cannot be resumed to {n} \
-                     iterations instead of {} (start a new run)",
-                    config.refine_iterations, config.iterations
+                    "the run has done {k} iterations and refines with the tracer {}; {n} \
+                     iterations with a refinement of {r} would refine {}, which changes \
+                     iterations already done; fix: resume with the run's own refinement \
+                     (--refine {}) or start a new run",
+                    at(was),
+                    at(will),
+                    n.saturating_sub(was.min(n)),
                 )));
             }
             config.iterations = n;
+            config.refine_iterations = r;
+            config.check().map_err(InverseError::Invalid)?;
         }
-        let k = checkpoint.history.len() as u32;
         // The features of the last refit before iteration k (or of the initial parameters).
         let fit_at = if config.refit_every > 0 && k > 0 {
             let r = ((k - 1) / config.refit_every) * config.refit_every;
