@@ -294,15 +294,17 @@ fn config_for(
 /// The (iterations, refinement) a resumed run goes on with: `--iterations`, and `--refine` when
 /// given; without it, a run already in its refinement keeps refining from where it began (a
 /// longer run refines longer), and one that has not reached it takes the default of its new
-/// length.
+/// length, begun no earlier than the iterations done.
 fn resume_budget(a: &OptimizeArgs, c: &Checkpoint) -> Result<(u32, u32)> {
     let n = a.budget.iterations;
     let saved = &c.config;
+    let done = c.history.len() as u32;
     let start = saved.iterations - saved.refine_iterations;
-    let refining = saved.refine_iterations > 0 && c.history.len() as u32 > start;
+    let refining = saved.refine_iterations > 0 && done > start;
     let r = match a.refine {
         None if refining => n.saturating_sub(start),
-        _ => config_of(a)?.refine_iterations,
+        None => config_of(a)?.refine_iterations.min(n.saturating_sub(done)),
+        Some(_) => config_of(a)?.refine_iterations,
     };
     Ok((n, r))
 }
