@@ -3,14 +3,13 @@
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use geometry::{Accel, LightBins};
+use geometry::Accel;
 use indicatif::{ProgressBar, ProgressStyle};
 use scene::scene_file::ViewDesc;
 use scene::{Image, Medium};
-use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists};
+use volpath::VolpathSettings;
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -59,44 +58,7 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
-/// Timing of a render.
-pub struct RenderReport {
-    pub images: Vec<Image>,
-    /// ∂I/∂σ_t and ∂I/∂α of every view (empty unless asked for).
-    pub derivatives: Vec<[Image; 2]>,
-    pub seconds_per_view: Vec<f64>,
-}
-
-/// One view's render: the image, and its two derivative images when asked for.
-type ViewRender = (Image, Option<[Image; 2]>);
-
-/// Renders every view with `render(view, settings)` (the settings of view i: `spp`, `seed`,
-/// view index i), timing each.
-fn render_each(
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    mut render: impl FnMut(&ViewDesc, &RenderSettings) -> Result<ViewRender>,
-) -> Result<RenderReport> {
-    let mut report = RenderReport {
-        images: Vec::with_capacity(views.len()),
-        derivatives: Vec::new(),
-        seconds_per_view: Vec::with_capacity(views.len()),
-    };
-    for (i, v) in views.iter().enumerate() {
-        let rs = RenderSettings {
-            spp,
-            seed,
-            view: i as u64,
-        };
-        let t0 = Instant::now();
-        let (image, derivatives) = render(v, &rs)?;
-        report.images.push(image);
-        report.derivatives.extend(derivatives);
-        report.seconds_per_view.push(t0.elapsed().as_secs_f64());
-    }
-    Ok(report)
-}
+pub use inverse::views::{RenderReport, build_accel};
 
 /// Render every view with the volumetric path tracer; one progress bar over all rows.
 pub fn render_views(
@@ -111,8 +73,7 @@ pub fn render_views(
 }
 
 /// [`render_views`], with each view's derivatives with respect to σ_t and α when `derivatives`
-/// ([`volpath::render_derivatives`]: the same images, plus the analytic derivative of each
-/// path).
+/// ([`inverse::views::volpath`]).
 pub fn render_views_with(
     accel: &Accel,
     medium: &Medium,
@@ -122,40 +83,15 @@ pub fn render_views_with(
     settings: &VolpathSettings,
     derivatives: bool,
 ) -> RenderReport {
-    let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
-    let pb = progress(rows, "volpath");
-    // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
-    let mut lists: Option<LightBins> = None;
-    let report = render_each(views, spp, seed, |v, rs| {
-        let mut scene = VolpathScene {
-            accel,
-            medium: *medium,
-            light: Some(v.light),
-            environment: None,
-            light_bins: None,
-        };
-        if lists.as_ref().is_none_or(|b| b.light() != v.light.position) {
-            lists = shadow_lists(&scene, settings);
-        }
-        scene.light_bins = lists.as_ref();
-        Ok(if derivatives {
-            let d = volpath::render_derivatives(&scene, settings, &v.camera, rs, Some(&pb));
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
-        } else {
-            (
-                render_image(&scene, settings, &v.camera, rs, Some(&pb)),
-                None,
-            )
-        })
-    })
-    .expect("the volumetric renders do not fail");
+    let pb = progress(inverse::views::total_rows(views), "volpath");
+    let report =
+        inverse::views::volpath(accel, medium, views, spp, seed, settings, derivatives, &pb);
     pb.finish_and_clear();
     report
 }
 
-/// Render every view with the planar dipole baseline ([`bssrdf::dipole`]), with each view's
-/// derivatives with respect to σ_t and α when `derivatives` (the profile's analytic
-/// derivatives at fixed sample positions); one progress bar over the views.
+/// Render every view with the planar dipole baseline ([`inverse::views::dipole`]); one
+/// progress bar over the views.
 pub fn render_views_dipole(
     accel: &Accel,
     medium: &Medium,
@@ -164,18 +100,8 @@ pub fn render_views_dipole(
     seed: u64,
     derivatives: bool,
 ) -> Result<RenderReport> {
-    let scene = bssrdf::dipole::DipoleScene::new(accel, *medium)?;
     let pb = progress(views.len() as u64, "dipole");
-    let report = render_each(views, spp, seed, |v, rs| {
-        let view = bssrdf::dipole::DipoleView::new(accel, &v.camera, &v.light);
-        pb.inc(1);
-        Ok(if derivatives {
-            let d = bssrdf::dipole::render_derivatives(&scene, &view, rs);
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
-        } else {
-            (bssrdf::dipole::render_image(&scene, &view, rs), None)
-        })
-    })?;
+    let report = inverse::views::dipole(accel, medium, views, spp, seed, derivatives, &pb)?;
     pb.finish_and_clear();
     Ok(report)
 }
@@ -214,21 +140,6 @@ pub fn check_output_free(dir: &Path, names: &[String], overwrite: bool) -> Resul
         }
     }
     Ok(())
-}
-
-/// Load a mesh file or build a built-in shape, print its warnings, build the BVH.
-pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], what: &str) -> Accel {
-    for w in warnings {
-        tracing::warn!("{what}: {w}");
-    }
-    let t0 = Instant::now();
-    let accel = Accel::new(mesh);
-    tracing::debug!(
-        "{what}: BVH over {} triangles in {:.1} ms",
-        accel.mesh().triangle_count(),
-        t0.elapsed().as_secs_f64() * 1e3
-    );
-    accel
 }
 
 /// The `--help` heading of the options a user rarely needs: the defaults are the measured best.
@@ -462,9 +373,8 @@ pub fn render_views_learned(
     render_views_learned_with(accel, medium, views, spp, seed, model, settings, false)
 }
 
-/// [`render_views_learned`], with each view's derivatives with respect to σ_t and α by the
-/// paper's estimator (`ours`: correlated σ_t offset samples, α by differentiating the absorption)
-/// when `derivatives`.
+/// [`render_views_learned`], with each view's derivatives by the paper's estimator when
+/// `derivatives` ([`inverse::views::learned`]).
 #[allow(clippy::too_many_arguments)]
 pub fn render_views_learned_with(
     accel: &Accel,
@@ -476,26 +386,18 @@ pub fn render_views_learned_with(
     settings: bssrdf::render::LearnedSettings,
     derivatives: bool,
 ) -> Result<RenderReport> {
-    let t0 = Instant::now();
-    let features =
-        bssrdf::render::VertexFeatures::fit(accel, medium, model.info().c19_quirk, seed)?;
-    tracing::info!(
-        "fitted vertex polynomials in {:.2} s",
-        t0.elapsed().as_secs_f64()
-    );
-    let scene = bssrdf::render::LearnedScene::new(accel, model, &features, *medium, settings)?;
-    let rows: u64 = views.iter().map(|v| v.camera.height as u64).sum();
-    let pb = progress(rows, "learned");
-    let report = render_each(views, spp, seed, |v, rs| {
-        Ok(if derivatives {
-            let ds = bssrdf::diff::DiffSettings::default();
-            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, rs, &ds, Some(&pb))?;
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
-        } else {
-            let img = bssrdf::render::render_image(&scene, &v.camera, &v.light, rs, Some(&pb))?;
-            (img, None)
-        })
-    })?;
+    let pb = progress(inverse::views::total_rows(views), "learned");
+    let report = inverse::views::learned(
+        accel,
+        medium,
+        views,
+        spp,
+        seed,
+        model,
+        settings,
+        derivatives,
+        &pb,
+    )?;
     pb.finish_and_clear();
     Ok(report)
 }

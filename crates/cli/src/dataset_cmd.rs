@@ -4,7 +4,6 @@
 //! (σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel) with the given seed.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -13,9 +12,8 @@ use scene::rig::{Rig, RigLight};
 use scene::scene_file::RenderInfo;
 use scene::{Dataset, Medium, MeshSource, SceneDesc, ShapeSpec};
 use volpath::rng::Sampler;
-use volpath::{ShadowTransmittance, VolpathSettings};
 
-use crate::common::{build_accel, parse_rgb, render_views};
+use crate::common::parse_rgb;
 
 /// Where the object comes from and how it is viewed and lit.
 #[derive(Args, Clone)]
@@ -230,14 +228,7 @@ pub struct DatasetArgs {
     pub overwrite: bool,
 }
 
-/// Volumetric render settings of a dataset.
-#[derive(Clone, Copy, Debug)]
-pub struct RenderOpts {
-    pub spp: u32,
-    pub seed: u64,
-    pub max_depth: u32,
-    pub shadow: ShadowTransmittance,
-}
+pub use inverse::views::RenderOpts;
 
 /// Render a dataset and save it; returns it (with images).
 pub fn make_dataset(
@@ -258,63 +249,17 @@ pub fn make_dataset(
     render_dataset(desc, opts, out, overwrite)
 }
 
-/// Render the views of `desc` (mesh, medium, cameras and lights) with the volumetric path
-/// tracer and save them as a dataset in `out`; `desc.render` is replaced by `opts`. Returns the
-/// dataset (with images).
+/// Render a dataset with the volumetric path tracer and save it ([`inverse::views::render_dataset`]);
+/// returns it (with images).
 pub fn render_dataset(
-    mut desc: SceneDesc,
+    desc: SceneDesc,
     opts: RenderOpts,
     out: &std::path::Path,
     overwrite: bool,
 ) -> Result<Dataset> {
-    let RenderOpts {
-        spp,
-        seed,
-        max_depth,
-        shadow,
-    } = opts;
-    anyhow::ensure!(spp > 0, "--spp must be at least 1");
-    anyhow::ensure!(max_depth > 0, "--max-depth must be at least 1");
-    if !overwrite && out.join("dataset.json").exists() {
-        bail!(
-            "{} already holds a dataset; pass --overwrite to replace it",
-            out.display()
-        );
-    }
-    desc.render = RenderInfo {
-        spp: Some(spp),
-        max_depth: Some(max_depth),
-        seed: Some(seed),
-        renderer: Some(format!(
-            "translucent {} volpath (spectral MIS, {} shadow transmittance)",
-            env!("CARGO_PKG_VERSION"),
-            match shadow {
-                ShadowTransmittance::Exact => "exact",
-                ShadowTransmittance::Tracked => "tracked",
-            }
-        )),
-    };
-    desc.path = out.join("dataset.json");
-    let (mesh, warnings) = desc.load_mesh()?;
-    let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
-    let views = &desc.views;
-    let settings = VolpathSettings {
-        max_depth,
-        shadow,
-        ..Default::default()
-    };
-    let t0 = Instant::now();
-    let rep = render_views(&accel, &desc.medium, views, spp, seed, &settings);
-    let mut ds = Dataset::from_scene(&desc);
-    for (v, img) in ds.views.iter_mut().zip(rep.images) {
-        v.image = Some(img);
-    }
-    ds.save(out, overwrite)?;
-    tracing::info!(
-        "rendered {} views in {:.1} s",
-        views.len(),
-        t0.elapsed().as_secs_f64()
-    );
+    let pb = crate::common::progress(inverse::views::total_rows(&desc.views), "volpath");
+    let ds = inverse::views::render_dataset(desc, opts, out, overwrite, &pb)?;
+    pb.finish_and_clear();
     Ok(ds)
 }
 

@@ -124,6 +124,29 @@ fn equal_time_budget(a: &ValidateArgs) -> Result<Option<f64>> {
     Ok(Some(s))
 }
 
+/// When to stop rendering passes within a time budget: after each pass, another one is started
+/// only if the time so far plus the slowest pass so far stays within the budget.
+#[derive(Debug, Clone, Copy)]
+struct PassBudget {
+    total: f64,
+    slowest: f64,
+}
+
+impl PassBudget {
+    fn new(total_seconds: f64) -> Self {
+        Self {
+            total: total_seconds,
+            slowest: 0.0,
+        }
+    }
+
+    /// After a pass that took `pass` seconds, with `elapsed` seconds spent in all: start another?
+    fn another(&mut self, elapsed: f64, pass: f64) -> bool {
+        self.slowest = self.slowest.max(pass);
+        elapsed + self.slowest <= self.total
+    }
+}
+
 /// Render every view in passes of [`EQUAL_TIME_PASS`] spp until the next pass (estimated by the
 /// slowest pass so far) would take the whole render past `budget` seconds per view. At least one
 /// pass. Views that share a light share its shadow lists. Returns the images and their spp.
@@ -165,7 +188,7 @@ fn render_equal_time(
             Progressive::new(&scene, settings, &v.camera, seed, i as u64)
         })
         .collect();
-    let mut slowest = 0.0f64;
+    let mut passes = PassBudget::new(total);
     loop {
         let tp = Instant::now();
         // All views of a pass in one parallel job, so that the threads wait for each other
@@ -174,8 +197,7 @@ fn render_equal_time(
             .par_iter_mut()
             .for_each(|r| r.advance(EQUAL_TIME_PASS, None));
         pb.set_position((t0.elapsed().as_secs_f64() * 1000.0) as u64);
-        slowest = slowest.max(tp.elapsed().as_secs_f64());
-        if t0.elapsed().as_secs_f64() + slowest > total {
+        if !passes.another(t0.elapsed().as_secs_f64(), tp.elapsed().as_secs_f64()) {
             break;
         }
     }
@@ -359,4 +381,32 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     }
     println!("all {} views within tolerance", views.len());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::PassBudget;
+
+    /// Passes continue while the time so far plus the slowest pass fits the budget; a slow pass
+    /// makes the estimate of the next one pessimistic; at least one pass is always rendered
+    /// (the caller renders before asking).
+    #[test]
+    fn pass_budget_stops_before_the_slowest_pass_would_overrun() {
+        let mut b = PassBudget::new(1.0);
+        assert!(b.another(0.2, 0.2));
+        assert!(b.another(0.4, 0.2));
+        assert!(b.another(0.6, 0.2));
+        assert!(b.another(0.8, 0.2));
+        assert!(!b.another(1.0, 0.2));
+
+        let mut b = PassBudget::new(1.0);
+        assert!(b.another(0.1, 0.1));
+        assert!(!b.another(0.6, 0.5), "0.6 s + a 0.5 s pass overruns 1 s");
+
+        let mut b = PassBudget::new(0.1);
+        assert!(
+            !b.another(0.3, 0.3),
+            "one pass over the whole budget: stop after it"
+        );
+    }
 }

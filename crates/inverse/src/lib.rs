@@ -5,7 +5,9 @@
 //! images ([`uncertainty`]), the checks of a run's health ([`health`]), its re-render by the volumetric path tracer
 //! ([`consistency`]), the tracer's own sensitivity along the σ_t valley ([`sensitivity`]) and the parametric-bootstrap bias correction of a recovered medium
 //! ([`bootstrap`]), the learned estimators' derivative images against differences
-//! ([`gradcheck`]), and the seconds per iteration of every model × estimator ([`timing`]). The
+//! ([`gradcheck`]), the seconds per iteration of every model × estimator ([`timing`]), a whole
+//! recovery from a dataset folder behind one typed configuration ([`recovery`]: what `optimize`
+//! runs), and the render loops over a list of views and into a dataset ([`views`]). The
 //! gradient estimators themselves
 //! (`ours`, `ours-alpha-offsets`, `naive`, `fd`) live in [`bssrdf::diff`].
 
@@ -16,7 +18,9 @@ pub mod gradcheck;
 pub mod health;
 pub mod optimize;
 pub mod params;
+pub mod recovery;
 pub mod report;
 pub mod sensitivity;
 pub mod timing;
 pub mod uncertainty;
+pub mod views;

@@ -38,8 +38,8 @@ use volpath::rng::Sampler;
 
 use crate::common::{build_accel, render_views_learned};
 use crate::dataset_cmd::{RenderOpts, make_dataset};
-use crate::optimize_cmd::reuse::read_json;
 use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
+use inverse::recovery::reuse::read_json;
 
 #[derive(Args)]
 pub struct RobustnessArgs {

@@ -237,8 +237,8 @@ fn validate_mitsuba_fails_when_reference_is_twice_as_bright() {
     assert_stdout_has(&r, &["0.5000"]);
 }
 
-/// `--equal-time` renders in passes until the time budget is spent, reports the spp it reached
-/// within the budget, and `--spp` with that number gives the same images; without a budget (the synthetic
+/// `--equal-time` renders in passes until the time budget is spent, reports the spp it reached,
+/// and `--spp` with that number gives the same images; without a budget (the synthetic
 /// scene.json records no render time) it says where to give one.
 #[test]
 fn validate_mitsuba_equal_time_reaches_an_spp_that_reproduces_its_images() {
@@ -280,9 +280,9 @@ fn validate_mitsuba_equal_time_reaches_an_spp_that_reproduces_its_images() {
         spp >= 32 && spp.is_multiple_of(32),
         "{spp} spp: passes are 32 spp"
     );
-    let secs = number_after(" spp in ");
-    // Within the budget unless one pass alone overran it (a loaded machine).
-    assert!(secs <= 0.2 || spp == 32, "{secs} s/view at {spp} spp");
+    // The seconds it reports depend on the machine's load; the stopping rule is tested with
+    // synthetic timings in `validate::tests`.
+    assert!(number_after(" spp in ") > 0.0);
     let spp_arg = spp.to_string();
     ok(t.path(), &with(&["--spp", &spp_arg, "--out", "fixed"]));
     assert_same_images(

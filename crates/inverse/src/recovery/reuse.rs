@@ -1,13 +1,11 @@
-//! Run, resume or reuse an optimisation run folder: the step of `experiment accuracy` and of
-//! `optimize --bias-correction` that makes an interrupted multi-run command continue where it
-//! stopped. A folder is reused only when its run was made with the same settings.
+//! Run, resume or reuse a recovery's folder: the step of multi-run commands (the experiments,
+//! the bias correction's own recoveries, the starts) that makes an interrupted command continue
+//! where it stopped. A folder is reused only when its run was made with the same settings.
 
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
-use inverse::params::Params;
-
-use super::{OptimizeArgs, config_of};
+use super::{Observer, RecoveryConfig, RecoveryError};
+use crate::params::Params;
 
 /// What a finished run reports (from its `result.json`).
 #[derive(Clone, Copy, Debug)]
@@ -16,14 +14,18 @@ pub struct RunResult {
     pub seconds_per_iteration: f64,
 }
 
-/// Run the optimisation `o` into `o.out`, or resume it from its checkpoint, or reuse it when it
-/// has already finished `o.budget.iterations` iterations; then read its result. A folder whose
-/// run (finished or not) was made with other settings than `o` (the iteration count aside) is
-/// an error naming the differing settings.
-pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
-    let run_dir = &o.out;
+/// Run the recovery `cfg` into `cfg.out`, or resume it from its checkpoint, or reuse it when it
+/// has already finished its iterations; then read its result. A folder whose run (finished or
+/// not) was made with other settings than `cfg.optimize` (the iteration count aside) is an
+/// error naming the differing settings. `label` names the run in the report.
+pub fn run_or_reuse(
+    cfg: &RecoveryConfig,
+    obs: &dyn Observer,
+    label: &str,
+) -> Result<RunResult, RecoveryError> {
+    let run_dir = &cfg.out;
     let result = run_dir.join("result.json");
-    let expected = serde_json::to_value(config_of(o)?)?;
+    let expected = serde_json::to_value(&cfg.optimize)?;
     let differing = |c: &serde_json::Value| -> Vec<String> {
         differing_settings(&expected, c)
             .into_iter()
@@ -35,46 +37,47 @@ pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<RunResult> {
         if let Ok(v) = read_json(file) {
             let keys = differing(&v["config"]);
             if !keys.is_empty() {
-                bail!(
+                return Err(RecoveryError::Invalid(format!(
                     "{} holds a run made with other settings than this command's (differing: \
                      {}); use another --out or remove that folder",
                     run_dir.display(),
                     keys.join(", ")
-                );
+                )));
             }
         }
     }
+    let iterations = cfg.optimize.iterations;
     let done = read_json(&result).ok().is_some_and(|v| {
-        v["iterations"].as_u64() == Some(o.budget.iterations as u64)
+        v["iterations"].as_u64() == Some(iterations as u64)
             && v["complete"].as_bool() != Some(false)
     });
     if done {
-        println!(
+        obs.say(&format!(
             "run {label} ({}): reusing {}",
-            o.estimator(),
+            cfg.estimator(),
             run_dir.display()
-        );
+        ));
     } else {
-        println!(
-            "run {label} ({}): {} iterations",
-            o.estimator(),
-            o.budget.iterations
-        );
-        let mut o = o.clone();
-        o.resume = checkpoint.exists();
-        o.overwrite = false;
-        super::run(&o)?;
+        obs.say(&format!(
+            "run {label} ({}): {iterations} iterations",
+            cfg.estimator()
+        ));
+        let mut c = cfg.clone();
+        c.resume = checkpoint.exists();
+        c.overwrite = false;
+        super::run(&c, obs)?;
     }
     let v = read_json(&result)?;
     Ok(RunResult {
-        estimate: params_of(&v["estimate"])
-            .with_context(|| format!("{}: no estimate.sigma_t/albedo", result.display()))?,
+        estimate: params_of(&v["estimate"]).ok_or_else(|| {
+            RecoveryError::Invalid(format!("{}: no estimate.sigma_t/albedo", result.display()))
+        })?,
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
     })
 }
 
 /// One setting in which a run's recorded configuration differs from a command's.
-pub(crate) struct SettingDifference {
+pub struct SettingDifference {
     /// The configuration's key ("the format" when only the sets of keys differ).
     pub key: String,
     /// The command's value.
@@ -84,10 +87,10 @@ pub(crate) struct SettingDifference {
 }
 
 /// The top-level settings in which a run's recorded configuration `recorded` differs from
-/// `expected` (both the JSON form of an [`inverse::optimize::OptimizeConfig`]), the iteration
+/// `expected` (both the JSON form of an [`crate::optimize::OptimizeConfig`]), the iteration
 /// count aside: a run may be extended. Numbers compare at f32 precision, as the files write them
 /// either way.
-pub(crate) fn differing_settings(
+pub fn differing_settings(
     expected: &serde_json::Value,
     recorded: &serde_json::Value,
 ) -> Vec<SettingDifference> {
@@ -157,8 +160,13 @@ fn json_close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
 }
 
 /// A JSON file, with its path in the errors.
-pub fn read_json(path: &Path) -> Result<serde_json::Value> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not valid JSON", path.display()))
+pub fn read_json(path: &Path) -> Result<serde_json::Value, RecoveryError> {
+    let text = std::fs::read_to_string(path).map_err(|source| RecoveryError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    serde_json::from_str(&text).map_err(|source| RecoveryError::Json {
+        path: Some(path.to_path_buf()),
+        source,
+    })
 }

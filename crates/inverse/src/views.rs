@@ -1,0 +1,257 @@
+//! Rendering a list of views with any forward model, and rendering a scene into a dataset: the
+//! loops behind `render`, `dataset`, the bias correction's simulations and the experiments.
+//!
+//! View i is rendered with the settings (spp, seed, view = i), so a list renders the same
+//! images whether it is rendered whole or view by view. Every loop takes the progress bar to
+//! advance (one step per image row for the tracers, per view for the dipole); pass
+//! [`ProgressBar::hidden`] for none.
+
+use std::path::Path;
+use std::time::Instant;
+
+use geometry::{Accel, LightBins};
+use indicatif::ProgressBar;
+use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
+use scene::{Dataset, Image, Medium};
+use volpath::{
+    RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings, render_image, shadow_lists,
+};
+
+use crate::optimize::InverseError;
+
+/// The images of a list of views and the time each took.
+pub struct RenderReport {
+    pub images: Vec<Image>,
+    /// ∂I/∂σ_t and ∂I/∂α of every view (empty unless asked for).
+    pub derivatives: Vec<[Image; 2]>,
+    pub seconds_per_view: Vec<f64>,
+}
+
+/// One view's render: the image, and its two derivative images when asked for.
+type ViewRender = (Image, Option<[Image; 2]>);
+
+/// Renders every view with `render(view, settings)` (the settings of view i: `spp`, `seed`,
+/// view index i), timing each.
+fn render_each(
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    mut render: impl FnMut(&ViewDesc, &RenderSettings) -> Result<ViewRender, InverseError>,
+) -> Result<RenderReport, InverseError> {
+    let mut report = RenderReport {
+        images: Vec::with_capacity(views.len()),
+        derivatives: Vec::new(),
+        seconds_per_view: Vec::with_capacity(views.len()),
+    };
+    for (i, v) in views.iter().enumerate() {
+        let rs = RenderSettings {
+            spp,
+            seed,
+            view: i as u64,
+        };
+        let t0 = Instant::now();
+        let (image, derivatives) = render(v, &rs)?;
+        report.images.push(image);
+        report.derivatives.extend(derivatives);
+        report.seconds_per_view.push(t0.elapsed().as_secs_f64());
+    }
+    Ok(report)
+}
+
+/// Rows of all views: the length of the tracers' progress bars.
+pub fn total_rows(views: &[ViewDesc]) -> u64 {
+    views.iter().map(|v| v.camera.height as u64).sum()
+}
+
+/// Every view by the volumetric path tracer, with each view's derivatives with respect to σ_t
+/// and α when `derivatives` ([`volpath::render_derivatives`]: the same images, plus the
+/// analytic derivative of each path). `pb` advances by one per row ([`total_rows`]).
+#[allow(clippy::too_many_arguments)]
+pub fn volpath(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    settings: &VolpathSettings,
+    derivatives: bool,
+    pb: &ProgressBar,
+) -> RenderReport {
+    // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
+    let mut lists: Option<LightBins> = None;
+    render_each(views, spp, seed, |v, rs| {
+        let mut scene = VolpathScene {
+            accel,
+            medium: *medium,
+            light: Some(v.light),
+            environment: None,
+            light_bins: None,
+        };
+        if lists.as_ref().is_none_or(|b| b.light() != v.light.position) {
+            lists = shadow_lists(&scene, settings);
+        }
+        scene.light_bins = lists.as_ref();
+        Ok(if derivatives {
+            let d = volpath::render_derivatives(&scene, settings, &v.camera, rs, Some(pb));
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
+        } else {
+            (
+                render_image(&scene, settings, &v.camera, rs, Some(pb)),
+                None,
+            )
+        })
+    })
+    .expect("the volumetric renders do not fail")
+}
+
+/// Every view by the planar dipole baseline ([`bssrdf::dipole`]), with each view's derivatives
+/// with respect to σ_t and α when `derivatives` (the profile's analytic derivatives at fixed
+/// sample positions). `pb` advances by one per view.
+pub fn dipole(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    derivatives: bool,
+    pb: &ProgressBar,
+) -> Result<RenderReport, InverseError> {
+    let scene = bssrdf::dipole::DipoleScene::new(accel, *medium)
+        .map_err(|e| InverseError::Invalid(e.to_string()))?;
+    render_each(views, spp, seed, |v, rs| {
+        let view = bssrdf::dipole::DipoleView::new(accel, &v.camera, &v.light);
+        pb.inc(1);
+        Ok(if derivatives {
+            let d = bssrdf::dipole::render_derivatives(&scene, &view, rs);
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
+        } else {
+            (bssrdf::dipole::render_image(&scene, &view, rs), None)
+        })
+    })
+}
+
+/// Every view by the learned BSSRDF (vertex features fitted once for `medium`), with each
+/// view's derivatives by the paper's estimator (`ours`: correlated σ_t offset samples, α by
+/// differentiating the absorption) when `derivatives`. `pb` advances by one per row.
+#[allow(clippy::too_many_arguments)]
+pub fn learned(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    spp: u32,
+    seed: u64,
+    model: &bssrdf::nn::ShapeAdaptiveModel,
+    settings: bssrdf::render::LearnedSettings,
+    derivatives: bool,
+    pb: &ProgressBar,
+) -> Result<RenderReport, InverseError> {
+    let t0 = Instant::now();
+    let features =
+        bssrdf::render::VertexFeatures::fit(accel, medium, model.info().c19_quirk, seed)?;
+    tracing::info!(
+        "fitted vertex polynomials in {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let scene = bssrdf::render::LearnedScene::new(accel, model, &features, *medium, settings)?;
+    render_each(views, spp, seed, |v, rs| {
+        Ok(if derivatives {
+            let ds = bssrdf::diff::DiffSettings::default();
+            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, rs, &ds, Some(pb))?;
+            (d.value, Some([d.d_sigma_t, d.d_albedo]))
+        } else {
+            let img = bssrdf::render::render_image(&scene, &v.camera, &v.light, rs, Some(pb))?;
+            (img, None)
+        })
+    })
+}
+
+/// The BVH over `mesh`, with the mesh's warnings logged against `what` (the file or shape).
+pub fn build_accel(mesh: geometry::Mesh, warnings: &[geometry::MeshWarning], what: &str) -> Accel {
+    for w in warnings {
+        tracing::warn!("{what}: {w}");
+    }
+    let t0 = Instant::now();
+    let accel = Accel::new(mesh);
+    tracing::debug!(
+        "{what}: BVH over {} triangles in {:.1} ms",
+        accel.mesh().triangle_count(),
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    accel
+}
+
+/// How a dataset's images are rendered by the volumetric path tracer.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderOpts {
+    pub spp: u32,
+    pub seed: u64,
+    pub max_depth: u32,
+    pub shadow: ShadowTransmittance,
+}
+
+/// Render the views of `desc` with the volumetric path tracer at its medium and save them as a
+/// dataset in `out` (refused when `out` holds one, unless `overwrite`); returns it, with images.
+/// The dataset records the spp, depth, seed and renderer. `pb` advances by one per row.
+pub fn render_dataset(
+    mut desc: SceneDesc,
+    opts: RenderOpts,
+    out: &Path,
+    overwrite: bool,
+    pb: &ProgressBar,
+) -> Result<Dataset, InverseError> {
+    let RenderOpts {
+        spp,
+        seed,
+        max_depth,
+        shadow,
+    } = opts;
+    if spp == 0 {
+        return Err(InverseError::Invalid("--spp must be at least 1".into()));
+    }
+    if max_depth == 0 {
+        return Err(InverseError::Invalid(
+            "--max-depth must be at least 1".into(),
+        ));
+    }
+    if !overwrite && out.join("dataset.json").exists() {
+        return Err(InverseError::Invalid(format!(
+            "{} already holds a dataset; pass --overwrite to replace it",
+            out.display()
+        )));
+    }
+    desc.render = RenderInfo {
+        spp: Some(spp),
+        max_depth: Some(max_depth),
+        seed: Some(seed),
+        renderer: Some(format!(
+            "translucent {} volpath (spectral MIS, {} shadow transmittance)",
+            env!("CARGO_PKG_VERSION"),
+            match shadow {
+                ShadowTransmittance::Exact => "exact",
+                ShadowTransmittance::Tracked => "tracked",
+            }
+        )),
+    };
+    desc.path = out.join("dataset.json");
+    let (mesh, warnings) = desc.load_mesh()?;
+    let accel = build_accel(mesh, &warnings, &desc.mesh.describe());
+    let views = &desc.views;
+    let settings = VolpathSettings {
+        max_depth,
+        shadow,
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    let rep = volpath(&accel, &desc.medium, views, spp, seed, &settings, false, pb);
+    let mut ds = Dataset::from_scene(&desc);
+    for (v, img) in ds.views.iter_mut().zip(rep.images) {
+        v.image = Some(img);
+    }
+    ds.save(out, overwrite)?;
+    tracing::info!(
+        "rendered {} views in {:.1} s",
+        views.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(ds)
+}
