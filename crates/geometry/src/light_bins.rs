@@ -48,10 +48,11 @@ pub const MAX_RESOLUTION: u32 = 2048;
 
 /// Largest mesh for which [`LightBins::build`] builds lists. The lists pay off while they stay
 /// in cache (measured, docs/notes/tracer-speed.md, "Shadow rays through the light's triangle
-/// lists"): 17–20 % faster volpath renders of the 20k-triangle reference sphere, no change on the
-/// 82k-triangle blob, and on a 327k-triangle mesh random shadow queries are 1.7× SLOWER than the
-/// BVH's (68 MB of lists).
-pub const MAX_TRIANGLES: usize = 65_536;
+/// lists" and "Lists for the 82k-triangle blob"): 17–20 % faster volpath renders of the
+/// 20k-triangle reference sphere, 14–29 % of the 82k-triangle blob (renders and `optimize
+/// --model volpath` at 256²), and on a 327k-triangle mesh random shadow queries are 1.7×
+/// SLOWER than the BVH's (68 MB of lists).
+pub const MAX_TRIANGLES: usize = 131_072;
 
 /// Per-direction triangle lists around one point light (module docs).
 #[derive(Clone, Debug)]

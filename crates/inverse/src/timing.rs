@@ -104,6 +104,50 @@ pub fn measure(
     if model == ModelKind::Volpath {
         c.volpath_max_depth = Some(settings.volpath_max_depth);
     }
+    let row = time_iterations(accel, nets, base, targets, c)?;
+    Ok(TimingRow {
+        model,
+        method: method.name().to_string(),
+        ..row
+    })
+}
+
+/// The name of [`measure_defaults`]'s row.
+pub const DEFAULTS: &str = "defaults";
+
+/// Times `settings.iterations` iterations of `optimize`'s defaults at `spp` (the learned model,
+/// then the volumetric path tracer for the default share of the iterations:
+/// [`OptimizeConfig::default_refinement`]), counted as in [`measure`]: the mean over a run of
+/// this length is the defaults' seconds per iteration over any length (the share is the same),
+/// up to the refinement's first iteration, which also builds the tracer's per-view lists.
+pub fn measure_defaults(
+    accel: &Accel,
+    nets: &ShapeAdaptiveModel,
+    base: Medium,
+    targets: &[TargetView],
+    spp: u32,
+    settings: &TimingSettings,
+) -> Result<TimingRow, InverseError> {
+    let mut c = OptimizeConfig::default().with_iterations(settings.iterations);
+    c.spp = spp;
+    c.seed = settings.seed;
+    c.volpath_max_depth = Some(settings.volpath_max_depth);
+    let row = time_iterations(accel, nets, base, targets, c)?;
+    Ok(TimingRow {
+        method: DEFAULTS.to_string(),
+        ..row
+    })
+}
+
+/// Runs the iterations of `c` on `targets` and records each one's seconds.
+fn time_iterations(
+    accel: &Accel,
+    nets: &ShapeAdaptiveModel,
+    base: Medium,
+    targets: &[TargetView],
+    c: OptimizeConfig,
+) -> Result<TimingRow, InverseError> {
+    let (model, spp, iterations) = (c.model, c.spp, c.iterations);
     let views = targets
         .iter()
         .map(|t| TargetView {
@@ -112,13 +156,14 @@ pub fn measure(
             image: t.image,
         })
         .collect();
+    let method = c.method.name().to_string();
     let mut opt = Optimizer::new(c, accel, nets, base, views)?;
-    for _ in 0..settings.iterations {
+    for _ in 0..iterations {
         opt.step()?;
     }
     Ok(TimingRow {
         model,
-        method: method.name().to_string(),
+        method,
         spp,
         seconds: opt.history().iter().map(|r| r.seconds).collect(),
     })

@@ -879,9 +879,10 @@ fn optimize_with_the_volumetric_model_and_invalid_pairs() {
     assert_stderr_has(&fails(d, &bad), &["refine_iterations", "3 iterations"]);
 }
 
-/// `experiment timing --quick`: one row per model × estimator with a positive time (and the
-/// paper's method at twice the samples, as its Table 1), the paper's figures beside ours and the PRB row absent without Mitsuba; the tables are written; a second
-/// run measures nothing again; other settings in the same folder are refused.
+/// `experiment timing --quick`: one row per model × estimator with a positive time, the paper's
+/// method at twice the samples (as its Table 1) and `optimize`'s defaults; the paper's figures
+/// beside ours and the PRB row absent without Mitsuba; the tables are written; a second run
+/// measures nothing again; other settings in the same folder are refused.
 #[test]
 fn experiment_timing_quick_times_every_model_and_estimator() {
     let t = tmp();
@@ -904,7 +905,8 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
             "volpath fd 4",
             "dipole ad 4",
             "dipole fd 4",
-            "learned ours 8"
+            "learned ours 8",
+            "learned defaults 4"
         ]
     );
     for l in &rows {
@@ -912,6 +914,7 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
         assert!(s > 0.0 && s.is_finite(), "{l}");
     }
     assert!(r.stdout.contains("1.40 (ours)") && r.stdout.contains("QUICK"));
+    assert!(r.stdout.contains("`optimize`'s defaults**: learned, then volpath"));
     assert!(!r.stdout.contains("PRB"));
     assert!(d.join("tm/timing.md").is_file());
     let again = ok(d, &["-q", "experiment", "timing", "--quick", "--out", "tm"]);
