@@ -204,18 +204,28 @@ fn bins_are_refused_where_the_error_bound_fails() {
 }
 
 /// The default resolution keeps the lists short: a handful of candidates per bin on average
-/// over the film (the shadow query's cost), for a far and a near light; meshes above
-/// `MAX_TRIANGLES` keep the BVH.
+/// over the film (the shadow query's cost), for a far and a near light, on the torus and on the
+/// 81,920-triangle blob; meshes above `MAX_TRIANGLES` keep the BVH.
 #[test]
 fn default_lists_are_short() {
-    let blob = shape("blob");
-    assert!(blob.mesh().triangle_count() > geometry::light_bins::MAX_TRIANGLES);
-    assert!(LightBins::build(&blob, Vec3::new(0.0, 3.0, 0.0)).is_none());
-    let accel = shape("torus");
+    let big = Accel::new(
+        Shape::Sphere {
+            radius: 0.5,
+            subdivisions: 7,
+        }
+        .build()
+        .expect("valid mesh"),
+    );
+    assert!(big.mesh().triangle_count() > geometry::light_bins::MAX_TRIANGLES);
+    assert!(LightBins::build(&big, Vec3::new(0.0, 3.0, 0.0)).is_none());
     let mut rng = Pcg32::seed_from_u64(4);
-    for light in lights(&accel, &mut rng, &[1.2, 10.0]) {
-        let bins = LightBins::build(&accel, light).expect("built");
-        let m = bins.mean_candidates();
-        assert!(m > 0.5 && m < 16.0, "mean candidates {m} at {light}");
+    for name in ["torus", "blob"] {
+        let accel = shape(name);
+        assert!(accel.mesh().triangle_count() <= geometry::light_bins::MAX_TRIANGLES);
+        for light in lights(&accel, &mut rng, &[1.2, 10.0]) {
+            let bins = LightBins::build(&accel, light).expect("built");
+            let m = bins.mean_candidates();
+            assert!(m > 0.5 && m < 16.0, "{name}: mean candidates {m} at {light}");
+        }
     }
 }
