@@ -32,6 +32,7 @@ use volpath::rng::Sampler;
 
 mod gradients;
 mod inits;
+pub(crate) mod jobs;
 mod planar;
 mod prb;
 mod report;
@@ -125,6 +126,8 @@ pub struct AccuracyArgs {
     pub bc: BiasCorrectionArgs,
     #[command(flatten)]
     pub learned: crate::common::LearnedArgs,
+    #[command(flatten)]
+    pub jobs: jobs::JobArgs,
 }
 
 pub fn run(cmd: &ExperimentCommand) -> Result<()> {
@@ -169,60 +172,91 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
         .iter()
         .map(|s| Ok(ShapeSpec::parse_compact(s, "--shapes")?.to_shape("--shapes")?))
         .collect::<Result<_>>()?;
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    // The cases: every shape × medium, named `<shape>-m<k>`.
+    let specs: Vec<(String, &Shape, u64)> = a
+        .shapes
+        .iter()
+        .zip(&shapes)
+        .flat_map(|(shape, built)| {
+            (0..a.media)
+                .map(move |k| (format!("{}-m{k}", shape.replace([':', '='], "-")), built, k))
+        })
+        .collect();
+    let names: Vec<String> = specs.iter().map(|(n, ..)| n.clone()).collect();
+    let init_name = match &a.inits_case {
+        Some(want) if !names.contains(want) => bail!(
+            "--inits-case: no case named {want:?}; the cases are {}",
+            names.join(", ")
+        ),
+        Some(want) => want.clone(),
+        None => names[0].clone(),
+    };
+    let init_jobs: Vec<String> = (0..a.inits)
+        .map(|i| format!("{init_name}-init{i}"))
+        .collect();
+    let jobs: Vec<String> = names.iter().chain(&init_jobs).cloned().collect();
+    if a.jobs.listed(&jobs)? {
+        return Ok(Vec::new());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
     std::fs::create_dir_all(a.out.join("data"))?;
     std::fs::create_dir_all(a.out.join("runs"))?;
     let rig = paper_rig(a.views, a.res);
     rig.validate("experiment")?;
 
+    // A dataset is made by the first job that needs it (its own case's, or a random start's
+    // on it), the others wait for it.
+    let dataset = |name: &str, built: &Shape, medium: Medium| -> Result<()> {
+        let dir = a.out.join("data").join(name);
+        a.jobs.shared_input(&a.out, name, || {
+            ensure_dataset(a, &rig, built.clone(), medium, a.target_spp, &dir, name)
+        })?;
+        Ok(())
+    };
     let mut cases: Vec<(String, PathBuf, Medium)> = Vec::new();
     let mut case_shapes: Vec<&Shape> = Vec::new();
-    for (shape, built) in a.shapes.iter().zip(&shapes) {
-        for k in 0..a.media {
-            let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
-            let name = format!("{}-m{k}", shape.replace([':', '='], "-"));
-            let dir = a.out.join("data").join(&name);
-            ensure_dataset(a, &rig, built.clone(), medium, a.target_spp, &dir, &name)?;
-            cases.push((name, dir, medium));
-            case_shapes.push(built);
+    for &(ref name, built, k) in &specs {
+        let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
+        if a.jobs.runs(name) {
+            dataset(name, built, medium)?;
         }
+        let dir = a.out.join("data").join(name);
+        cases.push((name.clone(), dir, medium));
+        case_shapes.push(built);
     }
-
-    let init_case = match &a.inits_case {
-        Some(want) => Some(
-            cases
-                .iter()
-                .zip(&case_shapes)
-                .find(|((n, ..), _)| n == want)
-                .with_context(|| {
-                    format!(
-                        "--inits-case: no case named {want:?}; the cases are {}",
-                        cases
-                            .iter()
-                            .map(|(n, ..)| n.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })?,
-        ),
-        None => cases.iter().zip(&case_shapes).next(),
-    };
+    let init_case = cases
+        .iter()
+        .zip(&case_shapes)
+        .find(|((n, ..), _)| *n == init_name)
+        .filter(|_| a.inits > 0);
     let default_init = Params {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
     };
+    let mut missing: Vec<String> = Vec::new();
     let mut rows = Vec::new();
     for ((name, dir, medium), shape) in cases.iter().zip(&case_shapes) {
+        let run = a.jobs.runs(name);
         for method in &a.methods {
             let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
-            let row = optimize(a, dir, &run_dir, method, default_init, medium, name)?;
+            let Some(row) = optimize(a, run, dir, &run_dir, method, default_init, medium, name)?
+            else {
+                missing.push(name.clone());
+                continue;
+            };
             let mut corrected = Vec::new();
             if a.bc.enabled() && baseline_model(method).is_none() {
                 for step in 1..=a.bc.bias_correction_steps {
                     let current = corrected.last().unwrap_or(&row);
-                    let next =
-                        bias_corrected_row(a, &rig, shape, name, medium, &row, current, step)?;
-                    corrected.push(next);
+                    match bias_corrected_row(
+                        a, run, &rig, shape, name, medium, &row, current, step,
+                    )? {
+                        Some(next) => corrected.push(next),
+                        None => {
+                            missing.push(name.clone());
+                            break;
+                        }
+                    }
                 }
             }
             rows.push(row);
@@ -233,39 +267,45 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     let mut init_bc_rows = Vec::new();
     if let Some(((name, dir, medium), shape)) = init_case {
         let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
-        for i in 0..a.inits {
+        for (i, job) in init_jobs.iter().enumerate() {
             let init = Params {
                 sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
                 albedo: [0; 3].map(|_| 0.3 + 0.65 * s.next_f32() as f64),
             };
-            let run_dir = a.out.join("runs").join(format!("{name}-init{i}"));
-            let row = optimize(
-                a,
-                dir,
-                &run_dir,
-                &a.methods[0],
-                init,
-                medium,
-                &format!("{name} init {i}"),
-            )?;
+            let run = a.jobs.runs(job);
+            if run && !a.jobs.runs(name) {
+                // A start's job makes (or waits for) the dataset it starts on.
+                dataset(name, shape, *medium)?;
+            }
+            let run_dir = a.out.join("runs").join(job);
+            let label = format!("{name} init {i}");
+            let Some(row) = optimize(a, run, dir, &run_dir, &a.methods[0], init, medium, &label)?
+            else {
+                missing.push(job.clone());
+                continue;
+            };
             // The correction of a random start: the bootstrap recovery starts where this run
             // started (same estimator F), so the bias it measures includes the start's side.
-            let mut current = row.clone();
+            let mut current = Some(row.clone());
             for step in 1..=if a.bc.enabled() {
                 a.bc.bias_correction_steps
             } else {
                 0
             } {
-                let init_name = format!("{name}-init{i}");
-                current =
-                    bias_corrected_row(a, &rig, shape, &init_name, medium, &row, &current, step)?;
+                let Some(c) = &current else { break };
+                current = bias_corrected_row(a, run, &rig, shape, job, medium, &row, c, step)?;
             }
             if a.bc.enabled() {
-                init_bc_rows.push(current);
+                match current {
+                    Some(c) => init_bc_rows.push(c),
+                    None => missing.push(job.clone()),
+                }
             }
             init_rows.push(row);
         }
     }
+    missing.dedup();
+    a.jobs.report_missing(&missing);
 
     let table = report(a, &rows, &init_rows, &init_bc_rows);
     print!("{table}");
@@ -302,6 +342,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
 #[allow(clippy::too_many_arguments)]
 fn bias_corrected_row(
     a: &AccuracyArgs,
+    run: bool,
     rig: &Rig,
     shape: &Shape,
     name: &str,
@@ -309,7 +350,7 @@ fn bias_corrected_row(
     row: &Row,
     current: &Row,
     step: u32,
-) -> Result<Row> {
+) -> Result<Option<Row>> {
     let at = current.estimate.medium(truth);
     let suffix = if step == 1 {
         String::new()
@@ -319,20 +360,26 @@ fn bias_corrected_row(
     let boot = format!("{name}-boot{suffix}-{}", row.method);
     let data = a.out.join("data").join(&boot);
     let spp = a.bc.bias_correction_spp.unwrap_or(a.target_spp);
-    ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot)?;
+    if run {
+        ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot)?;
+    }
     let run_dir = a
         .out
         .join("runs")
         .join(format!("{name}-{}-boot{suffix}", row.method));
-    let refit = optimize(
+    let Some(refit) = optimize(
         a,
+        run,
         &data,
         &run_dir,
         &row.method,
         row.init,
         &at,
         &format!("{name} bootstrap {step}"),
-    )?;
+    )?
+    else {
+        return Ok(None);
+    };
     let corrected =
         inverse::bootstrap::bootstrap_step(&current.estimate, &row.estimate, &refit.estimate)
             .with_context(|| {
@@ -343,19 +390,21 @@ fn bias_corrected_row(
                 )
             })?;
     let (bs, ba) = inverse::bootstrap::estimated_bias(&current.estimate, &refit.estimate);
-    println!(
-        "bias of {} on {name} at step {step}'s medium: σ_t {:+.1?} %, α {:+.4?}",
-        row.method,
-        bs.map(|v| 100.0 * v),
-        ba
-    );
-    Ok(Row {
+    if run {
+        println!(
+            "bias of {} on {name} at step {step}'s medium: σ_t {:+.1?} %, α {:+.4?}",
+            row.method,
+            bs.map(|v| 100.0 * v),
+            ba
+        );
+    }
+    Ok(Some(Row {
         method: format!("{}+bc{suffix}", row.method),
         estimate: corrected,
         seconds_per_iteration: current.seconds_per_iteration + refit.seconds_per_iteration,
         run_dir,
         ..row.clone()
-    })
+    }))
 }
 
 /// Render the dataset unless `dir` already holds one with these settings.
@@ -524,19 +573,26 @@ pub(crate) fn baseline_model(method: &str) -> Option<ModelKind> {
         .filter(|m| *m != ModelKind::Learned)
 }
 
-/// Run (or resume, or reuse) one optimisation and read its result.
+/// Run (or resume, or reuse) one optimisation and read its result; with `run` false, only read
+/// it if it has finished (`None` otherwise).
+#[allow(clippy::too_many_arguments)]
 fn optimize(
     a: &AccuracyArgs,
+    run: bool,
     dataset: &Path,
     run_dir: &Path,
     method: &str,
     init: Params,
     truth: &Medium,
     label: &str,
-) -> Result<Row> {
+) -> Result<Option<Row>> {
     let o = run_args(a, dataset, run_dir, method, init);
-    let done = run_or_reuse(&o, label)?;
-    Ok(Row {
+    let done = if run {
+        Some(run_or_reuse(&o, label)?)
+    } else {
+        crate::optimize_cmd::finished_run(&o)?
+    };
+    Ok(done.map(|done| Row {
         case: label.to_string(),
         method: method.to_string(),
         init,
@@ -544,5 +600,5 @@ fn optimize(
         estimate: done.estimate,
         seconds_per_iteration: done.seconds_per_iteration,
         run_dir: run_dir.to_path_buf(),
-    })
+    }))
 }

@@ -316,6 +316,16 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
     Ok(recovery::run(&recovery_config(a)?, &Terminal)?)
 }
 
+/// The result of the recovery `o` if its folder holds it finished ([`recovery::reuse::finished`]);
+/// runs nothing.
+pub fn finished_run(o: &OptimizeArgs) -> Result<Option<recovery::RunResult>> {
+    if !o.out.join("result.json").exists() {
+        // Nothing to read (and its dataset, which the settings may need, may not exist yet).
+        return Ok(None);
+    }
+    Ok(recovery::reuse::finished(&recovery_config(o)?))
+}
+
 /// Run the recovery `o` into `o.out`, resume it, or reuse it when it has finished
 /// ([`recovery::run_or_reuse`]).
 pub fn run_or_reuse(o: &OptimizeArgs, label: &str) -> Result<recovery::RunResult> {

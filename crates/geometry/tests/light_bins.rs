@@ -225,7 +225,10 @@ fn default_lists_are_short() {
         for light in lights(&accel, &mut rng, &[1.2, 10.0]) {
             let bins = LightBins::build(&accel, light).expect("built");
             let m = bins.mean_candidates();
-            assert!(m > 0.5 && m < 16.0, "{name}: mean candidates {m} at {light}");
+            assert!(
+                m > 0.5 && m < 16.0,
+                "{name}: mean candidates {m} at {light}"
+            );
         }
     }
 }

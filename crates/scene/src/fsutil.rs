@@ -106,6 +106,30 @@ pub fn lock_folder(dir: &Path) -> Result<FolderLock, SceneError> {
     }
 }
 
+/// [`lock_folder`], waiting while another process (or another claim in this one) holds the
+/// folder, instead of failing with [`SceneError::Busy`]: for inputs that several jobs make or
+/// read in turn.
+pub fn lock_folder_waiting(dir: &Path) -> Result<FolderLock, SceneError> {
+    let io = |p: &Path| {
+        let p = p.to_path_buf();
+        move |source| SceneError::Io { path: p, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let path = dir.join(LOCK_FILE);
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(io(&path))?;
+    file.lock().map_err(io(&path))?;
+    file.set_len(0).map_err(io(&path))?;
+    write!(file, "{}", std::process::id()).map_err(io(&path))?;
+    file.flush().map_err(io(&path))?;
+    Ok(FolderLock { _file: file })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,5 +147,25 @@ mod tests {
         drop(first);
         let _again = lock_folder(&dir).unwrap();
         assert!(dir.join(LOCK_FILE).exists());
+    }
+
+    /// The waiting claim gets the folder once its holder lets go (here: another thread).
+    #[test]
+    fn a_waiting_claim_gets_the_folder_when_it_is_released() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("shared");
+        let first = lock_folder(&dir).unwrap();
+        let waiter = {
+            let dir = dir.clone();
+            std::thread::spawn(move || lock_folder_waiting(&dir).map(|_| ()))
+        };
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        assert!(
+            !waiter.is_finished(),
+            "the claim waits while the folder is held"
+        );
+        drop(first);
+        waiter.join().unwrap().unwrap();
+        let _free = lock_folder(&dir).unwrap();
     }
 }

@@ -41,6 +41,8 @@ pub struct GradientsArgs {
     /// A smoke test in seconds (32², 4 spp): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// The estimators compared with the differences.
@@ -62,7 +64,12 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
 
 pub fn run(a: &GradientsArgs) -> Result<()> {
     let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let scenes = scenes()?;
+    let cases: Vec<String> = scenes.iter().map(|(n, ..)| n.to_string()).collect();
+    if a.jobs.listed(&cases)? {
+        return Ok(());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
     let model = crate::common::LearnedArgs::shipped_model()?;
     let settings = format!("{res}² × {spp} spp, seed {}", a.seed);
     let stamp = a.out.join("settings.txt");
@@ -76,8 +83,23 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
         }
     }
     let mut rows: Vec<(String, DiffMethod, Agreement, f64)> = Vec::new();
-    for (name, shape, medium) in scenes()? {
+    let mut missing = Vec::new();
+    for (name, shape, medium) in scenes {
         let dir = a.out.join(name);
+        let done = |m: DiffMethod| dir.join(format!("{}_d_albedo.exr", m.name())).exists();
+        let finished = METHODS.iter().chain([&DiffMethod::Fd]).all(|m| done(*m));
+        if !a.jobs.runs(name) {
+            if !finished {
+                missing.push(name.to_string());
+                continue;
+            }
+            let results = reread(&dir)?;
+            let fd = &results.last().expect("fd is last").1;
+            for (m, img, secs) in &results {
+                rows.push((name.to_string(), *m, agreement(img, fd), *secs));
+            }
+            continue;
+        }
         let data = dir.join("data");
         let ds = if data.join("dataset.json").exists() {
             Dataset::load(&data)?
@@ -120,8 +142,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
             seed: a.seed ^ 0xFD,
             view: 0,
         };
-        let done = |m: DiffMethod| dir.join(format!("{}_d_albedo.exr", m.name())).exists();
-        let results = if METHODS.iter().chain([&DiffMethod::Fd]).all(|m| done(*m)) {
+        let results = if finished {
             println!("{name}: reusing {}", dir.display());
             reread(&dir)?
         } else {
@@ -147,6 +168,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
             rows.push((name.to_string(), *m, agreement(img, fd), *secs));
         }
     }
+    a.jobs.report_missing(&missing);
     let (md, csv) = tables(&rows, &settings, a.quick);
     print!("{md}");
     std::fs::write(a.out.join("gradients.md"), md)?;

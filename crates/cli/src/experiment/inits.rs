@@ -35,6 +35,8 @@ pub struct InitsArgs {
     /// A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 pub fn run(a: &InitsArgs) -> Result<()> {
@@ -54,8 +56,19 @@ pub fn run(a: &InitsArgs) -> Result<()> {
         (acc.views, acc.res, acc.target_spp, acc.inits) = (4, 32, 4, 3);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
+    acc.jobs = a.jobs.clone();
     let rows = accuracy(&acc)?;
+    if a.jobs.list_jobs {
+        return Ok(());
+    }
     let starts: Vec<&Row> = rows.iter().filter(|r| r.case.contains(" init ")).collect();
+    if starts.len() < 2 {
+        println!(
+            "{} of the starts finished so far: the band needs two",
+            starts.len()
+        );
+        return Ok(());
+    }
     let fig = band_figure(&starts)?;
     fig.write_png(&a.out.join("inits-band.png"), true)?;
     fig.write_svg(&a.out.join("inits-band.svg"), true)?;

@@ -39,6 +39,8 @@ pub struct PlanarArgs {
     /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// The methods compared (paper Fig. 6).
@@ -59,7 +61,11 @@ pub fn run(a: &PlanarArgs) -> Result<()> {
         (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
+    acc.jobs = a.jobs.clone();
     let rows = accuracy(&acc)?;
+    if a.jobs.list_jobs {
+        return Ok(());
+    }
     let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
     cases.dedup();
     for case in cases {

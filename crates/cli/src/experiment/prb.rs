@@ -36,6 +36,8 @@ pub struct PrbArgs {
     /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// σ_t within this relative error (RMS over the channels) counts as converged.
@@ -43,12 +45,21 @@ const CONVERGED: f64 = 0.10;
 
 pub fn run(a: &PrbArgs) -> Result<()> {
     let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let mut cases = vec!["ours".to_string(), "volumetric".to_string()];
+    if a.mitsuba_python.is_some() {
+        cases.push("mitsuba-prb".into());
+    }
+    if a.jobs.listed(&cases)? {
+        return Ok(());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    let truth = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?
-        .truth
-        .context("the dataset has no medium")?;
+    let truth = random_medium(a.seed);
+    a.jobs.shared_input(&a.out, "data", || {
+        super::blob_dataset(&data, views, res, truth, target_spp, a.seed)
+    })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
+    let mut missing = Vec::new();
     for (name, model) in [("ours", None), ("volumetric", Some("volpath"))] {
         let dir = a.out.join("runs").join(name);
         let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
@@ -63,17 +74,29 @@ pub fn run(a: &PrbArgs) -> Result<()> {
         o.bc = BiasCorrectionArgs::off();
         // The paper's method is the learned model alone: no volumetric refinement.
         o.refine = Some(0);
-        run_or_reuse(&o, name)?;
+        if a.jobs.runs(name) {
+            run_or_reuse(&o, name)?;
+        } else if crate::optimize_cmd::finished_run(&o)?.is_none() {
+            missing.push(name.to_string());
+            continue;
+        }
         runs.push((name.into(), read_steps(&dir.join("iterations.csv"))?));
     }
     if let Some(py) = &a.mitsuba_python {
         let dir = a.out.join("runs").join("mitsuba-prb");
-        prb(py, &data, &dir, iterations, spp, a.seed)?;
-        runs.push((
-            "Mitsuba PRB".into(),
-            read_steps(&dir.join("iterations.csv"))?,
-        ));
+        if a.jobs.runs("mitsuba-prb") {
+            prb(py, &data, &dir, iterations, spp, a.seed)?;
+        }
+        if prb_finished(&dir, iterations, spp) {
+            runs.push((
+                "Mitsuba PRB".into(),
+                read_steps(&dir.join("iterations.csv"))?,
+            ));
+        } else {
+            missing.push("mitsuba-prb".into());
+        }
     }
+    a.jobs.report_missing(&missing);
     let err_t = |p: &Step| rms(|c| p.sigma_t[c] / truth.sigma_t[c] as f64 - 1.0);
     let err_a = |p: &Step| rms(|c| p.albedo[c] - truth.albedo[c] as f64);
     let mut md = format!(
@@ -166,16 +189,22 @@ fn rms(f: impl Fn(usize) -> f64) -> f64 {
     ((0..3).map(|c| f(c).powi(2)).sum::<f64>() / 3.0).sqrt()
 }
 
+/// Whether Mitsuba's PRB finished in `out` with these settings.
+fn prb_finished(out: &Path, iterations: u32, spp: u32) -> bool {
+    std::fs::read(out.join("result.json"))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+        .is_some_and(|v| {
+            v["iterations"].as_u64() == Some(iterations as u64)
+                && v["spp"].as_u64() == Some(spp as u64)
+        })
+}
+
 /// Mitsuba's PRB on the dataset into `out`, unless it finished there with these settings.
 fn prb(python: &Path, data: &Path, out: &Path, iterations: u32, spp: u32, seed: u64) -> Result<()> {
-    if let Ok(bytes) = std::fs::read(out.join("result.json")) {
-        let v: serde_json::Value = serde_json::from_slice(&bytes)?;
-        if v["iterations"].as_u64() == Some(iterations as u64)
-            && v["spp"].as_u64() == Some(spp as u64)
-        {
-            println!("run Mitsuba PRB: reusing {}", out.display());
-            return Ok(());
-        }
+    if prb_finished(out, iterations, spp) {
+        println!("run Mitsuba PRB: reusing {}", out.display());
+        return Ok(());
     }
     super::run_prb(python, data, out, iterations, spp, seed)?;
     Ok(())

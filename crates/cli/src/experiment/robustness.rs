@@ -93,6 +93,8 @@ pub struct RobustnessArgs {
     /// The Python interpreter (with Mitsuba 3) that runs `--mitsuba-script`.
     #[arg(long = "mitsuba-python", default_value = "python3")]
     pub python: PathBuf,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// The renderer of a case's target images.
@@ -612,11 +614,16 @@ fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
     if a.quick {
         return Ok(vec![Targets::Volpath]);
     }
+    // A list of jobs is only the commands.
+    let say = !a.jobs.list_jobs;
     match mitsuba_available(a) {
         Ok(v) => {
-            println!("targets: our volumetric path tracer and {v}");
+            if say {
+                println!("targets: our volumetric path tracer and {v}");
+            }
             Ok(vec![Targets::Volpath, Targets::Mitsuba])
         }
+        Err(_) if !say => Ok(vec![Targets::Volpath]),
         Err(why) => {
             println!(
                 "targets: our volumetric path tracer only (Mitsuba 3 not usable: {why}; `pip install mitsuba numpy` adds its renders as an independent check)"
@@ -664,25 +671,46 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         all.retain(|c| want.contains(&c.name));
     }
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
     let renderers = target_renderers(a)?;
-    let mut outcomes = Vec::new();
     // Repetition by repetition, so that an interrupted run has every renderer's first ones.
+    let mut jobs: Vec<(u64, Targets, &Case)> = Vec::new();
     for rep in 0..a.seeds {
-        for &targets in &renderers {
-            for case in &all {
-                let tag = targets.tag(&case.name, rep);
-                let data = a.out.join("data").join(&tag);
-                ensure_dataset(a, case, rep, targets, &data)?;
-                let run_dir = a.out.join("runs").join(&tag);
-                let o = run_args(a, &data, &run_dir, rep);
-                run_or_reuse(&o, &tag)?;
-                let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
-                out.model_ratio = model_ratio(&o, &data, &run_dir, a.quick)?;
-                outcomes.push(out);
-            }
+        for &t in &renderers {
+            jobs.extend(all.iter().map(|c| (rep, t, c)));
         }
     }
+    let tags: Vec<String> = jobs
+        .iter()
+        .map(|(rep, t, c)| t.tag(&c.name, *rep))
+        .collect();
+    if a.jobs.listed(&tags)? {
+        return Ok(());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
+    let mut outcomes = Vec::new();
+    let mut missing = Vec::new();
+    for (&(rep, targets, case), tag) in jobs.iter().zip(&tags) {
+        let data = a.out.join("data").join(tag);
+        let run_dir = a.out.join("runs").join(tag);
+        let o = run_args(a, &data, &run_dir, rep);
+        let run = a.jobs.runs(tag);
+        if run {
+            ensure_dataset(a, case, rep, targets, &data)?;
+            run_or_reuse(&o, tag)?;
+        } else if crate::optimize_cmd::finished_run(&o)?.is_none() {
+            missing.push(tag.clone());
+            continue;
+        }
+        let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
+        out.model_ratio = if run {
+            model_ratio(&o, &data, &run_dir, a.quick)?
+        } else {
+            // A finished job measured it; a table assembled here only reads it.
+            read_json(&run_dir.join("model-ratio.json")).map_or([f64::NAN; 3], |v| rgb(&v["ratio"]))
+        };
+        outcomes.push(out);
+    }
+    a.jobs.report_missing(&missing);
     let (table, csv) = report(a, &outcomes);
     println!("{table}");
     std::fs::create_dir_all(&a.out)?;

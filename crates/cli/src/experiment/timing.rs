@@ -43,6 +43,9 @@ pub struct TimingArgs {
     /// A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    /// All rows are one case (`timing`): their times compare only when measured on one machine.
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// What `OUT/timing.json` holds.
@@ -75,7 +78,24 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     if iterations < 2 {
         bail!("--iterations must be at least 2 (the first iteration is not counted)");
     }
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    if a.jobs.listed(&["timing".to_string()])? {
+        return Ok(());
+    }
+    if a.jobs.assemble {
+        let path = a.out.join("timing.json");
+        let Ok(bytes) = std::fs::read(&path) else {
+            a.jobs.report_missing(&["timing".to_string()]);
+            return Ok(());
+        };
+        let record: Record = serde_json::from_slice(&bytes)
+            .with_context(|| format!("{}: not a timing record", path.display()))?;
+        let (md, csv) = tables(&record, a.quick);
+        print!("{md}");
+        std::fs::write(a.out.join("timing.md"), md)?;
+        std::fs::write(a.out.join("timing.csv"), csv)?;
+        return Ok(());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     let ds = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {

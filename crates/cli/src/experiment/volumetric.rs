@@ -33,6 +33,8 @@ pub struct VolumetricArgs {
     /// A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    #[command(flatten)]
+    pub jobs: super::jobs::JobArgs,
 }
 
 /// The true medium: grey, the paper's fixed α.
@@ -70,9 +72,17 @@ const VARIANTS: [Variant; 3] = [
 
 pub fn run(a: &VolumetricArgs) -> Result<()> {
     let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
-    let _lock = scene::fsutil::lock_folder(&a.out)?;
+    let case = |v: &Variant| format!("{}-{}spp", v.name, spp * v.spp_factor);
+    let cases: Vec<String> = VARIANTS.iter().map(case).collect();
+    if a.jobs.listed(&cases)? {
+        return Ok(());
+    }
+    let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed)?;
+    a.jobs.shared_input(&a.out, "data", || {
+        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed)
+    })?;
+    let mut missing = Vec::new();
     let mut curves = Vec::new();
     let mut md = format!(
         "σ_t alone, α fixed at 0.9, grey medium (σ_t = 80), {views} views {res}², {iterations} \
@@ -86,10 +96,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
     let mut csv = String::from("model,spp,sigma_t,error,seconds_per_iteration,seconds\n");
     for v in &VARIANTS {
         let label = format!("{}, {} spp", v.name, spp * v.spp_factor);
-        let dir = a
-            .out
-            .join("runs")
-            .join(format!("{}-{}spp", v.name, spp * v.spp_factor));
+        let dir = a.out.join("runs").join(case(v));
         let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
         o.learned.model = v.model.map(PathBuf::from);
         o.budget = IterationArgs {
@@ -106,7 +113,14 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         o.bc = BiasCorrectionArgs::off();
         // The paper's method is the learned model alone: no volumetric refinement.
         o.refine = Some(0);
-        let done = run_or_reuse(&o, &label)?;
+        let done = if a.jobs.runs(&case(v)) {
+            run_or_reuse(&o, &label)?
+        } else if let Some(done) = crate::optimize_cmd::finished_run(&o)? {
+            done
+        } else {
+            missing.push(case(v));
+            continue;
+        };
         let t: Vec<(f64, f64, f64)> = read_steps(&dir.join("iterations.csv"))?
             .iter()
             .map(|p| (p.iteration, p.seconds, p.sigma_t[0]))
@@ -127,6 +141,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         ));
         curves.push((label, t));
     }
+    a.jobs.report_missing(&missing);
     let err = |s: f64| 100.0 * (s / TRUTH.sigma_t[0] as f64 - 1.0).abs();
     let panel = |title: &str, x_label: &str, by_time: bool| Panel {
         title: title.into(),

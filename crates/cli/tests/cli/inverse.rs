@@ -274,6 +274,73 @@ fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     args
 }
 
+/// Cases as jobs: `--list-jobs` prints one command per case (a dataset and its runs, each random
+/// start); `--assemble` before any has run leaves them all out and says so; the printed commands
+/// run at the same time as separate processes into one folder (the start's job waits for the
+/// dataset the other makes); `--assemble` then tabulates both, with the same estimates as one
+/// plain run of the whole experiment; an unknown `--case` is refused with the list.
+#[test]
+fn experiment_cases_run_as_separate_jobs_and_assemble() {
+    let t = tmp();
+    let d = t.path();
+    let args = tiny_accuracy_args(&["--inits", "1", "--methods", "ours"]);
+    let listed = ok(d, &[&args[..], &["--list-jobs"]].concat());
+    let lines: Vec<&str> = listed.stdout.lines().collect();
+    assert_eq!(lines.len(), 2, "{}", listed.stdout);
+    assert!(lines[0].ends_with("--case sphere-m0"), "{}", lines[0]);
+    assert!(lines[1].ends_with("--case sphere-m0-init0"), "{}", lines[1]);
+    assert!(!listed.stdout.contains("--list-jobs"));
+    assert!(!d.join("exp/runs").exists(), "--list-jobs runs nothing");
+
+    let early = ok(d, &[&args[..], &["--assemble"]].concat());
+    assert_stdout_has(
+        &early,
+        &["not finished yet, left out of the tables: sphere-m0, sphere-m0-init0"],
+    );
+
+    let jobs: Vec<_> = lines
+        .iter()
+        .map(|line| {
+            std::process::Command::new("sh")
+                .args(["-c", line])
+                .current_dir(d)
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .expect("the job starts")
+        })
+        .collect();
+    for job in jobs {
+        let out = job.wait_with_output().expect("the job ran");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let table = ok(d, &[&args[..], &["--assemble"]].concat());
+    assert_stdout_has(&table, &["| sphere-m0 | ours |", "sphere-m0 init 0"]);
+    assert!(!table.stdout.contains("not finished"), "{}", table.stdout);
+
+    let plain: Vec<&str> = args
+        .iter()
+        .map(|a| if *a == "exp" { "plain" } else { *a })
+        .collect();
+    ok(d, &plain);
+    for run in ["sphere-m0-ours", "sphere-m0-init0"] {
+        let est = |root: &str| {
+            read_json(&d.join(root).join("runs").join(run).join("result.json"))["estimate"].clone()
+        };
+        assert_eq!(est("exp"), est("plain"), "{run}");
+    }
+
+    let unknown = fails(d, &[&args[..], &["--case", "nope"]].concat());
+    assert_stderr_has(
+        &unknown,
+        &["no case \"nope\"", "sphere-m0-init0", "--list-jobs"],
+    );
+}
+
 /// `--bias-correction --bias-correction-steps 2`: step 1 renders at the estimate θ̂ and reports
 /// 2θ̂ − θ̂₂ (`ours+bc`); step 2 renders at that correction θ₁ and reports θ₁ + θ̂ − θ̂₂'
 /// (`ours+bc2`), all in (ln σ_t, α).
@@ -914,7 +981,10 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
         assert!(s > 0.0 && s.is_finite(), "{l}");
     }
     assert!(r.stdout.contains("1.40 (ours)") && r.stdout.contains("QUICK"));
-    assert!(r.stdout.contains("`optimize`'s defaults**: learned, then volpath"));
+    assert!(
+        r.stdout
+            .contains("`optimize`'s defaults**: learned, then volpath")
+    );
     assert!(!r.stdout.contains("PRB"));
     assert!(d.join("tm/timing.md").is_file());
     let again = ok(d, &["-q", "experiment", "timing", "--quick", "--out", "tm"]);

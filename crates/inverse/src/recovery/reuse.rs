@@ -47,11 +47,7 @@ pub fn run_or_reuse(
         }
     }
     let iterations = cfg.optimize.iterations;
-    let done = read_json(&result).ok().is_some_and(|v| {
-        v["iterations"].as_u64() == Some(iterations as u64)
-            && v["complete"].as_bool() != Some(false)
-    });
-    if done {
+    if is_finished(&result, iterations) {
         obs.say(&format!(
             "run {label} ({}): reusing {}",
             cfg.estimator(),
@@ -72,6 +68,32 @@ pub fn run_or_reuse(
         estimate: params_of(&v["estimate"]).ok_or_else(|| {
             RecoveryError::Invalid(format!("{}: no estimate.sigma_t/albedo", result.display()))
         })?,
+        seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
+    })
+}
+
+/// Whether `result` (a `result.json`) records a complete run of `iterations` iterations.
+fn is_finished(result: &Path, iterations: u32) -> bool {
+    read_json(result).ok().is_some_and(|v| {
+        v["iterations"].as_u64() == Some(iterations as u64)
+            && v["complete"].as_bool() != Some(false)
+    })
+}
+
+/// The result of the run in `cfg.out` if it has finished with the settings of `cfg` (its
+/// iterations included); `None` while it is absent, unfinished or made with other settings.
+/// Runs nothing: what a table assembled from finished runs reads.
+pub fn finished(cfg: &RecoveryConfig) -> Option<RunResult> {
+    let result = cfg.out.join("result.json");
+    let v = read_json(&result).ok()?;
+    let expected = serde_json::to_value(&cfg.optimize).ok()?;
+    if !differing_settings(&expected, &v["config"]).is_empty()
+        || !is_finished(&result, cfg.optimize.iterations)
+    {
+        return None;
+    }
+    Some(RunResult {
+        estimate: params_of(&v["estimate"])?,
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
     })
 }
