@@ -22,7 +22,7 @@ use scene::rig::RigLight;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
-use crate::common::{build_accel, render_views, render_views_learned};
+use crate::common::{build_accel, by_rows};
 use crate::compare::pair_stats;
 
 #[derive(Args)]
@@ -151,14 +151,18 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                 let reference = match cached {
                     Some(v) => v,
                     None => {
-                        let rep = render_views(
-                            &accel,
-                            &medium,
-                            &views,
-                            a.volpath_spp,
-                            a.seed,
-                            &VolpathSettings::default(),
-                        );
+                        let rep = by_rows(&views, "volpath", |pb| {
+                            inverse::views::volpath(
+                                &accel,
+                                &medium,
+                                &views,
+                                a.volpath_spp,
+                                a.seed,
+                                &VolpathSettings::default(),
+                                false,
+                                pb,
+                            )
+                        });
                         crate::common::write_outputs(&dir, &names, &rep.images, true)?;
                         rep.images
                     }
@@ -174,9 +178,11 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                             incidence: a.incidence,
                             ..Default::default()
                         };
-                        let rep = render_views_learned(
-                            &accel, &medium, &views, a.spp, a.seed, model, settings,
-                        )?;
+                        let rep = by_rows(&views, "learned", |pb| {
+                            inverse::views::learned(
+                                &accel, &medium, &views, a.spp, a.seed, model, settings, false, pb,
+                            )
+                        })?;
                         let (me, rr) = errors(&rep.images, &reference)?;
                         print!(
                             "{}{:>+10.3} {:>10.3}",

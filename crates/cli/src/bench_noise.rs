@@ -37,7 +37,7 @@ use scene::rig::RigLight;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
-use crate::common::{build_accel, parse_rgb, render_views, render_views_learned};
+use crate::common::{build_accel, by_rows, parse_rgb};
 use crate::dataset_cmd::house_rig;
 
 #[derive(Args)]
@@ -212,14 +212,18 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
             Ok((r0.images, r1.images, t))
         };
         let (v0, v1, vt) = timed(&|seed| {
-            Ok(render_views(
-                &accel,
-                &case.medium,
-                &views,
-                a.volpath_spp,
-                seed,
-                &vs,
-            ))
+            Ok(by_rows(&views, "volpath", |pb| {
+                inverse::views::volpath(
+                    &accel,
+                    &case.medium,
+                    &views,
+                    a.volpath_spp,
+                    seed,
+                    &vs,
+                    false,
+                    pb,
+                )
+            }))
         })?;
         let mask = mean_image(&v0, &v1);
         let vrel = relative_variance(&v0, &v1, &mask);
@@ -245,7 +249,19 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
                 ..Default::default()
             };
             let (l0, l1, lt) = timed(&|seed| {
-                render_views_learned(&accel, &case.medium, &views, a.spp, seed, &model, settings)
+                Ok(by_rows(&views, "learned", |pb| {
+                    inverse::views::learned(
+                        &accel,
+                        &case.medium,
+                        &views,
+                        a.spp,
+                        seed,
+                        &model,
+                        settings,
+                        false,
+                        pb,
+                    )
+                })?)
             })?;
             let lrel = relative_variance(&l0, &l1, &mask);
             row(

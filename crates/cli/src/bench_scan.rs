@@ -41,7 +41,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use scene::{Dataset, Image};
 
-use crate::common::{LearnedArgs, build_accel, render_views_learned};
+use crate::common::{LearnedArgs, build_accel, by_rows};
 
 mod cosines;
 use cosines::{CosineBrightness, pixel_geometry};
@@ -306,15 +306,19 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         let mut m = truth;
         m.sigma_t = m.sigma_t.map(|v| v * s);
         let render = |seed| {
-            render_views_learned(
-                &accel,
-                &m,
-                &views,
-                a.spp,
-                seed,
-                &model,
-                a.learned.settings(),
-            )
+            by_rows(&views, "learned", |pb| {
+                inverse::views::learned(
+                    &accel,
+                    &m,
+                    &views,
+                    a.spp,
+                    seed,
+                    &model,
+                    a.learned.settings(),
+                    false,
+                    pb,
+                )
+            })
         };
         let (r1, r2) = (render(a.seed)?, render(a.seed + 1)?);
         let (l, b) = decorrelated_loss(&r1.images, &r2.images, &targets);

@@ -5,11 +5,10 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use geometry::Accel;
+
 use indicatif::{ProgressBar, ProgressStyle};
+use scene::Image;
 use scene::scene_file::ViewDesc;
-use scene::{Image, Medium};
-use volpath::VolpathSettings;
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -60,50 +59,13 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
 
 pub use inverse::views::{RenderReport, build_accel};
 
-/// Render every view with the volumetric path tracer; one progress bar over all rows.
-pub fn render_views(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    settings: &VolpathSettings,
-) -> RenderReport {
-    render_views_with(accel, medium, views, spp, seed, settings, false)
-}
-
-/// [`render_views`], with each view's derivatives with respect to σ_t and α when `derivatives`
-/// ([`inverse::views::volpath`]).
-pub fn render_views_with(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    settings: &VolpathSettings,
-    derivatives: bool,
-) -> RenderReport {
-    let pb = progress(inverse::views::total_rows(views), "volpath");
-    let report =
-        inverse::views::volpath(accel, medium, views, spp, seed, settings, derivatives, &pb);
+/// Runs a render of `views` ([`inverse::views`]) with a progress bar of one step per image row
+/// (hidden with `--quiet`), labelled `label`.
+pub fn by_rows<T>(views: &[ViewDesc], label: &str, render: impl FnOnce(&ProgressBar) -> T) -> T {
+    let pb = progress(inverse::views::total_rows(views), label);
+    let out = render(&pb);
     pb.finish_and_clear();
-    report
-}
-
-/// Render every view with the planar dipole baseline ([`inverse::views::dipole`]); one
-/// progress bar over the views.
-pub fn render_views_dipole(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    derivatives: bool,
-) -> Result<RenderReport> {
-    let pb = progress(views.len() as u64, "dipole");
-    let report = inverse::views::dipole(accel, medium, views, spp, seed, derivatives, &pb)?;
-    pb.finish_and_clear();
-    Ok(report)
+    out
 }
 
 /// Write `name.exr` and `name.png` into `dir` with a shared exposure.
@@ -358,46 +320,4 @@ pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiv
         ),
         _ => Ok(bssrdf::model::load(path)?),
     }
-}
-
-/// Render every view with the learned BSSRDF (vertex features fitted once for `medium`).
-pub fn render_views_learned(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    model: &bssrdf::nn::ShapeAdaptiveModel,
-    settings: bssrdf::render::LearnedSettings,
-) -> Result<RenderReport> {
-    render_views_learned_with(accel, medium, views, spp, seed, model, settings, false)
-}
-
-/// [`render_views_learned`], with each view's derivatives by the paper's estimator when
-/// `derivatives` ([`inverse::views::learned`]).
-#[allow(clippy::too_many_arguments)]
-pub fn render_views_learned_with(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    model: &bssrdf::nn::ShapeAdaptiveModel,
-    settings: bssrdf::render::LearnedSettings,
-    derivatives: bool,
-) -> Result<RenderReport> {
-    let pb = progress(inverse::views::total_rows(views), "learned");
-    let report = inverse::views::learned(
-        accel,
-        medium,
-        views,
-        spp,
-        seed,
-        model,
-        settings,
-        derivatives,
-        &pb,
-    )?;
-    pb.finish_and_clear();
-    Ok(report)
 }

@@ -23,10 +23,7 @@ use inverse::forward::ModelKind;
 use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
-use crate::common::{
-    LearnedArgs, build_accel, check_output_free, render_views_dipole, render_views_learned_with,
-    render_views_with, write_outputs,
-};
+use crate::common::{LearnedArgs, build_accel, by_rows, check_output_free, write_outputs};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -119,33 +116,52 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     };
     let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
         ModelKind::Dipole => (
-            render_views_dipole(&accel, &desc.medium, views, spp, seed, a.derivatives)?,
+            {
+                let pb = crate::common::progress(views.len() as u64, "dipole");
+                let rep = inverse::views::dipole(
+                    &accel,
+                    &desc.medium,
+                    views,
+                    spp,
+                    seed,
+                    a.derivatives,
+                    &pb,
+                )?;
+                pb.finish_and_clear();
+                rep
+            },
             "planar dipole".to_string(),
         ),
         ModelKind::Volpath => (
-            render_views_with(
-                &accel,
-                &desc.medium,
-                views,
-                spp,
-                seed,
-                &settings,
-                a.derivatives,
-            ),
+            by_rows(views, "volpath", |pb| {
+                inverse::views::volpath(
+                    &accel,
+                    &desc.medium,
+                    views,
+                    spp,
+                    seed,
+                    &settings,
+                    a.derivatives,
+                    pb,
+                )
+            }),
             "volpath".to_string(),
         ),
         ModelKind::Learned => {
             let model = a.learned.load_model()?;
-            let rep = render_views_learned_with(
-                &accel,
-                &desc.medium,
-                views,
-                spp,
-                seed,
-                &model,
-                a.learned.settings(),
-                a.derivatives,
-            )?;
+            let rep = by_rows(views, "learned", |pb| {
+                inverse::views::learned(
+                    &accel,
+                    &desc.medium,
+                    views,
+                    spp,
+                    seed,
+                    &model,
+                    a.learned.settings(),
+                    a.derivatives,
+                    pb,
+                )
+            })?;
             (rep, format!("learned BSSRDF ({})", a.learned.describe()))
         }
     };

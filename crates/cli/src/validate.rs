@@ -27,8 +27,7 @@ use scene::{Dataset, Image};
 use volpath::{Progressive, VolpathScene, VolpathSettings, shadow_lists};
 
 use crate::common::{
-    LearnedArgs, RenderReport, build_accel, check_output_free, progress, render_views,
-    render_views_learned, write_outputs,
+    LearnedArgs, RenderReport, build_accel, by_rows, check_output_free, progress, write_outputs,
 };
 use crate::compare::pair_stats;
 
@@ -270,21 +269,27 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
             spp = reached;
             images
         }
-        (false, None) => render_views(&accel, &medium, &views, spp, a.seed, &settings),
+        (false, None) => by_rows(&views, "volpath", |pb| {
+            inverse::views::volpath(&accel, &medium, &views, spp, a.seed, &settings, false, pb)
+        }),
         (true, Some(_)) => bail!(
             "--equal-time renders with the volumetric path tracer; drop it or --model learned"
         ),
         (true, None) => {
             let model = a.learned.load_model()?;
-            render_views_learned(
-                &accel,
-                &medium,
-                &views,
-                spp,
-                a.seed,
-                &model,
-                a.learned.settings(),
-            )?
+            by_rows(&views, "learned", |pb| {
+                inverse::views::learned(
+                    &accel,
+                    &medium,
+                    &views,
+                    spp,
+                    a.seed,
+                    &model,
+                    a.learned.settings(),
+                    false,
+                    pb,
+                )
+            })?
         }
     };
     let total = t0.elapsed().as_secs_f64();

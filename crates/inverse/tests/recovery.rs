@@ -67,7 +67,13 @@ fn a_recovery_runs_from_its_config_and_is_reused_only_with_its_settings() {
     assert_eq!(result["status"], "ok");
     assert_eq!(result["iterations"], 4);
     assert!(cfg.out.join("final/contact-sheet.png").is_file());
-    assert!(first.estimate.sigma_t.iter().all(|s| s.is_finite() && *s > 0.0));
+    assert!(
+        first
+            .estimate
+            .sigma_t
+            .iter()
+            .all(|s| s.is_finite() && *s > 0.0)
+    );
 
     let again = recovery::run_or_reuse(&cfg, &Silent, "tiny").unwrap();
     assert_eq!(again.estimate.sigma_t, first.estimate.sigma_t);
@@ -79,7 +85,10 @@ fn a_recovery_runs_from_its_config_and_is_reused_only_with_its_settings() {
     assert!(recovery::reuse::finished(&other).is_none());
     match recovery::run_or_reuse(&other, &Silent, "tiny") {
         Err(RecoveryError::Invalid(msg)) => {
-            assert!(msg.contains("other settings") && msg.contains("seed"), "{msg}")
+            assert!(
+                msg.contains("other settings") && msg.contains("seed"),
+                "{msg}"
+            )
         }
         r => panic!("a run with another seed in the same folder: {r:?}"),
     }

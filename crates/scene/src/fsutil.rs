@@ -75,26 +75,9 @@ pub struct FolderLock {
 /// or another, gets [`SceneError::Busy`] naming the owner. The lock goes with its process, so a
 /// run that crashed or was killed (`kill -9`) leaves the file behind but never a stuck lock.
 pub fn lock_folder(dir: &Path) -> Result<FolderLock, SceneError> {
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| SceneError::Io { path: p, source }
-    };
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
-    let path = dir.join(LOCK_FILE);
-    let mut file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&path)
-        .map_err(io(&path))?;
+    let (file, path) = open_lock_file(dir)?;
     match file.try_lock() {
-        Ok(()) => {
-            file.set_len(0).map_err(io(&path))?;
-            write!(file, "{}", std::process::id()).map_err(io(&path))?;
-            file.flush().map_err(io(&path))?;
-            Ok(FolderLock { _file: file })
-        }
+        Ok(()) => claimed(file, &path),
         Err(std::fs::TryLockError::WouldBlock) => {
             let owner = std::fs::read_to_string(&path).unwrap_or_default();
             Err(SceneError::Busy {
@@ -110,23 +93,43 @@ pub fn lock_folder(dir: &Path) -> Result<FolderLock, SceneError> {
 /// folder, instead of failing with [`SceneError::Busy`]: for inputs that several jobs make or
 /// read in turn.
 pub fn lock_folder_waiting(dir: &Path) -> Result<FolderLock, SceneError> {
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| SceneError::Io { path: p, source }
-    };
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let (file, path) = open_lock_file(dir)?;
+    file.lock().map_err(|source| SceneError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    claimed(file, &path)
+}
+
+/// `dir` (created if needed) and its lock file, opened.
+fn open_lock_file(dir: &Path) -> Result<(std::fs::File, std::path::PathBuf), SceneError> {
+    std::fs::create_dir_all(dir).map_err(|source| SceneError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let path = dir.join(LOCK_FILE);
-    let mut file = std::fs::OpenOptions::new()
+    let file = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
         .create(true)
         .truncate(false)
         .open(&path)
-        .map_err(io(&path))?;
-    file.lock().map_err(io(&path))?;
-    file.set_len(0).map_err(io(&path))?;
-    write!(file, "{}", std::process::id()).map_err(io(&path))?;
-    file.flush().map_err(io(&path))?;
+        .map_err(|source| SceneError::Io {
+            path: path.clone(),
+            source,
+        })?;
+    Ok((file, path))
+}
+
+/// A lock file just locked by this process: it now holds our process id.
+fn claimed(mut file: std::fs::File, path: &Path) -> Result<FolderLock, SceneError> {
+    let io = |source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    file.set_len(0).map_err(io)?;
+    write!(file, "{}", std::process::id()).map_err(io)?;
+    file.flush().map_err(io)?;
     Ok(FolderLock { _file: file })
 }
 

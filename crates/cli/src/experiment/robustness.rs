@@ -36,7 +36,7 @@ use scene::rig::{Rig, RigLight};
 use scene::{Dataset, Medium, MeshSource, RenderInfo, SceneDesc};
 use volpath::rng::Sampler;
 
-use crate::common::{build_accel, render_views_learned};
+use crate::common::{build_accel, by_rows};
 use crate::dataset_cmd::{RenderOpts, make_dataset};
 use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
 use inverse::recovery::reuse::read_json;
@@ -404,18 +404,25 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
     let views: Vec<_> = picked.iter().map(|&i| scene.views[i].clone()).collect();
     let spp = if quick { 4 } else { 32 };
     let rep = if kind == inverse::forward::ModelKind::Dipole {
-        crate::common::render_views_dipole(&accel, &truth, &views, spp, o.seed, false)?
+        let pb = crate::common::progress(views.len() as u64, "dipole");
+        let rep = inverse::views::dipole(&accel, &truth, &views, spp, o.seed, false, &pb)?;
+        pb.finish_and_clear();
+        rep
     } else {
         let model = o.learned.load_model()?;
-        render_views_learned(
-            &accel,
-            &truth,
-            &views,
-            spp,
-            o.seed,
-            &model,
-            o.learned.settings(),
-        )?
+        by_rows(&views, "learned", |pb| {
+            inverse::views::learned(
+                &accel,
+                &truth,
+                &views,
+                spp,
+                o.seed,
+                &model,
+                o.learned.settings(),
+                false,
+                pb,
+            )
+        })?
     };
     let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
     for (img, &i) in rep.images.iter().zip(&picked) {
