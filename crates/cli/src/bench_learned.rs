@@ -148,16 +148,22 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     .iter()
                     .map(|n| Image::read_exr(&dir.join(format!("{n}.exr"))).ok())
                     .collect();
+                let job = inverse::views::Job {
+                    accel: &accel,
+                    medium: &medium,
+                    views: &views,
+                    spp: a.spp,
+                    seed: a.seed,
+                };
                 let reference = match cached {
                     Some(v) => v,
                     None => {
                         let rep = by_rows(&views, "volpath", |pb| {
                             inverse::views::volpath(
-                                &accel,
-                                &medium,
-                                &views,
-                                a.volpath_spp,
-                                a.seed,
+                                &inverse::views::Job {
+                                    spp: a.volpath_spp,
+                                    ..job
+                                },
                                 &VolpathSettings::default(),
                                 false,
                                 pb,
@@ -179,9 +185,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                             ..Default::default()
                         };
                         let rep = by_rows(&views, "learned", |pb| {
-                            inverse::views::learned(
-                                &accel, &medium, &views, a.spp, a.seed, model, settings, false, pb,
-                            )
+                            inverse::views::learned(&job, model, settings, false, pb)
                         })?;
                         let (me, rr) = errors(&rep.images, &reference)?;
                         print!(

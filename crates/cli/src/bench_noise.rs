@@ -211,14 +211,21 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
                 / 2.0;
             Ok((r0.images, r1.images, t))
         };
+        let job = inverse::views::Job {
+            accel: &accel,
+            medium: &case.medium,
+            views: &views,
+            spp: a.spp,
+            seed: a.seed,
+        };
         let (v0, v1, vt) = timed(&|seed| {
             Ok(by_rows(&views, "volpath", |pb| {
                 inverse::views::volpath(
-                    &accel,
-                    &case.medium,
-                    &views,
-                    a.volpath_spp,
-                    seed,
+                    &inverse::views::Job {
+                        spp: a.volpath_spp,
+                        seed,
+                        ..job
+                    },
                     &vs,
                     false,
                     pb,
@@ -251,11 +258,7 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
             let (l0, l1, lt) = timed(&|seed| {
                 Ok(by_rows(&views, "learned", |pb| {
                     inverse::views::learned(
-                        &accel,
-                        &case.medium,
-                        &views,
-                        a.spp,
-                        seed,
+                        &inverse::views::Job { seed, ..job },
                         &model,
                         settings,
                         false,

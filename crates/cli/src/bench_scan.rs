@@ -308,11 +308,13 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         let render = |seed| {
             by_rows(&views, "learned", |pb| {
                 inverse::views::learned(
-                    &accel,
-                    &m,
-                    &views,
-                    a.spp,
-                    seed,
+                    &inverse::views::Job {
+                        accel: &accel,
+                        medium: &m,
+                        views: &views,
+                        spp: a.spp,
+                        seed,
+                    },
                     &model,
                     a.learned.settings(),
                     false,

@@ -114,19 +114,18 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         spawn_offset: a.spawn_offset,
         ..Default::default()
     };
+    let job = inverse::views::Job {
+        accel: &accel,
+        medium: &desc.medium,
+        views,
+        spp,
+        seed,
+    };
     let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
         ModelKind::Dipole => (
             {
                 let pb = crate::common::progress(views.len() as u64, "dipole");
-                let rep = inverse::views::dipole(
-                    &accel,
-                    &desc.medium,
-                    views,
-                    spp,
-                    seed,
-                    a.derivatives,
-                    &pb,
-                )?;
+                let rep = inverse::views::dipole(&job, a.derivatives, &pb)?;
                 pb.finish_and_clear();
                 rep
             },
@@ -134,33 +133,14 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         ),
         ModelKind::Volpath => (
             by_rows(views, "volpath", |pb| {
-                inverse::views::volpath(
-                    &accel,
-                    &desc.medium,
-                    views,
-                    spp,
-                    seed,
-                    &settings,
-                    a.derivatives,
-                    pb,
-                )
+                inverse::views::volpath(&job, &settings, a.derivatives, pb)
             }),
             "volpath".to_string(),
         ),
         ModelKind::Learned => {
             let model = a.learned.load_model()?;
             let rep = by_rows(views, "learned", |pb| {
-                inverse::views::learned(
-                    &accel,
-                    &desc.medium,
-                    views,
-                    spp,
-                    seed,
-                    &model,
-                    a.learned.settings(),
-                    a.derivatives,
-                    pb,
-                )
+                inverse::views::learned(&job, &model, a.learned.settings(), a.derivatives, pb)
             })?;
             (rep, format!("learned BSSRDF ({})", a.learned.describe()))
         }

@@ -262,6 +262,13 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
              dipole is neither"
         ),
     };
+    let job = inverse::views::Job {
+        accel: &accel,
+        medium: &medium,
+        views: &views,
+        spp,
+        seed: a.seed,
+    };
     let rep = match (learned, budget) {
         (false, Some(budget)) => {
             let (images, reached) =
@@ -270,7 +277,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
             images
         }
         (false, None) => by_rows(&views, "volpath", |pb| {
-            inverse::views::volpath(&accel, &medium, &views, spp, a.seed, &settings, false, pb)
+            inverse::views::volpath(&job, &settings, false, pb)
         }),
         (true, Some(_)) => bail!(
             "--equal-time renders with the volumetric path tracer; drop it or --model learned"
@@ -278,17 +285,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         (true, None) => {
             let model = a.learned.load_model()?;
             by_rows(&views, "learned", |pb| {
-                inverse::views::learned(
-                    &accel,
-                    &medium,
-                    &views,
-                    spp,
-                    a.seed,
-                    &model,
-                    a.learned.settings(),
-                    false,
-                    pb,
-                )
+                inverse::views::learned(&job, &model, a.learned.settings(), false, pb)
             })?
         }
     };

@@ -30,32 +30,43 @@ pub struct RenderReport {
 /// One view's render: the image, and its two derivative images when asked for.
 type ViewRender = (Image, Option<[Image; 2]>);
 
-/// Renders every view with `render(view, settings)` (the settings of view i: `spp`, `seed`,
-/// view index i), timing each.
-fn render_each(
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
-    mut render: impl FnMut(&ViewDesc, &RenderSettings) -> Result<ViewRender, InverseError>,
-) -> Result<RenderReport, InverseError> {
-    let mut report = RenderReport {
-        images: Vec::with_capacity(views.len()),
-        derivatives: Vec::new(),
-        seconds_per_view: Vec::with_capacity(views.len()),
-    };
-    for (i, v) in views.iter().enumerate() {
-        let rs = RenderSettings {
-            spp,
-            seed,
-            view: i as u64,
+/// What a render of a list of views needs whatever the model: the mesh, the medium, the views,
+/// the samples per pixel and the seed (view i renders with view index i).
+#[derive(Clone, Copy)]
+pub struct Job<'a> {
+    pub accel: &'a Accel,
+    pub medium: &'a Medium,
+    pub views: &'a [ViewDesc],
+    pub spp: u32,
+    pub seed: u64,
+}
+
+impl Job<'_> {
+    /// Renders every view with `render(view, settings)` (the settings of view i: `spp`, `seed`,
+    /// view index i), timing each.
+    fn each(
+        &self,
+        mut render: impl FnMut(&ViewDesc, &RenderSettings) -> Result<ViewRender, InverseError>,
+    ) -> Result<RenderReport, InverseError> {
+        let mut report = RenderReport {
+            images: Vec::with_capacity(self.views.len()),
+            derivatives: Vec::new(),
+            seconds_per_view: Vec::with_capacity(self.views.len()),
         };
-        let t0 = Instant::now();
-        let (image, derivatives) = render(v, &rs)?;
-        report.images.push(image);
-        report.derivatives.extend(derivatives);
-        report.seconds_per_view.push(t0.elapsed().as_secs_f64());
+        for (i, v) in self.views.iter().enumerate() {
+            let rs = RenderSettings {
+                spp: self.spp,
+                seed: self.seed,
+                view: i as u64,
+            };
+            let t0 = Instant::now();
+            let (image, derivatives) = render(v, &rs)?;
+            report.images.push(image);
+            report.derivatives.extend(derivatives);
+            report.seconds_per_view.push(t0.elapsed().as_secs_f64());
+        }
+        Ok(report)
     }
-    Ok(report)
 }
 
 /// Rows of all views: the length of the tracers' progress bars.
@@ -66,23 +77,18 @@ pub fn total_rows(views: &[ViewDesc]) -> u64 {
 /// Every view by the volumetric path tracer, with each view's derivatives with respect to σ_t
 /// and α when `derivatives` ([`volpath::render_derivatives`]: the same images, plus the
 /// analytic derivative of each path). `pb` advances by one per row ([`total_rows`]).
-#[allow(clippy::too_many_arguments)]
 pub fn volpath(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
+    job: &Job,
     settings: &VolpathSettings,
     derivatives: bool,
     pb: &ProgressBar,
 ) -> RenderReport {
     // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
     let mut lists: Option<LightBins> = None;
-    render_each(views, spp, seed, |v, rs| {
+    job.each(|v, rs| {
         let mut scene = VolpathScene {
-            accel,
-            medium: *medium,
+            accel: job.accel,
+            medium: *job.medium,
             light: Some(v.light),
             environment: None,
             light_bins: None,
@@ -108,18 +114,14 @@ pub fn volpath(
 /// with respect to σ_t and α when `derivatives` (the profile's analytic derivatives at fixed
 /// sample positions). `pb` advances by one per view.
 pub fn dipole(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
+    job: &Job,
     derivatives: bool,
     pb: &ProgressBar,
 ) -> Result<RenderReport, InverseError> {
-    let scene = bssrdf::dipole::DipoleScene::new(accel, *medium)
+    let scene = bssrdf::dipole::DipoleScene::new(job.accel, *job.medium)
         .map_err(|e| InverseError::Invalid(e.to_string()))?;
-    render_each(views, spp, seed, |v, rs| {
-        let view = bssrdf::dipole::DipoleView::new(accel, &v.camera, &v.light);
+    job.each(|v, rs| {
+        let view = bssrdf::dipole::DipoleView::new(job.accel, &v.camera, &v.light);
         pb.inc(1);
         Ok(if derivatives {
             let d = bssrdf::dipole::render_derivatives(&scene, &view, rs);
@@ -133,27 +135,27 @@ pub fn dipole(
 /// Every view by the learned BSSRDF (vertex features fitted once for `medium`), with each
 /// view's derivatives by the paper's estimator (`ours`: correlated σ_t offset samples, α by
 /// differentiating the absorption) when `derivatives`. `pb` advances by one per row.
-#[allow(clippy::too_many_arguments)]
 pub fn learned(
-    accel: &Accel,
-    medium: &Medium,
-    views: &[ViewDesc],
-    spp: u32,
-    seed: u64,
+    job: &Job,
     model: &bssrdf::nn::ShapeAdaptiveModel,
     settings: bssrdf::render::LearnedSettings,
     derivatives: bool,
     pb: &ProgressBar,
 ) -> Result<RenderReport, InverseError> {
     let t0 = Instant::now();
-    let features =
-        bssrdf::render::VertexFeatures::fit(accel, medium, model.info().c19_quirk, seed)?;
+    let features = bssrdf::render::VertexFeatures::fit(
+        job.accel,
+        job.medium,
+        model.info().c19_quirk,
+        job.seed,
+    )?;
     tracing::info!(
         "fitted vertex polynomials in {:.2} s",
         t0.elapsed().as_secs_f64()
     );
-    let scene = bssrdf::render::LearnedScene::new(accel, model, &features, *medium, settings)?;
-    render_each(views, spp, seed, |v, rs| {
+    let scene =
+        bssrdf::render::LearnedScene::new(job.accel, model, &features, *job.medium, settings)?;
+    job.each(|v, rs| {
         Ok(if derivatives {
             let ds = bssrdf::diff::DiffSettings::default();
             let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, rs, &ds, Some(pb))?;
@@ -242,7 +244,14 @@ pub fn render_dataset(
         ..Default::default()
     };
     let t0 = Instant::now();
-    let rep = volpath(&accel, &desc.medium, views, spp, seed, &settings, false, pb);
+    let job = Job {
+        accel: &accel,
+        medium: &desc.medium,
+        views,
+        spp,
+        seed,
+    };
+    let rep = volpath(&job, &settings, false, pb);
     let mut ds = Dataset::from_scene(&desc);
     for (v, img) in ds.views.iter_mut().zip(rep.images) {
         v.image = Some(img);

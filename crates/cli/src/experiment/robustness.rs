@@ -403,25 +403,22 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
     let scene = ds.scene(truth);
     let views: Vec<_> = picked.iter().map(|&i| scene.views[i].clone()).collect();
     let spp = if quick { 4 } else { 32 };
+    let job = inverse::views::Job {
+        accel: &accel,
+        medium: &truth,
+        views: &views,
+        spp,
+        seed: o.seed,
+    };
     let rep = if kind == inverse::forward::ModelKind::Dipole {
         let pb = crate::common::progress(views.len() as u64, "dipole");
-        let rep = inverse::views::dipole(&accel, &truth, &views, spp, o.seed, false, &pb)?;
+        let rep = inverse::views::dipole(&job, false, &pb)?;
         pb.finish_and_clear();
         rep
     } else {
         let model = o.learned.load_model()?;
         by_rows(&views, "learned", |pb| {
-            inverse::views::learned(
-                &accel,
-                &truth,
-                &views,
-                spp,
-                o.seed,
-                &model,
-                o.learned.settings(),
-                false,
-                pb,
-            )
+            inverse::views::learned(&job, &model, o.learned.settings(), false, pb)
         })?
     };
     let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
