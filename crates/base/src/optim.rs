@@ -3,7 +3,8 @@
 //!
 //! With g the (clipped) gradient at step t (1-based):
 //! m ← β₁m + (1−β₁)g, v ← β₂v + (1−β₂)g², θ ← θ − lr_t · m̂/(√v̂ + ε) with m̂ = m/(1−β₁ᵗ),
-//! v̂ = v/(1−β₂ᵗ). lr_t = max(lr·decay^⌊(t−1)/every⌋, lr·floor_fraction). Clipping: if
+//! v̂ = v/(1−β₂ᵗ). After [`Adam::restart_moments`] at step t₀, m and v start again from zero
+//! and the bias corrections count t − t₀ (the learning-rate schedule keeps counting t). lr_t = max(lr·decay^⌊(t−1)/every⌋, lr·floor_fraction). Clipping: if
 //! ‖g‖₂ > c, g ← g·c/‖g‖₂ (over all parameters together).
 
 use serde::{Deserialize, Serialize};
@@ -54,6 +55,9 @@ pub struct AdamState {
     pub m: Vec<f32>,
     /// Second moments.
     pub v: Vec<f32>,
+    /// The step count at which the moments last started from zero ([`Adam::restart_moments`]);
+    /// 0 for a run that never restarted them.
+    pub moments_from: u64,
 }
 
 /// Adam over a flat parameter vector.
@@ -72,6 +76,7 @@ impl Adam {
                 step: 0,
                 m: vec![0.0; n],
                 v: vec![0.0; n],
+                moments_from: 0,
             },
         }
     }
@@ -84,6 +89,16 @@ impl Adam {
     /// The state.
     pub fn state(&self) -> AdamState {
         self.state.clone()
+    }
+
+    /// Starts the moments again from zero, keeping the step count (and so the learning-rate
+    /// schedule). For an objective whose gradient changes scale, e.g. a new forward model:
+    /// without it, v remembers the old scale for ~1/(1−β₂) steps and the steps shrink or grow
+    /// by the ratio of the scales.
+    pub fn restart_moments(&mut self) {
+        self.state.m.fill(0.0);
+        self.state.v.fill(0.0);
+        self.state.moments_from = self.state.step;
     }
 
     /// Learning rate of the step after `steps_done` steps.
@@ -132,7 +147,8 @@ impl Adam {
         // Saturating: the count may come from a checkpoint file. Past 2³¹ steps the bias
         // corrections are 1 to f32 precision, so clamping t changes nothing.
         self.state.step = self.state.step.saturating_add(1);
-        let t = self.state.step.min(i32::MAX as u64) as i32;
+        let t = (self.state.step.saturating_sub(self.state.moments_from)).clamp(1, i32::MAX as u64)
+            as i32;
         let c = &self.config;
         let bc1 = 1.0 - c.beta1.powi(t);
         let bc2 = 1.0 - c.beta2.powi(t);
@@ -164,6 +180,7 @@ mod tests {
                 step: u64::MAX,
                 m: vec![0.0],
                 v: vec![0.0],
+                moments_from: 0,
             },
         );
         let mut p = [1.0f32];
@@ -185,6 +202,50 @@ mod tests {
         for (got, want) in p.iter().zip([1.0 - lr, -2.0 + lr, 0.5 - lr]) {
             assert!((got - want).abs() < 1e-6, "{got} vs {want}");
         }
+    }
+
+    /// After a restart the next step is a first step again (Δ = −lr_t·sign(g), whatever the
+    /// old moments held), at the learning rate the schedule has reached by then.
+    #[test]
+    fn restarted_moments_step_like_a_first_step_on_the_running_schedule() {
+        let cfg = AdamConfig {
+            lr: 0.1,
+            decay: 0.5,
+            decay_every: 4,
+            floor_fraction: 0.0,
+            ..AdamConfig::default()
+        };
+        let mut adam = Adam::new(2, cfg);
+        let mut p = [0.0f32, 0.0];
+        for _ in 0..6 {
+            adam.step(&mut p, &mut [100.0, -100.0]);
+        }
+        adam.restart_moments();
+        assert_eq!(adam.state().moments_from, 6);
+        let before = p;
+        adam.step(&mut p, &mut [1e-3, -1e-3]);
+        // Without the restart, v ≈ 1e4·(1−β₂⁶)… would shrink this step ~1e5-fold.
+        let lr = 0.1 * 0.5; // the step after 6 steps: one decay
+        assert!((p[0] - (before[0] - lr)).abs() < 1e-6, "{p:?}");
+        assert!((p[1] - (before[1] + lr)).abs() < 1e-6, "{p:?}");
+        assert_eq!(adam.state().step, 7);
+    }
+
+    /// A restart point after the step count (a damaged checkpoint) still gives finite steps.
+    #[test]
+    fn a_restart_point_past_the_step_count_stays_finite() {
+        let mut adam = Adam::from_state(
+            AdamConfig::default(),
+            AdamState {
+                step: 3,
+                m: vec![0.0],
+                v: vec![0.0],
+                moments_from: 10,
+            },
+        );
+        let mut p = [1.0f32];
+        adam.step(&mut p, &mut [0.5]);
+        assert!(p[0].is_finite() && p[0] < 1.0);
     }
 
     #[test]

@@ -48,6 +48,11 @@ pub struct OptimizeArgs {
     /// --iterations with the learned model, none with the others; 0: the learned model alone.
     #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N")]
     pub refine: Option<u32>,
+    /// Carry Adam's moments into the refinement instead of starting them again. The tracer's
+    /// gradient is smaller than the learned model's, so carried moments shrink the
+    /// refinement's steps (docs/notes/default-model.md).
+    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    pub refine_keeps_moments: bool,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss.
@@ -225,6 +230,9 @@ fn config_for(
         None if a.bc.bias_correction => 0,
         None => OptimizeConfig::default_refinement(model, a.budget.iterations),
     };
+    // Only a run with a refinement records the choice (runs without one compare equal to those
+    // written before the option).
+    c.refine_restarts_moments = c.refine_iterations > 0 && !a.refine_keeps_moments;
     if model == ModelKind::Volpath || c.refine_iterations > 0 {
         c.volpath_max_depth = match a.max_depth {
             Some(d) => Some(d),
@@ -367,6 +375,7 @@ mod tests {
         let expected = OptimizeConfig {
             seed: exp.seed,
             refine_iterations: 0,
+            refine_restarts_moments: false,
             ..OptimizeConfig::default()
         };
         assert_eq!(config_for(&run, no_depth).unwrap(), expected);

@@ -589,8 +589,14 @@ pub fn run(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryError
         result["sensitivity"] = serde_json::to_value(s)?;
         shown_u = Some(widened);
     }
+    let c = &cfg.optimize;
+    let final_from = match c.refine_iterations {
+        0 => 0,
+        r => c.iterations.saturating_sub(r) as usize,
+    };
     let mut problems = crate::health::assess(
         opt.history(),
+        final_from,
         &shown,
         &opt.config().params,
         base.g as f64,

@@ -16,7 +16,7 @@ const CHANNELS: [&str; 3] = ["R", "G", "B"];
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
-         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops\n",
+         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit\n",
     );
     for r in history {
         let _ = write!(s, "{},{:.6e}", r.iteration, r.loss);
@@ -33,9 +33,11 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             .iter()
             .map(|[x, y]| format!("{x}:{y}"))
             .collect();
+        // The noise-free misfit (empty where the run's gradient has none).
+        let misfit = r.misfit.map(|m| format!("{m:.6e}")).unwrap_or_default();
         let _ = writeln!(
             s,
-            ",{},{:.4},{}",
+            ",{},{:.4},{},{misfit}",
             views.join(" "),
             r.seconds,
             crops.join(" ")
@@ -380,6 +382,7 @@ mod tests {
             views: vec![view],
             crop_origins: vec![],
             seconds: 0.0,
+            misfit: None,
         }
     }
 

@@ -443,8 +443,21 @@ fn adam_resumes_bit_identically_from_its_state() {
         let mut g = grad(&p);
         first.step(&mut p, &mut g);
     }
-    let AdamState { step, m, v } = first.state();
-    let mut resumed = Adam::from_state(cfg, AdamState { step, m, v });
+    let AdamState {
+        step,
+        m,
+        v,
+        moments_from,
+    } = first.state();
+    let mut resumed = Adam::from_state(
+        cfg,
+        AdamState {
+            step,
+            m,
+            v,
+            moments_from,
+        },
+    );
     for _ in 0..6 {
         let mut g = grad(&p);
         resumed.step(&mut p, &mut g);

@@ -28,6 +28,10 @@ pub struct Checkpoint {
     adam_step: u64,
     adam_m: Vec<f32>,
     adam_v: Vec<f32>,
+    /// The step at which the moments last restarted (absent in checkpoints of runs that never
+    /// restarted them).
+    #[serde(default)]
+    adam_moments_from: u64,
     /// The history so far.
     pub history: Vec<IterationRecord>,
 }
@@ -84,6 +88,15 @@ impl Checkpoint {
                 ),
             ));
         }
+        if c.adam_moments_from > c.adam_step {
+            return Err(err(
+                path,
+                format!(
+                    "adam_moments_from = {} after adam_step = {}; the file is damaged",
+                    c.adam_moments_from, c.adam_step
+                ),
+            ));
+        }
         c.config
             .check()
             .map_err(|e| err(path, format!("config: {e}; the file is damaged")))?;
@@ -103,6 +116,7 @@ impl<'a> Optimizer<'a> {
             adam_step: s.step,
             adam_m: s.m,
             adam_v: s.v,
+            adam_moments_from: s.moments_from,
             history: self.history.clone(),
         };
         let json = serde_json::to_vec(&c).map_err(|e| err(path, e.to_string()))?;
@@ -176,6 +190,7 @@ impl<'a> Optimizer<'a> {
                 step: checkpoint.adam_step,
                 m: checkpoint.adam_m,
                 v: checkpoint.adam_v,
+                moments_from: checkpoint.adam_moments_from,
             },
         );
         if targets.is_empty() {

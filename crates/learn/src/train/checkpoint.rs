@@ -171,6 +171,7 @@ impl Trainer {
                 step: h.adam_step,
                 m: m.to_vec(),
                 v: v.to_vec(),
+                moments_from: 0,
             },
         );
         let grads = Gradients::zeros_like(&model);
