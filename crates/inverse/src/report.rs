@@ -116,9 +116,18 @@ pub fn add_assessment(
 /// images leave open and which capture would settle it.
 pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<String> {
     const CH: [&str; 3] = ["R", "G", "B"];
+    // A bound too large or too small for `p` decimals reads in scientific notation: an interval
+    // of a flat valley can span many decades.
+    let num = |v: f64, p: usize| {
+        if v != 0.0 && (v.abs() >= 1e5 || v.abs() < 0.1f64.powi(p as i32)) {
+            format!("{v:.1e}")
+        } else {
+            format!("{v:.p$}")
+        }
+    };
     let fmt = |v: f64, i: Option<[f64; 2]>, fixed: bool, p: usize| match i {
         _ if fixed => format!("{v:.p$} (fixed)"),
-        Some([lo, hi]) => format!("{v:.p$} [{lo:.p$}, {hi:.p$}]"),
+        Some([lo, hi]) => format!("{v:.p$} [{}, {}]", num(lo, p), num(hi, p)),
         None => format!("{v:.p$} [no finite interval]"),
     };
     let mut out = vec!["95 % intervals (from the images):".to_string()];
@@ -403,6 +412,27 @@ mod tests {
         assert!(!text.contains("α is NOT determined"), "{text}");
         assert!(text.contains("σ_t is NOT determined") && text.contains("with α fixed"));
         assert!(!text.contains("trades σ_t against α"), "{text}");
+    }
+
+    /// An interval spanning many decades prints its bounds in scientific notation, not as
+    /// "[0.0, 358671928.4]".
+    #[test]
+    fn a_decades_wide_interval_prints_in_scientific_notation() {
+        use crate::uncertainty::Uncertainty;
+        let narrow = Some([0.1f64.powi(2), 0.0, 1e-4]);
+        let flat = Some([3.9f64.powi(2), 0.0, 1e-4]);
+        let u = Uncertainty::new([70.3; 3], [0.9; 3], [narrow, flat, narrow], [narrow; 3], 4);
+        let est = Params {
+            sigma_t: [70.3; 3],
+            albedo: [0.9; 3],
+        };
+        let lines = interval_lines(&est, &u);
+        assert!(lines[1].contains("σ_t = 70.3 [57.8, 85.5]"), "{}", lines[1]);
+        assert!(
+            lines[2].contains("σ_t = 70.3 [3.4e-2, 1.5e5]"),
+            "{}",
+            lines[2]
+        );
     }
 
     /// Five views of 40×30: two rows of sheet (four views of three tiles, then one), 2-pixel
