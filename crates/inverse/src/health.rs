@@ -544,26 +544,40 @@ mod tests {
         assert!(assess(&h, 70, &params(60.0, 0.9), &spec, 0.0, None).is_empty());
     }
 
-    /// The slope's standard error is calibrated: with no trend, |z| > 1.96 in 5 % of 400
-    /// independent runs (binomial s.d. 1.1 %, so 5 ± 3.3 % at three s.d.).
-    #[test]
-    fn the_trend_standard_error_is_calibrated() {
-        let mut rng = base::rng::Sampler::new(11, 0, 0, 0);
+    /// With no trend, |z| > 1.96 in 5 % of 400 independent runs of 120 iterations over 8 views
+    /// (binomial s.d. 1.1 %, so 5 ± 3.3 % at three s.d.): the slope's standard error is
+    /// calibrated for `of`. `draw` gives an iteration's record from its view and a N(0, 1) draw.
+    fn assert_calibrated(
+        seed: u64,
+        of: TrendOf,
+        draw: impl Fn(u32, usize, f64) -> IterationRecord,
+    ) {
+        let mut rng = base::rng::Sampler::new(seed, 0, 0, 0);
         let runs = 400;
         let outside = (0..runs)
             .filter(|_| {
                 let h: Vec<_> = (0..120u32)
                     .map(|k| {
                         let v = rng.next_below(8) as usize;
-                        record_view(k, (v as f64 + 1.0) * (0.3 * normal(&mut rng)).exp(), v)
+                        draw(k, v, normal(&mut rng))
                     })
                     .collect();
-                loss_trend(&h).unwrap().z().abs() > 1.96
+                let t = loss_trend(&h).unwrap();
+                assert_eq!(t.of, of);
+                t.z().abs() > 1.96
             })
             .count();
         let p = outside as f64 / runs as f64;
         let sd = (0.05f64 * 0.95 / runs as f64).sqrt();
         assert!((p - 0.05).abs() < 3.0 * sd, "{outside} of {runs} outside");
+    }
+
+    /// The slope of ln ℓ (30 % log-normal scatter per draw).
+    #[test]
+    fn the_trend_standard_error_is_calibrated() {
+        assert_calibrated(11, TrendOf::LnLoss, |k, v, n| {
+            record_view(k, (v as f64 + 1.0) * (0.3 * n).exp(), v)
+        });
     }
 
     /// The loss rises with the renders' noise while the misfit without it stays flat: no
@@ -621,29 +635,13 @@ mod tests {
         );
     }
 
-    /// The misfit's slope has a calibrated standard error too (as
-    /// [`the_trend_standard_error_is_calibrated`], a misfit with 30 % scatter per draw).
+    /// The slope of the misfit over its view's mean (30 % scatter per draw).
     #[test]
     fn the_misfit_trend_standard_error_is_calibrated() {
-        let mut rng = base::rng::Sampler::new(13, 0, 0, 0);
-        let runs = 400;
-        let outside = (0..runs)
-            .filter(|_| {
-                let h: Vec<_> = (0..120u32)
-                    .map(|k| {
-                        let v = rng.next_below(8) as usize;
-                        let mut r = record_view(k, 1.0, v);
-                        r.misfit = Some((v as f64 + 1.0) * (1.0 + 0.3 * normal(&mut rng)));
-                        r
-                    })
-                    .collect();
-                let t = loss_trend(&h).unwrap();
-                assert_eq!(t.of, TrendOf::Misfit);
-                t.z().abs() > 1.96
-            })
-            .count();
-        let p = outside as f64 / runs as f64;
-        let sd = (0.05f64 * 0.95 / runs as f64).sqrt();
-        assert!((p - 0.05).abs() < 3.0 * sd, "{outside} of {runs} outside");
+        assert_calibrated(13, TrendOf::Misfit, |k, v, n| {
+            let mut r = record_view(k, 1.0, v);
+            r.misfit = Some((v as f64 + 1.0) * (1.0 + 0.3 * n));
+            r
+        });
     }
 }
