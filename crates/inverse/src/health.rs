@@ -459,6 +459,22 @@ mod tests {
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 
+    /// A synthetic history of `n` iterations, each on a view drawn uniformly from `views`:
+    /// `draw(k, v, z)` makes iteration k's record from its view v and a N(0, 1) draw z.
+    fn synthetic(
+        rng: &mut base::rng::Sampler,
+        n: u32,
+        views: u32,
+        draw: impl Fn(u32, usize, f64) -> IterationRecord,
+    ) -> Vec<IterationRecord> {
+        (0..n)
+            .map(|k| {
+                let v = rng.next_below(views) as usize;
+                draw(k, v, normal(rng))
+            })
+            .collect()
+    }
+
     /// Views whose losses differ 1000-fold, drawn so that the last fifth holds mostly the
     /// costly ones, and no trend: the window means differ many-fold, the trend with one level
     /// per view is flat.
@@ -489,16 +505,12 @@ mod tests {
     /// A significant rise below the floor passes; one above it fails.
     #[test]
     fn the_floor_separates_drift_from_divergence() {
-        let run = |per_span: f64| -> Vec<IterationRecord> {
+        let run = |per_span: f64| {
             let mut rng = base::rng::Sampler::new(3, 0, 0, 0);
-            (0..300u32)
-                .map(|k| {
-                    let v = rng.next_below(6) as usize;
-                    let trend = (1.0 + per_span).ln() / RISE_SPAN * k as f64;
-                    let loss = (v as f64 + 1.0) * (trend + 0.02 * normal(&mut rng)).exp();
-                    record_view(k, loss, v)
-                })
-                .collect()
+            synthetic(&mut rng, 300, 6, |k, v, z| {
+                let trend = (1.0 + per_span).ln() / RISE_SPAN * k as f64;
+                record_view(k, (v as f64 + 1.0) * (trend + 0.02 * z).exp(), v)
+            })
         };
         let small = run(0.02);
         let t = loss_trend(&small[180..]).unwrap();
@@ -556,13 +568,7 @@ mod tests {
         let runs = 400;
         let outside = (0..runs)
             .filter(|_| {
-                let h: Vec<_> = (0..120u32)
-                    .map(|k| {
-                        let v = rng.next_below(8) as usize;
-                        draw(k, v, normal(&mut rng))
-                    })
-                    .collect();
-                let t = loss_trend(&h).unwrap();
+                let t = loss_trend(&synthetic(&mut rng, 120, 8, &draw)).unwrap();
                 assert_eq!(t.of, of);
                 t.z().abs() > 1.96
             })
@@ -584,21 +590,17 @@ mod tests {
     /// failure. A misfit that rises fails, as the misfit's rise.
     #[test]
     fn the_misfit_decides_where_the_run_has_it() {
-        let run = |misfit_per_span: f64| -> Vec<IterationRecord> {
+        let run = |misfit_per_span: f64| {
             let mut rng = base::rng::Sampler::new(5, 0, 0, 0);
-            (0..300u32)
-                .map(|k| {
-                    let v = rng.next_below(6) as usize;
-                    let level = v as f64 + 1.0;
-                    let misfit = level
-                        * (1.0 + misfit_per_span / RISE_SPAN * k as f64 + 0.05 * normal(&mut rng));
-                    // The renders' variance grows 15 % per 60 iterations.
-                    let noise = level * (0.15 / RISE_SPAN * k as f64).exp();
-                    let mut r = record_view(k, misfit + noise, v);
-                    r.misfit = Some(misfit);
-                    r
-                })
-                .collect()
+            synthetic(&mut rng, 300, 6, |k, v, z| {
+                let level = v as f64 + 1.0;
+                let misfit = level * (1.0 + misfit_per_span / RISE_SPAN * k as f64 + 0.05 * z);
+                // The renders' variance grows 15 % per 60 iterations.
+                let noise = level * (0.15 / RISE_SPAN * k as f64).exp();
+                let mut r = record_view(k, misfit + noise, v);
+                r.misfit = Some(misfit);
+                r
+            })
         };
         let spec = ParamSpec::default();
         let flat = run(0.0);
@@ -609,30 +611,16 @@ mod tests {
                 ..r.clone()
             })
             .collect();
-        let r = assess(&by_loss, 150, &params(60.0, 0.9), &spec, 0.0, None);
-        assert!(
-            matches!(
-                r[..],
-                [Problem::LossRising {
-                    of: TrendOf::LnLoss,
-                    ..
-                }]
-            ),
-            "{r:?}"
-        );
+        // What rose, when the run's only problem is a rising loss.
+        let rose = |h: &[IterationRecord]| -> Option<TrendOf> {
+            match assess(h, 150, &params(60.0, 0.9), &spec, 0.0, None)[..] {
+                [Problem::LossRising { of, .. }] => Some(of),
+                _ => None,
+            }
+        };
+        assert_eq!(rose(&by_loss), Some(TrendOf::LnLoss));
         assert!(assess(&flat, 150, &params(60.0, 0.9), &spec, 0.0, None).is_empty());
-        let rising = run(0.1);
-        let r = assess(&rising, 150, &params(60.0, 0.9), &spec, 0.0, None);
-        assert!(
-            matches!(
-                r[..],
-                [Problem::LossRising {
-                    of: TrendOf::Misfit,
-                    ..
-                }]
-            ),
-            "{r:?}"
-        );
+        assert_eq!(rose(&run(0.1)), Some(TrendOf::Misfit));
     }
 
     /// The slope of the misfit over its view's mean (30 % scatter per draw).
