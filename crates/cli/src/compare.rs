@@ -8,59 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use scene::Image;
 
-/// Statistics of one image pair, per channel.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct PairStats {
-    pub mean_a: [f64; 3],
-    pub mean_b: [f64; 3],
-    pub mean_ratio: [f64; 3],
-    pub rmse: [f64; 3],
-    /// RMSE divided by the mean of B (relative RMSE).
-    pub rel_rmse: [f64; 3],
-    pub rel_mse: [f64; 3],
-}
-
-/// Compare `a` against reference `b` (same size required).
-pub fn pair_stats(a: &Image, b: &Image) -> Result<PairStats> {
-    if a.width != b.width || a.height != b.height {
-        bail!(
-            "image sizes differ: {}×{} vs {}×{}",
-            a.width,
-            a.height,
-            b.width,
-            b.height
-        );
-    }
-    let (ma, mb) = (a.mean(), b.mean());
-    let n = a.data.len().max(1) as f64;
-    let mut se = [0.0f64; 3];
-    let mut rel_den = [0.0f64; 3];
-    for (pa, pb) in a.data.iter().zip(&b.data) {
-        for c in 0..3 {
-            let d = pa[c] as f64 - pb[c] as f64;
-            se[c] += d * d;
-            rel_den[c] += (pb[c] as f64).powi(2) + 1e-2 * mb[c] * mb[c];
-        }
-    }
-    let ratio = |x: f64, y: f64| {
-        if y != 0.0 {
-            x / y
-        } else if x == 0.0 {
-            1.0
-        } else {
-            f64::INFINITY
-        }
-    };
-    let rmse = se.map(|s| (s / n).sqrt());
-    Ok(PairStats {
-        mean_a: ma,
-        mean_b: mb,
-        mean_ratio: [0, 1, 2].map(|c| ratio(ma[c], mb[c])),
-        rmse,
-        rel_rmse: [0, 1, 2].map(|c| ratio(rmse[c], mb[c])),
-        rel_mse: [0, 1, 2].map(|c| ratio(se[c], rel_den[c])),
-    })
-}
+use scene::image::{PairStats, pair_stats};
 
 /// Expand a path into the list of EXR files it names: the file itself, or every `*.exr` of a
 /// folder sorted by name.

@@ -11,9 +11,9 @@ use glam::Vec3;
 use scene::rig::{Rig, RigLight};
 use scene::scene_file::RenderInfo;
 use scene::{Dataset, Medium, MeshSource, SceneDesc, ShapeSpec};
-use volpath::rng::Sampler;
 
-use crate::common::parse_rgb;
+use cmdline::parse_rgb;
+use inverse::views::random_medium;
 
 /// Where the object comes from and how it is viewed and lit.
 #[derive(Args, Clone)]
@@ -161,47 +161,6 @@ impl MediumArgs {
     }
 }
 
-/// The house rig: `views` cameras at radius 2 around the origin (fov 35°, `res`²), intensity 12 on
-/// every channel, with the given light placement and elevation range (degrees).
-pub fn house_rig(views: usize, res: u32, light: RigLight, elevation_deg: (f32, f32)) -> Rig {
-    Rig {
-        views,
-        radius: 2.0,
-        target: Vec3::ZERO,
-        fov_x_deg: 35.0,
-        width: res,
-        height: res,
-        light,
-        intensity: [12.0; 3],
-        elevation_deg,
-    }
-}
-
-/// The paper's kind of data (docs/model.md §8.3): views all around, ONE fixed point light.
-pub fn paper_rig(views: usize, res: u32) -> Rig {
-    house_rig(
-        views,
-        res,
-        RigLight::Fixed {
-            position: Vec3::new(1.2, 1.6, 0.8),
-        },
-        (-90.0, 90.0),
-    )
-}
-
-/// σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel (Son et al. 2024, §5), g = 0, η = 1.
-pub fn random_medium(seed: u64) -> Medium {
-    let mut s = Sampler::new(seed, u64::MAX, 0, 0x6d65_6469_756d);
-    let sigma_t = [0; 3].map(|_| 30.0 + 70.0 * s.next_f32());
-    let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
-    Medium {
-        sigma_t,
-        albedo,
-        g: 0.0,
-        eta: 1.0,
-    }
-}
-
 #[derive(Args)]
 pub struct DatasetArgs {
     #[command(flatten)]
@@ -257,7 +216,7 @@ pub fn render_dataset(
     out: &std::path::Path,
     overwrite: bool,
 ) -> Result<Dataset> {
-    let pb = crate::common::progress(inverse::views::total_rows(&desc.views), "volpath");
+    let pb = cmdline::progress(inverse::views::total_rows(&desc.views), "volpath");
     let ds = inverse::views::render_dataset(desc, opts, out, overwrite, &pb)?;
     pb.finish_and_clear();
     Ok(ds)

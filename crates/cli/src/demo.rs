@@ -13,7 +13,9 @@ use clap::Args;
 use geometry::Shape;
 use scene::MeshSource;
 
-use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::dataset_cmd::{RenderOpts, make_dataset};
+use inverse::views::random_medium;
+use scene::rig::paper_rig;
 
 /// Marker file identifying a folder written by `translucent demo` (safe to overwrite).
 const MARKER: &str = ".translucent-demo";

@@ -42,8 +42,10 @@ mod volumetric;
 
 use report::{Row, inits_plot, report, results_csv};
 
-use crate::dataset_cmd::{RenderOpts, make_dataset, paper_rig, random_medium};
+use crate::dataset_cmd::{RenderOpts, make_dataset};
 use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+use inverse::views::random_medium;
+use scene::rig::paper_rig;
 
 #[derive(Subcommand)]
 pub enum ExperimentCommand {
@@ -125,7 +127,7 @@ pub struct AccuracyArgs {
     #[command(flatten)]
     pub bc: BiasCorrectionArgs,
     #[command(flatten)]
-    pub learned: crate::common::LearnedArgs,
+    pub learned: cmdline::LearnedArgs,
     #[command(flatten)]
     pub jobs: jobs::JobArgs,
 }

@@ -62,7 +62,7 @@ pub fn run(g: &GenerateCommand, mut cmd: clap::Command) -> Result<()> {
 
 /// The command tree without clap's `help` subcommands (no page of their own).
 fn without_help_subcommands(cmd: clap::Command) -> clap::Command {
-    crate::common::for_every_command(cmd, &|c| c.disable_help_subcommand(true))
+    cmdline::for_every_command(cmd, &|c| c.disable_help_subcommand(true))
 }
 
 fn is_page(p: &Path) -> bool {

@@ -13,7 +13,8 @@ use std::path::PathBuf;
 
 use inverse::gradcheck::{EstimatorImages, agreement, render_estimators};
 
-use crate::common::{LearnedArgs, build_accel, parse_rgb};
+use cmdline::{LearnedArgs, parse_rgb};
+use inverse::views::build_accel;
 
 #[derive(Args)]
 pub struct GradcheckArgs {

@@ -2,13 +2,6 @@
 //!
 //! This binary is the only place that uses `anyhow`; the library crates return typed errors.
 
-mod bench;
-mod bench_learned;
-mod bench_noise;
-mod bench_plane;
-mod bench_scan;
-mod bench_spread;
-mod common;
 mod compare;
 mod dataset_cmd;
 mod demo;
@@ -97,10 +90,6 @@ enum Command {
     /// Shell completions and man pages.
     #[command(subcommand)]
     Generate(generate_cmd::GenerateCommand),
-    /// The maintainers' measurements behind BENCHMARKS.md (speed, model accuracy, noise); not
-    /// in the main help (`translucent bench --help` lists them).
-    #[command(subcommand, hide = true)]
-    Bench(bench::BenchCommand),
 }
 
 #[derive(Args)]
@@ -147,7 +136,7 @@ fn main() {
 /// `--init-sigma-t -5` reaches a validation that names the option, not clap's "unexpected
 /// argument '-1'".
 fn parse_args() -> Cli {
-    let matches = common::for_every_command(Cli::command(), &|c| c.allow_negative_numbers(true))
+    let matches = cmdline::for_every_command(Cli::command(), &|c| c.allow_negative_numbers(true))
         .try_get_matches()
         .unwrap_or_else(|e| negative_count_error(e).exit());
     Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
@@ -192,14 +181,13 @@ fn run(cli: Cli) -> Result<()> {
             .num_threads(n)
             .build_global()?;
     }
-    common::set_quiet(cli.quiet);
+    cmdline::set_quiet(cli.quiet);
     match cli.command {
         Command::Demo(a) => demo::run(&a),
         Command::Render(a) => render_cmd::run(&a),
         Command::Dataset(a) => dataset_cmd::run(&a),
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
-        Command::Bench(b) => bench::run(&b),
         Command::Experiment(e) => experiment::run(&e),
         Command::Generate(g) => generate_cmd::run(&g, Cli::command()),
         Command::Model(m) => model_cmd::run(&m),

@@ -314,7 +314,7 @@ fn import_son24(dir: &Path, out: &Path, overwrite: bool) -> Result<()> {
 }
 
 fn info(file: &Path) -> Result<()> {
-    let m = crate::common::load_model_arg(file)?;
+    let m = cmdline::load_model_arg(file)?;
     let i = m.info();
     println!(
         "model file    {} ({FORMAT_NAME} v{FORMAT_VERSION})",

@@ -14,7 +14,7 @@ use inverse::recovery::{self, Observer, RecoveryConfig};
 use inverse::uncertainty::UncertaintySettings;
 use scene::Dataset;
 
-use crate::common::{LearnedArgs, parse_rgb, progress};
+use cmdline::{LearnedArgs, parse_rgb, progress};
 
 mod bias_correction;
 
@@ -40,27 +40,27 @@ pub struct OptimizeArgs {
     pub method: Option<DiffMethod>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
     /// semantics; default: the dataset's own, else 32).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub max_depth: Option<u32>,
     /// The volumetric refinement: the last N of --iterations use the volumetric path tracer
     /// (estimator `ad`, depth --max-depth) from where the learned model's fit has got to, in
     /// place of the bias correction (docs/notes/default-model.md). Default: half of
     /// --iterations with the learned model, none with the others; 0: the learned model alone.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N")]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N")]
     pub refine: Option<u32>,
     /// Carry Adam's moments into the refinement instead of starting them again. The tracer's
     /// gradient is smaller than the learned model's, so carried moments shrink the
     /// refinement's steps (docs/notes/default-model.md).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub refine_keeps_moments: bool,
     #[command(flatten)]
     pub budget: IterationArgs,
     /// Image loss.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_enum, default_value_t)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_enum, default_value_t)]
     pub loss: Loss,
     /// The single-render gradient 2(I − T)·∂I/∂θ (the paper's; biased by the covariance of I and
     /// ∂I/∂θ) instead of the default: ∂ℓ/∂I from one render and ∂I/∂θ from an independent one.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub single_render: bool,
     /// (The default; accepted for older scripts.)
     #[arg(long, hide = true, conflicts_with = "single_render")]
@@ -68,14 +68,14 @@ pub struct OptimizeArgs {
     /// The two renders of the gradient as a full value render and a full derivative render at
     /// --spp each, instead of two derivative renders at half of --spp each (the default: as
     /// unbiased, at the cost of one render).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, conflicts_with = "single_render")]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, conflicts_with = "single_render")]
     pub full_renders: bool,
     /// Normalise each view's loss, per channel, by the loss of a black image against its target,
     /// so that dim views (light that crossed the object) count as much as bright ones.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub normalize_views: bool,
     /// With --normalize-views: no view weighs more than 1/FLOOR times an average view.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 0.01, value_name = "FLOOR")]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = 0.01, value_name = "FLOOR")]
     pub view_weight_floor: f64,
     /// Initial σ_t (1/unit; one value or R,G,B).
     #[arg(long, default_value = "50", value_parser = parse_rgb, allow_negative_numbers = true)]
@@ -84,72 +84,72 @@ pub struct OptimizeArgs {
     #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
     /// Learning rate on ln σ_t (or on σ_t/100 with --scaled-sigma-t).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
     pub lr_sigma_t: f32,
     /// Learning rate on α.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_albedo)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_albedo)]
     pub lr_albedo: f32,
     /// Learning-rate decay factor.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay)]
     pub decay: f32,
     /// Iterations between decays.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay_every)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().decay_every)]
     pub decay_every: u32,
     /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub scaled_sigma_t: bool,
     /// (The default; accepted for older scripts.)
     #[arg(long, hide = true, conflicts_with = "scaled_sigma_t")]
     pub log_sigma_t: bool,
     /// Albedo first: keep σ_t at its initial value for this many initial iterations (at most a
     /// third of the run) while α converges.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().albedo_warmup)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().albedo_warmup)]
     pub albedo_warmup: u32,
     /// One σ_t and one α for all channels.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub monochrome: bool,
     /// Keep σ_t at its initial value.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub fix_sigma_t: bool,
     /// Keep α at its initial value.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub fix_albedo: bool,
     /// Refit the polynomial features every K iterations (0: once, at the initial parameters).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = 0)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = 0)]
     pub refit_every: u32,
     /// Also fit the polynomial's σ_n-derivative at every fit, so that the descriptor at another
     /// σ_n (in the value and in the σ_t offsets) follows a refit, not only the rescaling. Three
     /// fits instead of one; use with --refit-every.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long)]
     pub fit_derivative: bool,
     /// Relative offset Δ/σ_t of the correlated offset samples.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().delta_rel)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().delta_rel)]
     pub delta_rel: f32,
     /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples, O(Δ²) bias,
     /// a third less work) or `sample` (an unperturbed sample of its own).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value = "offset-mean")]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value = "offset-mean")]
     pub primal: Primal,
     /// Fit only these views of the dataset (indices, e.g. `0,3,5`; default: all). The
     /// re-renders and the bias correction use the same views; `--resume` keeps the run's own.
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, value_delimiter = ',', value_name = "I,J,…")]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, value_delimiter = ',', value_name = "I,J,…")]
     pub view_subset: Option<Vec<usize>>,
     /// Checkpoint every N iterations.
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 10)]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, default_value_t = 10)]
     pub checkpoint_every: u32,
     /// Samples per pixel of the final re-renders.
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 64)]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, default_value_t = 64)]
     pub final_spp: u32,
     /// Views for the 95 % intervals at the end (two derivative renders each, spread evenly
     /// over the dataset; 0: no intervals).
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
     pub uncertainty_views: usize,
     /// Samples per pixel of the interval renders.
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
     pub uncertainty_spp: u32,
     /// Views re-rendered at the estimate by the volumetric path tracer (twice, at the dataset's
     /// samples per pixel) to check that the estimate reproduces the images without the learned
     /// model (0: no check).
-    #[arg(help_heading = crate::common::CHECK_OPTIONS, long, default_value_t = 4)]
+    #[arg(help_heading = cmdline::CHECK_OPTIONS, long, default_value_t = 4)]
     pub consistency_views: usize,
     /// Seed.
     #[arg(long, default_value_t = 0)]
@@ -182,11 +182,11 @@ pub struct IterationArgs {
     #[arg(long, default_value_t = OptimizeConfig::default().spp)]
     pub spp: u32,
     /// Views rendered per iteration (drawn at random).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().views_per_iter)]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().views_per_iter)]
     pub views_per_iter: usize,
     /// Render a random N×N crop of each chosen view per iteration instead of the whole image
     /// (the paper's released optimiser; clamped to the image size).
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub crop: Option<u32>,
 }
 
@@ -196,7 +196,7 @@ impl OptimizeArgs {
         Self {
             dataset,
             out,
-            ..crate::common::arg_defaults(&["--dataset", "d"])
+            ..cmdline::arg_defaults(&["--dataset", "d"])
         }
     }
 }
@@ -357,14 +357,13 @@ mod tests {
         let o = OptimizeArgs::with_defaults(d.clone(), PathBuf::from("o"));
         let no_depth = || Ok(None);
         assert_eq!(config_for(&o, no_depth).unwrap(), OptimizeConfig::default());
-        let demo =
-            crate::demo::recovery_args(&crate::common::arg_defaults::<crate::demo::DemoArgs>(&[]));
+        let demo = crate::demo::recovery_args(&cmdline::arg_defaults::<crate::demo::DemoArgs>(&[]));
         let expected = OptimizeConfig {
             seed: demo.seed,
             ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
         assert_eq!(config_for(&demo, no_depth).unwrap(), expected);
-        let exp = crate::common::arg_defaults::<crate::experiment::AccuracyArgs>(&[]);
+        let exp = cmdline::arg_defaults::<crate::experiment::AccuracyArgs>(&[]);
         let init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
@@ -380,8 +379,7 @@ mod tests {
         };
         assert_eq!(config_for(&run, no_depth).unwrap(), expected);
         // The robustness suite, which measures the defaults, runs them unchanged.
-        let suite =
-            crate::common::arg_defaults::<crate::experiment::robustness::RobustnessArgs>(&[]);
+        let suite = cmdline::arg_defaults::<crate::experiment::robustness::RobustnessArgs>(&[]);
         let run = crate::experiment::robustness::run_args(&suite, &d, &d, 0);
         let expected = OptimizeConfig {
             seed: suite.seed,

@@ -23,7 +23,8 @@ use inverse::forward::ModelKind;
 use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
-use crate::common::{LearnedArgs, build_accel, by_rows, check_output_free, write_outputs};
+use cmdline::{LearnedArgs, by_rows, check_output_free, write_outputs};
+use inverse::views::build_accel;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -65,7 +66,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub derivatives: bool,
     /// Write a dataset folder (`dataset.json` + images; the rendered medium is its truth) that
-    /// `optimize --dataset`, `compare` and `bench loss-scan` read.
+    /// `optimize --dataset`, `compare` and `translucent-dev loss-scan` read.
     #[arg(long)]
     pub as_dataset: bool,
     /// Replace existing images in the output folder.
@@ -124,7 +125,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
         ModelKind::Dipole => (
             {
-                let pb = crate::common::progress(views.len() as u64, "dipole");
+                let pb = cmdline::progress(views.len() as u64, "dipole");
                 let rep = inverse::views::dipole(&job, a.derivatives, &pb)?;
                 pb.finish_and_clear();
                 rep

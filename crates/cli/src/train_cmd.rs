@@ -17,8 +17,8 @@ use clap::{Args, Subcommand};
 use learn::datagen::{DataConfig, generate};
 use learn::samplefile::{SampleFileHeader, write_samples};
 
-use crate::common::{arg_defaults, progress};
 use crate::train_fit::run_fit;
+use cmdline::{arg_defaults, progress};
 
 #[derive(Subcommand)]
 pub enum TrainCommand {
@@ -283,7 +283,7 @@ fn run_data(a: &DataArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::common::arg_defaults;
+    use cmdline::arg_defaults;
 
     #[test]
     fn train_all_uses_the_shipped_models_defaults() {
@@ -321,7 +321,7 @@ mod tests {
         let stage = energy_stage(&cvae, "o/model".into());
         assert_eq!(stage.init, Some(PathBuf::from("o/cvae/model.safetensors")));
         let want = crate::train_fit::train_config(&stage).unwrap();
-        let shipped = crate::common::LearnedArgs::shipped_model().unwrap();
+        let shipped = cmdline::LearnedArgs::shipped_model().unwrap();
         let prov = &shipped.info().provenance;
         let got: learn::train::TrainConfig =
             serde_json::from_value(prov["training"].clone()).unwrap();

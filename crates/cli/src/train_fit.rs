@@ -10,8 +10,8 @@ use learn::cvae::Widths;
 use learn::samplefile::{SampleFileHeader, read_samples};
 use learn::train::{Objective, Prepared, TrainConfig, Trainer, normalisation_of, prepare};
 
-use crate::common::progress;
 use crate::train_cmd::FitArgs;
+use cmdline::progress;
 
 /// Parses `son24`, `vkj19` or `F=..;A=..;D=..;E=..`.
 pub fn parse_widths(s: &str) -> Result<Widths> {

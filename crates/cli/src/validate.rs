@@ -26,10 +26,9 @@ use scene::scene_file::ViewDesc;
 use scene::{Dataset, Image};
 use volpath::{Progressive, VolpathScene, VolpathSettings, shadow_lists};
 
-use crate::common::{
-    LearnedArgs, RenderReport, build_accel, by_rows, check_output_free, progress, write_outputs,
-};
-use crate::compare::pair_stats;
+use cmdline::{LearnedArgs, by_rows, check_output_free, progress, write_outputs};
+use inverse::views::{RenderReport, build_accel};
+use scene::image::pair_stats;
 
 #[derive(Args)]
 pub struct ValidateArgs {

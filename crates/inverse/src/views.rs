@@ -264,3 +264,16 @@ pub fn render_dataset(
     );
     Ok(ds)
 }
+
+/// σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel (Son et al. 2024, §5), g = 0, η = 1.
+pub fn random_medium(seed: u64) -> Medium {
+    let mut s = base::rng::Sampler::new(seed, u64::MAX, 0, 0x6d65_6469_756d);
+    let sigma_t = [0; 3].map(|_| 30.0 + 70.0 * s.next_f32());
+    let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
+    Medium {
+        sigma_t,
+        albedo,
+        g: 0.0,
+        eta: 1.0,
+    }
+}

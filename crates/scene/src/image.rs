@@ -15,12 +15,14 @@
 use crate::SceneError;
 
 mod files;
+mod stats;
 #[cfg(test)]
 // Numbers copied verbatim from Mitsuba's scene.json.
 #[allow(clippy::excessive_precision, clippy::type_complexity)]
 mod tests;
 
 pub use files::to_srgb8;
+pub use stats::{PairStats, pair_stats};
 
 /// A linear RGB float image, row-major, row 0 = top.
 #[derive(Clone, Debug, PartialEq)]

@@ -219,6 +219,34 @@ pub(crate) fn check_intensity(i: &[f32; 3], location: &str) -> Result<(), SceneE
     Ok(())
 }
 
+/// The house rig: `views` cameras at radius 2 around the origin (fov 35°, `res`²), intensity 12 on
+/// every channel, with the given light placement and elevation range (degrees).
+pub fn house_rig(views: usize, res: u32, light: RigLight, elevation_deg: (f32, f32)) -> Rig {
+    Rig {
+        views,
+        radius: 2.0,
+        target: Vec3::ZERO,
+        fov_x_deg: 35.0,
+        width: res,
+        height: res,
+        light,
+        intensity: [12.0; 3],
+        elevation_deg,
+    }
+}
+
+/// The paper's kind of data (docs/model.md §8.3): views all around, ONE fixed point light.
+pub fn paper_rig(views: usize, res: u32) -> Rig {
+    house_rig(
+        views,
+        res,
+        RigLight::Fixed {
+            position: Vec3::new(1.2, 1.6, 0.8),
+        },
+        (-90.0, 90.0),
+    )
+}
+
 #[cfg(test)]
 #[allow(clippy::excessive_precision, clippy::type_complexity)] // numbers copied verbatim from Mitsuba's scene.json
 mod tests {

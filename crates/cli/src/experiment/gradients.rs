@@ -21,8 +21,9 @@ use inverse::gradcheck::{Agreement, agreement, render_estimators};
 use scene::rig::RigLight;
 use scene::{Dataset, Image, Medium, MeshSource};
 
-use crate::dataset_cmd::{RenderOpts, house_rig, make_dataset};
+use crate::dataset_cmd::{RenderOpts, make_dataset};
 use crate::gradcheck_cmd::write_estimators;
+use scene::rig::house_rig;
 
 #[derive(Args)]
 pub struct GradientsArgs {
@@ -70,7 +71,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
-    let model = crate::common::LearnedArgs::shipped_model()?;
+    let model = cmdline::LearnedArgs::shipped_model()?;
     let settings = format!("{res}² × {spp} spp, seed {}", a.seed);
     let stamp = a.out.join("settings.txt");
     match std::fs::read_to_string(&stamp) {
@@ -128,7 +129,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
         };
         let view = ds.views.first().context("the scene has no view")?;
         let (mesh, warnings) = ds.load_mesh()?;
-        let accel = crate::common::build_accel(mesh, &warnings, name);
+        let accel = inverse::views::build_accel(mesh, &warnings, name);
         let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, a.seed)?;
         let scene = LearnedScene::new(&accel, &model, &features, medium, Default::default())?;
         let rs = RenderSettings {
@@ -146,7 +147,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
             println!("{name}: reusing {}", dir.display());
             reread(&dir)?
         } else {
-            let pb = crate::common::progress(0, &format!("{name}: ours, naive, fd"));
+            let pb = cmdline::progress(0, &format!("{name}: ours, naive, fd"));
             let r = render_estimators(
                 &scene,
                 &view.camera,

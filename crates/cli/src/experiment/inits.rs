@@ -13,8 +13,8 @@ use plot::{Band, Figure, Panel, Series};
 
 use super::report::{Row, read_trajectory};
 use super::{AccuracyArgs, accuracy};
-use crate::common::arg_defaults;
 use crate::optimize_cmd::IterationArgs;
+use cmdline::arg_defaults;
 
 #[derive(Args)]
 pub struct InitsArgs {

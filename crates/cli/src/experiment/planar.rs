@@ -17,8 +17,8 @@ use scene::Image;
 
 use super::report::{Row, read_trajectory};
 use super::{AccuracyArgs, accuracy};
-use crate::common::arg_defaults;
 use crate::optimize_cmd::IterationArgs;
+use cmdline::arg_defaults;
 
 #[derive(Args)]
 pub struct PlanarArgs {

@@ -16,8 +16,8 @@ use clap::Args;
 use plot::{Figure, Panel, Series};
 
 use super::report::{Step, read_steps};
-use crate::dataset_cmd::random_medium;
 use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+use inverse::views::random_medium;
 
 #[derive(Args)]
 pub struct PrbArgs {

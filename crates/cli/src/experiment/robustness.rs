@@ -36,10 +36,11 @@ use scene::rig::{Rig, RigLight};
 use scene::{Dataset, Medium, MeshSource, RenderInfo, SceneDesc};
 use volpath::rng::Sampler;
 
-use crate::common::{build_accel, by_rows};
 use crate::dataset_cmd::{RenderOpts, make_dataset};
 use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
+use cmdline::by_rows;
 use inverse::recovery::reuse::read_json;
+use inverse::views::build_accel;
 
 #[derive(Args)]
 pub struct RobustnessArgs {
@@ -63,7 +64,7 @@ pub struct RobustnessArgs {
     pub budget: IterationArgs,
     /// The volumetric refinement of every run (`optimize --refine`): its last N iterations with
     /// the volumetric path tracer. Default: `optimize`'s.
-    #[arg(help_heading = crate::common::RESEARCH_OPTIONS, long, value_name = "N")]
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N")]
     pub refine: Option<u32>,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
@@ -411,7 +412,7 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
         seed: o.seed,
     };
     let rep = if kind == inverse::forward::ModelKind::Dipole {
-        let pb = crate::common::progress(views.len() as u64, "dipole");
+        let pb = cmdline::progress(views.len() as u64, "dipole");
         let rep = inverse::views::dipole(&job, false, &pb)?;
         pb.finish_and_clear();
         rep

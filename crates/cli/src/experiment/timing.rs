@@ -18,7 +18,7 @@ use inverse::optimize::TargetView;
 use inverse::timing::{DEFAULTS, TimingRow, TimingSettings, all_pairs, measure, measure_defaults};
 use serde::{Deserialize, Serialize};
 
-use crate::dataset_cmd::random_medium;
+use inverse::views::random_medium;
 
 #[derive(Args)]
 pub struct TimingArgs {
@@ -131,11 +131,11 @@ pub fn run(a: &TimingArgs) -> Result<()> {
         },
     };
     let (mesh, warnings) = ds.load_mesh()?;
-    let accel = crate::common::build_accel(mesh, &warnings, "the timing dataset's mesh");
+    let accel = inverse::views::build_accel(mesh, &warnings, "the timing dataset's mesh");
     accel.decide_all_supporting();
     let targets = TargetView::of_dataset(&ds, "the timing dataset")?;
     let base = ds.truth.context("the timing dataset has no medium")?;
-    let nets = crate::common::LearnedArgs::shipped_model()?;
+    let nets = cmdline::LearnedArgs::shipped_model()?;
     // Every pair at the workload's spp, and the paper's method at twice that (its Table 1).
     let runs = all_pairs().into_iter().map(|(m, e)| (m, e, spp)).chain([(
         ModelKind::Learned,
@@ -147,7 +147,7 @@ pub fn run(a: &TimingArgs) -> Result<()> {
         if record.rows.iter().any(done) {
             continue;
         }
-        let pb = crate::common::progress(0, &format!("{model} × {method}, {spp} spp"));
+        let pb = cmdline::progress(0, &format!("{model} × {method}, {spp} spp"));
         let row = measure(&accel, &nets, base, &targets, model, method, spp, &settings)?;
         pb.finish_and_clear();
         println!("{model} × {method}, {spp} spp: {:.3} s/it", row.mean());
@@ -156,7 +156,7 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     }
     // What `optimize` runs: the learned model, then the volumetric refinement.
     if !record.rows.iter().any(|r| r.method == DEFAULTS) {
-        let pb = crate::common::progress(0, "optimize's defaults");
+        let pb = cmdline::progress(0, "optimize's defaults");
         let row = measure_defaults(&accel, &nets, base, &targets, spp, &settings)?;
         pb.finish_and_clear();
         println!(

@@ -534,54 +534,10 @@ fn experiment_takes_shape_parameters() {
     assert_eq!(data["shape"]["subdivisions"], 3, "{}", data["shape"]);
 }
 
-/// `bench loss-scan --grazing-cos`: the loss per pixel class and per view, the brightness per
-/// phase-angle bin; existing outputs are refused before any rendering.
-#[test]
-fn loss_scan_reports_pixel_classes_views_and_phase_angles() {
-    let t = tmp();
-    let d = t.path();
-    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
-    let args = [
-        "-q",
-        "bench",
-        "loss-scan",
-        "--dataset",
-        "ds",
-        "--views",
-        "2",
-        "--spp",
-        "2",
-        "--scales",
-        "0.9,1",
-        "--grazing-cos",
-        "0.3",
-        "--out",
-        "scan",
-    ];
-    let r = ok(d, &args);
-    assert_stdout_has(&r, &["lit", "terminator", "unlit", "rim", "phase angle"]);
-    let csv = String::from_utf8(read(&d.join("scan/loss-scan.csv"))).unwrap();
-    let header = csv.lines().next().unwrap();
-    assert!(header.ends_with(",rim_r,rim_g,rim_b"), "{header}");
-    assert_eq!(csv.lines().count(), 3, "{csv}");
-    let views = String::from_utf8(read(&d.join("scan/loss-scan-views.csv"))).unwrap();
-    assert_eq!(views.lines().count(), 1 + 2 * 2, "{views}");
-    for line in views.lines().skip(1) {
-        let phase: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
-        assert!((0.0..=180.0).contains(&phase), "{line}");
-    }
-    let again = fails(d, &args);
-    assert_stderr_has(&again, &["loss-scan.csv", "--overwrite"]);
-    let bad = fails(d, &[&args[..12], &["1.5", "--out", "scan2"]].concat());
-    assert_stderr_has(&bad, &["--grazing-cos", "(0, 1)"]);
-}
-
 /// `render --model learned --as-dataset` makes a dataset of the learned model's own images (its
-/// truth the rendered medium); `bench loss-scan` at the truth with the targets' seed renders the
-/// very same images, so the decorrelated loss is exactly 0, and `--cosine-table` writes one row per
-/// (light, camera) cosine bin.
+/// truth the rendered medium, its renderer named), and refuses to replace it.
 #[test]
-fn learned_targets_as_a_dataset_and_the_cosine_table() {
+fn learned_targets_as_a_dataset() {
     let t = tmp();
     let d = t.path();
     make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
@@ -613,43 +569,6 @@ fn learned_targets_as_a_dataset_and_the_cosine_table() {
     assert_eq!(j["views"].as_array().unwrap().len(), 2);
     let again = fails(d, &render);
     assert_stderr_has(&again, &["lt", "--overwrite"]);
-    let scan = [
-        "-q",
-        "bench",
-        "loss-scan",
-        "--dataset",
-        "lt",
-        "--views",
-        "2",
-        "--spp",
-        "2",
-        "--scales",
-        "1",
-        "--seed",
-        "3",
-        "--cosine-table",
-        "--out",
-        "scan",
-    ];
-    let r = ok(d, &scan);
-    assert_stdout_has(&r, &["through medium", "μ_l 0.75–1.00", "share of T"]);
-    let csv = String::from_utf8(read(&d.join("scan/loss-scan.csv"))).unwrap();
-    let row: Vec<f64> = csv
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .map(|x| x.parse().unwrap())
-        .collect();
-    assert_eq!(&row[1..4], &[0.0, 0.0, 0.0], "{csv}");
-    let cos = String::from_utf8(read(&d.join("scan/loss-scan-cosines.csv"))).unwrap();
-    assert_eq!(cos.lines().count(), 1 + 6 * 4, "{cos}");
-    let shares: f64 = cos
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(3).unwrap().parse::<f64>().unwrap())
-        .sum();
-    assert!((shares - 1.0).abs() < 1e-9, "{shares}");
 }
 
 /// `optimize --view-subset`: only the named views are fitted (renumbered for the optimiser,

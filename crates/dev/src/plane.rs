@@ -1,4 +1,4 @@
-//! `translucent bench plane`: the learned models against directly simulated random walks on a
+//! `translucent-dev plane`: the learned models against directly simulated random walks on a
 //! half-space (issue #4 acceptance 2, "distribution check on a plane").
 //!
 //! For each albedo (g = 0, η = 1, σ_t = 1 — the model is scale-invariant, docs/model.md §2) and
@@ -15,7 +15,7 @@
 //! surrounds a spherical cavity, concave). The quadric is exact in the cubic descriptor, so this
 //! isolates how the networks respond to curvature from the fit and the mesh. Curved training
 //! configurations are cylinder-like (the meshes are scaled per axis), so spheres probe the
-//! networks outside their training distribution; `bench spread` compares them with their own
+//! networks outside their training distribution; `translucent-dev spread` compares them with their own
 //! held-out data instead (docs/notes/decoder-training.md, "The decoder is the cause").
 //!
 //! On a sphere the exit distance is measured along the surface (the great-circle distance
@@ -42,7 +42,7 @@ use plot::{Figure, Panel, Series};
 use rayon::prelude::*;
 use volpath::rng::Sampler;
 
-use crate::common::LearnedArgs;
+use cmdline::LearnedArgs;
 
 #[derive(Args)]
 pub struct PlaneBenchArgs {

@@ -1,14 +1,47 @@
-//! Shared pieces of the commands: progress bars, the volumetric render of a list of views,
-//! writing EXR + PNG outputs, parsing RGB triples.
+//! What the command-line programs (`translucent` and the maintainers' `translucent-dev`) share:
+//! the learned renderer's option group ([`LearnedArgs`]) and the value parsers of options,
+//! progress bars that honour `--quiet`, EXR + PNG outputs that refuse to overwrite, and the
+//! `--help` headings. Errors are typed ([`CmdlineError`]); the binaries add their context.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-
-use anyhow::{Context, Result, bail};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use scene::Image;
 use scene::scene_file::ViewDesc;
+
+/// The errors of the shared option handling and output writing.
+#[derive(Debug, thiserror::Error)]
+pub enum CmdlineError {
+    #[error("{}: cannot create output folder", dir.display())]
+    CreateDir {
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// An output file exists and `--overwrite` was not given.
+    #[error(
+        "{} already exists; pass --overwrite to replace it (or choose another --out)",
+        path.display()
+    )]
+    OutputExists { path: PathBuf },
+    /// `--model volpath` or `dipole` where a learned model is needed.
+    #[error(
+        "--model {0}: not a learned model; this command needs one (a model file, or `shipped`)"
+    )]
+    NotLearned(String),
+    /// The `--method` flag that `render` and `validate-mitsuba` once took.
+    #[error(
+        "--method {0}: the renderer is chosen with --model (learned, volpath, dipole or a model file)"
+    )]
+    MethodFlag(String),
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
+    #[error(transparent)]
+    Model(#[from] bssrdf::model::ModelError),
+}
+
+type Result<T, E = CmdlineError> = std::result::Result<T, E>;
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -57,8 +90,6 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
-pub use inverse::views::{RenderReport, build_accel};
-
 /// Runs a render of `views` ([`inverse::views`]) with a progress bar of one step per image row
 /// (hidden with `--quiet`), labelled `label`.
 pub fn by_rows<T>(views: &[ViewDesc], label: &str, render: impl FnOnce(&ProgressBar) -> T) -> T {
@@ -75,8 +106,10 @@ pub fn write_outputs(
     images: &[Image],
     overwrite: bool,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("{}: cannot create output folder", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|source| CmdlineError::CreateDir {
+        dir: dir.to_path_buf(),
+        source,
+    })?;
     let exposure = scene::image::auto_exposure(images);
     for (name, img) in names.iter().zip(images) {
         img.write_exr(&dir.join(format!("{name}.exr")), overwrite)?;
@@ -94,10 +127,7 @@ pub fn check_output_free(dir: &Path, names: &[String], overwrite: bool) -> Resul
         for ext in ["exr", "png"] {
             let p = dir.join(format!("{n}.{ext}"));
             if p.exists() {
-                bail!(
-                    "{} already exists; pass --overwrite to replace it (or choose another --out)",
-                    p.display()
-                );
+                return Err(CmdlineError::OutputExists { path: p });
             }
         }
     }
@@ -277,9 +307,7 @@ impl LearnedArgs {
         default: inverse::forward::ModelKind,
     ) -> Result<inverse::forward::ModelKind> {
         if let Some(m) = method {
-            bail!(
-                "--method {m}: the renderer is chosen with --model (learned, volpath, dipole or a model file)"
-            );
+            return Err(CmdlineError::MethodFlag(m.clone()));
         }
         Ok(self.kind_or(default))
     }
@@ -315,9 +343,7 @@ impl LearnedArgs {
 pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
     match path.as_os_str().to_str() {
         Some("shipped" | "learned") => LearnedArgs::shipped_model(),
-        Some(m @ ("volpath" | "dipole")) => anyhow::bail!(
-            "--model {m}: not a learned model; this command needs one (a model file, or `shipped`)"
-        ),
+        Some(m @ ("volpath" | "dipole")) => Err(CmdlineError::NotLearned(m.to_string())),
         _ => Ok(bssrdf::model::load(path)?),
     }
 }

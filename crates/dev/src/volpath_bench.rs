@@ -1,4 +1,4 @@
-//! `translucent bench volpath`: speed of the volumetric path tracer on the reference sphere scene
+//! `translucent-dev volpath`: speed of the volumetric path tracer on the reference sphere scene
 //! (the Mitsuba 3 reference folder when given, otherwise the same scene rebuilt from its numbers:
 //! sphere of radius 0.125, σ_t = (50, 60, 70), α = (0.95, 0.9, 0.85), 8 cameras on the reference
 //! spiral at distance 0.5, fov 40°, fixed point light of 0.785 W/sr). Prints seconds per view and
@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Result;
-use clap::{Args, Subcommand};
+use clap::Args;
 use geometry::{LightBins, Shape};
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
@@ -19,29 +19,7 @@ use volpath::{
     render_image, shadow_lists,
 };
 
-use crate::common::build_accel;
-
-#[derive(Subcommand)]
-pub enum BenchCommand {
-    /// Paths per second of the volumetric path tracer on the reference sphere scene.
-    Volpath(VolpathBenchArgs),
-    /// Accuracy of the learned BSSRDF (real and planar features) against the volumetric tracer.
-    #[command(name = "learned-vs-volpath")]
-    LearnedVsVolpath(crate::bench_learned::LearnedBenchArgs),
-    /// Learned models against directly simulated random walks on a half-space: absorption and
-    /// the radial distribution of exit points.
-    Plane(crate::bench_plane::PlaneBenchArgs),
-    /// Learned models against their held-out training data, binned by the surface's mean
-    /// curvature: exit distances (mean and tail quantiles) and absorption.
-    Spread(crate::bench_spread::SpreadBenchArgs),
-    /// The learned renderer's loss against a dataset's targets at scaled σ_t (α at the truth):
-    /// where its minimum lies, without an optimiser.
-    #[command(name = "loss-scan")]
-    LossScan(crate::bench_scan::LossScanArgs),
-    /// Per-pixel and loss-gradient variance of the learned renderer (each pixel-sampling scheme)
-    /// against the volumetric path tracer at equal time, on coloured media.
-    Noise(crate::bench_noise::NoiseBenchArgs),
-}
+use inverse::views::build_accel;
 
 #[derive(Args)]
 pub struct VolpathBenchArgs {
@@ -91,18 +69,7 @@ pub enum SamplingName {
 /// Mitsuba 3 (llvm_ad_rgb, 2 cores, 32 spp) seconds per view, from the measurement.
 const MITSUBA_SECONDS: [(u32, f64); 2] = [(64, 0.064), (128, 0.25)];
 
-pub fn run(cmd: &BenchCommand) -> Result<()> {
-    match cmd {
-        BenchCommand::Volpath(a) => volpath(a),
-        BenchCommand::LearnedVsVolpath(a) => crate::bench_learned::run(a),
-        BenchCommand::Plane(a) => crate::bench_plane::run(a),
-        BenchCommand::Spread(a) => crate::bench_spread::run(a),
-        BenchCommand::LossScan(a) => crate::bench_scan::run(a),
-        BenchCommand::Noise(a) => crate::bench_noise::run(a),
-    }
-}
-
-fn volpath(a: &VolpathBenchArgs) -> Result<()> {
+pub fn run(a: &VolpathBenchArgs) -> Result<()> {
     anyhow::ensure!(
         a.spp > 0 && a.repeat > 0,
         "--spp and --repeat must be at least 1"

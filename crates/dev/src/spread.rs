@@ -1,7 +1,7 @@
-//! `translucent bench spread`: the learned models against their own held-out training data,
+//! `translucent-dev spread`: the learned models against their own held-out training data,
 //! configuration by configuration, binned by the surface's mean curvature.
 //!
-//! `bench plane --curvature` compares a model with random walks on exact spheres. This bench asks
+//! `translucent-dev plane --curvature` compares a model with random walks on exact spheres. This bench asks
 //! the question behind it on the data the model was trained on: for every configuration of a
 //! samples file (`train data` writes `val.tlsamples` from meshes the training never saw), the
 //! walks' exits `x_LS` (units of σ_n, light space) against `K` proposals `x̂ = Decoder(z, f)` with
@@ -9,13 +9,13 @@
 //! against Absorb.
 //!
 //! **Distance.** The chord |x| from the entry point, for exits and proposals alike. Proposals lie
-//! slightly off the surface (the renderer projects them, `bench plane` does too); the chord of
+//! slightly off the surface (the renderer projects them, `translucent-dev plane` does too); the chord of
 //! an exit is its distance in space, so this compares the two distributions in the same measure
 //! without a projection.
 //!
 //! **Curvature.** The mean curvature of the fitted implicit cubic at the entry point (units of
 //! 1/σ_n; > 0 where the medium is convex), from the gradient g = (c₁, c₂, c₃) and the Hessian H:
-//! κ = (|g|²·tr H − gᵀHg) / (2|g|³). It equals κ for `bench plane`'s sphere
+//! κ = (|g|²·tr H − gᵀHg) / (2|g|³). It equals κ for `translucent-dev plane`'s sphere
 //! p = u_z + κ/2·|u|², and is invariant under the light-space rotation.
 //!
 //! Per bin of (α', κ): configurations, the mean and the 25th/50th/90th/99th percentiles of the
@@ -35,7 +35,7 @@ use learn::sample::Sample;
 use rayon::prelude::*;
 use volpath::rng::Sampler;
 
-use crate::common::LearnedArgs;
+use cmdline::LearnedArgs;
 
 #[derive(Args)]
 pub struct SpreadBenchArgs {
@@ -291,7 +291,7 @@ mod tests {
     use bssrdf::polynomial::{Poly3, power_to_index};
     use glam::Vec3;
 
-    /// The mean curvature is κ on the sphere p = u_z + κ/2·|u|² (`bench plane`'s surface), in any
+    /// The mean curvature is κ on the sphere p = u_z + κ/2·|u|² (`translucent-dev plane`'s surface), in any
     /// orientation and at any scale of the polynomial, and 0 on a plane.
     #[test]
     fn mean_curvature_of_a_sphere_is_its_curvature() {

@@ -1,4 +1,4 @@
-//! `bench loss-scan --cosine-table`: the learned renderer's brightness against the targets,
+//! `translucent-dev loss-scan --cosine-table`: the learned renderer's brightness against the targets,
 //! binned by the two cosines at the visible point.
 //!
 //! For every pixel the ray through its centre meets the surface at x_o with shading normal n;

@@ -1,4 +1,4 @@
-//! `translucent bench noise`: per-pixel variance and loss-gradient variance of the learned
+//! `translucent-dev noise`: per-pixel variance and loss-gradient variance of the learned
 //! renderer against the volumetric path tracer, at equal time, on coloured media.
 //!
 //! Scenes: the built-in blob at two sizes (`--scales`, in scene units; the medium fixes the size in
@@ -37,8 +37,9 @@ use scene::rig::RigLight;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
-use crate::common::{build_accel, by_rows, parse_rgb};
-use crate::dataset_cmd::house_rig;
+use cmdline::{by_rows, parse_rgb};
+use inverse::views::build_accel;
+use scene::rig::house_rig;
 
 #[derive(Args)]
 pub struct NoiseBenchArgs {
@@ -175,7 +176,7 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create output folder", a.out.display()))?;
-    let model = crate::common::LearnedArgs::shipped_model()?;
+    let model = cmdline::LearnedArgs::shipped_model()?;
     let vs = VolpathSettings::default();
     let mut csv = std::fs::File::create(a.out.join("noise.csv"))?;
     writeln!(
@@ -200,7 +201,7 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
         let accel = build_accel(mesh, &[], "blob");
         let rig = house_rig(a.views, a.res, case.light, (-90.0, 90.0));
         let views = rig.build();
-        let timed = |f: &dyn Fn(u64) -> Result<crate::common::RenderReport>| -> Result<_> {
+        let timed = |f: &dyn Fn(u64) -> Result<inverse::views::RenderReport>| -> Result<_> {
             let r0 = f(a.seed)?;
             let r1 = f(a.seed + 1)?;
             let t: f64 = r0

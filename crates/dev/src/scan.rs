@@ -1,4 +1,4 @@
-//! `translucent bench loss-scan`: where the learned renderer's loss has its minimum, without an
+//! `translucent-dev loss-scan`: where the learned renderer's loss has its minimum, without an
 //! optimiser.
 //!
 //! For a dataset with a known medium (its truth), the learned renderer draws the first `--views`
@@ -41,7 +41,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use scene::{Dataset, Image};
 
-use crate::common::{LearnedArgs, build_accel, by_rows};
+use cmdline::{LearnedArgs, by_rows};
+use inverse::views::build_accel;
 
 mod cosines;
 use cosines::{CosineBrightness, pixel_geometry};

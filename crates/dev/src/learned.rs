@@ -1,4 +1,4 @@
-//! `translucent bench learned-vs-volpath`: accuracy of the learned BSSRDF against the volumetric
+//! `translucent-dev learned-vs-volpath`: accuracy of the learned BSSRDF against the volumetric
 //! path tracer (issue #3 acceptance 4, issue #4 acceptance 2).
 //!
 //! For every shape × σ_t × α (η = 1, g = 0, objects about 1 unit across, camera rig at distance
@@ -13,17 +13,18 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::dataset_cmd::house_rig;
 use anyhow::{Context, Result};
 use clap::Args;
 use geometry::Shape;
 use glam::Vec3;
 use scene::rig::RigLight;
+use scene::rig::house_rig;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
-use crate::common::{build_accel, by_rows};
-use crate::compare::pair_stats;
+use cmdline::by_rows;
+use inverse::views::build_accel;
+use scene::image::pair_stats;
 
 #[derive(Args)]
 pub struct LearnedBenchArgs {
@@ -66,7 +67,7 @@ pub struct LearnedBenchArgs {
     #[arg(long, value_enum, default_value_t)]
     pub projection: bssrdf::projection::ProjectionKind,
     /// Reach of the `son24` projection in units of σ_n (SON24: 2; default 8).
-    #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = crate::common::parse_reach, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = bssrdf::projection::DEFAULT_MAX_DIST_SCALE, value_parser = cmdline::parse_reach, allow_hyphen_values = true)]
     pub max_dist_scale: f32,
     /// Light-side incidence of the learned renders.
     #[arg(long, value_enum, default_value_t)]
@@ -89,7 +90,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     let models: Vec<_> = a
         .model
         .iter()
-        .map(|p| crate::common::load_model_arg(p).with_context(|| format!("model {}", p.display())))
+        .map(|p| cmdline::load_model_arg(p).with_context(|| format!("model {}", p.display())))
         .collect::<Result<_>>()?;
     std::fs::create_dir_all(&a.out)?;
     let csv_path = a.out.join("learned_vs_volpath.csv");
@@ -169,7 +170,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                                 pb,
                             )
                         });
-                        crate::common::write_outputs(&dir, &names, &rep.images, true)?;
+                        cmdline::write_outputs(&dir, &names, &rep.images, true)?;
                         rep.images
                     }
                 };

@@ -1,0 +1,89 @@
+//! `translucent-dev`: the maintainers' measurements behind BENCHMARKS.md and docs/notes (the
+//! tracer's speed, the learned model's accuracy against the tracer and against random walks,
+//! loss scans, pixel and gradient noise). Users need only `translucent`; these diagnostics are
+//! kept apart so that its commands stay the product's.
+
+mod learned;
+mod noise;
+mod plane;
+mod scan;
+mod spread;
+mod volpath_bench;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "translucent-dev",
+    version,
+    about = "translucent's maintainer diagnostics: the measurements behind BENCHMARKS.md"
+)]
+struct Cli {
+    /// Worker threads (default: all cores). Same seed and thread count give the same output.
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    /// Less output (no progress bars).
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Paths per second of the volumetric path tracer on the reference sphere scene.
+    Volpath(volpath_bench::VolpathBenchArgs),
+    /// Accuracy of the learned BSSRDF (real and planar features) against the volumetric tracer.
+    #[command(name = "learned-vs-volpath")]
+    LearnedVsVolpath(learned::LearnedBenchArgs),
+    /// Learned models against directly simulated random walks on a half-space: absorption and
+    /// the radial distribution of exit points.
+    Plane(plane::PlaneBenchArgs),
+    /// Learned models against their held-out training data, binned by the surface's mean
+    /// curvature: exit distances (mean and tail quantiles) and absorption.
+    Spread(spread::SpreadBenchArgs),
+    /// The learned renderer's loss against a dataset's targets at scaled σ_t (α at the truth):
+    /// where its minimum lies, without an optimiser.
+    #[command(name = "loss-scan")]
+    LossScan(scan::LossScanArgs),
+    /// Per-pixel and loss-gradient variance of the learned renderer (each pixel-sampling scheme)
+    /// against the volumetric path tracer at equal time, on coloured media.
+    Noise(noise::NoiseBenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::new(if cli.quiet {
+            "warn"
+        } else {
+            "info"
+        }))
+        .with_target(false)
+        .without_time()
+        .with_writer(std::io::stderr)
+        .init();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    if let Some(n) = cli.threads {
+        anyhow::ensure!(n > 0, "--threads must be at least 1");
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()?;
+    }
+    cmdline::set_quiet(cli.quiet);
+    match cli.command {
+        Command::Volpath(a) => volpath_bench::run(&a),
+        Command::LearnedVsVolpath(a) => learned::run(&a),
+        Command::Plane(a) => plane::run(&a),
+        Command::Spread(a) => spread::run(&a),
+        Command::LossScan(a) => scan::run(&a),
+        Command::Noise(a) => noise::run(&a),
+    }
+}
