@@ -9,8 +9,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
-use scene::scene_file::RenderInfo;
-use scene::{Dataset, Medium, MeshSource, SceneDesc, ShapeSpec};
+use scene::{Medium, MeshSource, ShapeSpec};
 
 use cmdline::parse_rgb;
 use inverse::views::random_medium;
@@ -187,40 +186,7 @@ pub struct DatasetArgs {
     pub overwrite: bool,
 }
 
-pub use inverse::views::RenderOpts;
-
-/// Render a dataset and save it; returns it (with images).
-pub fn make_dataset(
-    rig: &Rig,
-    mesh: MeshSource,
-    medium: Medium,
-    opts: RenderOpts,
-    out: &std::path::Path,
-    overwrite: bool,
-) -> Result<Dataset> {
-    let desc = SceneDesc {
-        mesh,
-        medium,
-        views: rig.build(),
-        render: RenderInfo::default(),
-        path: out.join("dataset.json"),
-    };
-    render_dataset(desc, opts, out, overwrite)
-}
-
-/// Render a dataset with the volumetric path tracer and save it ([`inverse::views::render_dataset`]);
-/// returns it (with images).
-pub fn render_dataset(
-    desc: SceneDesc,
-    opts: RenderOpts,
-    out: &std::path::Path,
-    overwrite: bool,
-) -> Result<Dataset> {
-    let pb = cmdline::progress(inverse::views::total_rows(&desc.views), "volpath");
-    let ds = inverse::views::render_dataset(desc, opts, out, overwrite, &pb)?;
-    pb.finish_and_clear();
-    Ok(ds)
-}
+use inverse::views::{RenderOpts, make_dataset};
 
 pub fn run(a: &DatasetArgs) -> Result<()> {
     let rig = a.rig.rig()?;
@@ -237,6 +203,7 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
         },
         &a.out,
         a.overwrite,
+        &cmdline::Terminal,
     )?;
     println!(
         "dataset: {} views of {}×{} at {} spp -> {}",

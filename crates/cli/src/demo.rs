@@ -13,8 +13,8 @@ use clap::Args;
 use geometry::Shape;
 use scene::MeshSource;
 
-use crate::dataset_cmd::{RenderOpts, make_dataset};
 use inverse::views::random_medium;
+use inverse::views::{RenderOpts, make_dataset};
 use scene::rig::paper_rig;
 
 /// Marker file identifying a folder written by `translucent demo` (safe to overwrite).
@@ -91,6 +91,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         },
         &a.out,
         true,
+        &cmdline::Terminal,
     )?;
     std::fs::write(
         a.out.join(MARKER),
@@ -123,7 +124,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         return Ok(());
     }
     let o = recovery_args(a);
-    let c = crate::optimize_cmd::config_of(&o)?;
+    let c = cmdline::optimize::config_of(&o)?;
     println!(
         "recovering the medium from the images: {} iterations from σ_t = 50, α = 0.5 (Adam on \
          ln σ_t and α, α alone for the first {}), the learned BSSRDF (shipped model, estimator \
@@ -143,9 +144,9 @@ pub fn run(a: &DemoArgs) -> Result<()> {
 
 /// The demo's recovery: `optimize`'s defaults with the demo's iterations, seed and refinement,
 /// into `OUT/optimize`.
-pub(crate) fn recovery_args(a: &DemoArgs) -> crate::optimize_cmd::OptimizeArgs {
+pub(crate) fn recovery_args(a: &DemoArgs) -> cmdline::optimize::OptimizeArgs {
     let mut o =
-        crate::optimize_cmd::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
+        cmdline::optimize::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
     o.overwrite = true;

@@ -8,10 +8,10 @@ use anyhow::{Context, Result, bail};
 use bssrdf::diff::{DiffMethod, Primal};
 use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
 use clap::Args;
-use scene::{Dataset, Image, Medium};
+use scene::{Dataset, Medium};
 use std::path::PathBuf;
 
-use inverse::gradcheck::{EstimatorImages, agreement, render_estimators};
+use inverse::gradcheck::{agreement, render_estimators};
 
 use cmdline::{LearnedArgs, parse_rgb};
 use inverse::views::build_accel;
@@ -111,7 +111,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         a.delta_rel,
         a.primal,
     )?;
-    write_estimators(&results, &a.out, a.overwrite)?;
+    inverse::gradcheck::write_estimators(&results, &a.out, a.overwrite)?;
     println!(
         "view {} of {}, σ_t = {:?}, α = {:?}, {} spp",
         a.view,
@@ -163,31 +163,5 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
     }
     scene::fsutil::atomic_write(&a.out.join("gradcheck.csv"), csv.as_bytes(), a.overwrite)?;
     println!("wrote {}", a.out.display());
-    Ok(())
-}
-
-/// Writes each estimator's two derivative images as EXR and as false-colour PNG
-/// (`<method>_d_sigma_t`, `<method>_d_albedo`), one colour range per parameter: the 99th
-/// percentile of the differences' |∂I| (the last of `results`), so the estimators compare.
-pub fn write_estimators(
-    results: &[EstimatorImages],
-    out: &std::path::Path,
-    overwrite: bool,
-) -> Result<()> {
-    let fd = &results.last().context("no derivative images")?.images;
-    let zero = Image::new(fd.value.width, fd.value.height);
-    let (_, r_t) = Image::false_colour_diff_with_range(&fd.d_sigma_t, &zero, None)?;
-    let (_, r_a) = Image::false_colour_diff_with_range(&fd.d_albedo, &zero, None)?;
-    for r in results {
-        for (what, d, range) in [
-            ("d_sigma_t", &r.images.d_sigma_t, r_t),
-            ("d_albedo", &r.images.d_albedo, r_a),
-        ] {
-            let stem = format!("{}_{what}", r.method.name());
-            d.write_exr(&out.join(format!("{stem}.exr")), overwrite)?;
-            let (fc, _) = Image::false_colour_diff_with_range(d, &zero, Some(range))?;
-            fc.write_png(&out.join(format!("{stem}.png")), 1.0, overwrite)?;
-        }
-    }
     Ok(())
 }

@@ -7,14 +7,12 @@ mod dataset_cmd;
 mod demo;
 #[cfg(test)]
 mod docs_options;
-mod experiment;
 mod generate_cmd;
 mod gradcheck_cmd;
 mod model_cmd;
 mod optimize_cmd;
 mod render_cmd;
 mod train_cmd;
-mod train_fit;
 mod validate;
 
 use std::path::PathBuf;
@@ -73,7 +71,7 @@ enum Command {
     ///
     /// Differentiable rendering with the learned BSSRDF (Son et al. 2024) or a baseline model:
     /// Adam, checkpoints, intervals, a consistency check, convergence plots, result.json.
-    Optimize(Box<optimize_cmd::OptimizeArgs>),
+    Optimize(Box<cmdline::optimize::OptimizeArgs>),
     /// Derivative images of one view by each estimator against finite differences.
     ///
     /// ∂I/∂σ_t and ∂I/∂α of one view by several gradient estimators against central
@@ -188,7 +186,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Dataset(a) => dataset_cmd::run(&a),
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
-        Command::Experiment(e) => experiment::run(&e),
+        Command::Experiment(e) => Ok(experiment::run(&e, &cmdline::Terminal)?),
         Command::Generate(g) => generate_cmd::run(&g, Cli::command()),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),

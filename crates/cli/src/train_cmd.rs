@@ -16,8 +16,8 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use learn::datagen::{DataConfig, generate};
 use learn::samplefile::{SampleFileHeader, write_samples};
+use learn::train::{Objective, TrainConfig};
 
-use crate::train_fit::run_fit;
 use cmdline::{arg_defaults, progress};
 
 #[derive(Subcommand)]
@@ -280,6 +280,60 @@ fn run_data(a: &DataArgs) -> Result<()> {
     Ok(())
 }
 
+/// The training configuration `a` asks for (without `--resume`).
+pub fn train_config(a: &FitArgs) -> Result<TrainConfig> {
+    Ok(TrainConfig {
+        widths: a.widths.parse().map_err(anyhow::Error::msg)?,
+        batch_size: a.batch,
+        steps: a.steps,
+        adam: learn::optim::AdamConfig {
+            lr: a.lr,
+            decay: a.lr_decay,
+            decay_every: a.lr_decay_every,
+            floor_fraction: a.lr_floor,
+            clip_norm: a.clip,
+            ..Default::default()
+        },
+        weights: learn::cvae::LossWeights {
+            position: a.position_weight,
+            ..Default::default()
+        },
+        seed: a.seed,
+        eval_every: a.eval_every.max(1),
+        checkpoint_every: a.checkpoint_every.max(1),
+        objective: match a.objective {
+            learn::train::ObjectiveKind::Energy => Objective::EnergyScore {
+                draws: a.draws,
+                weight: a.energy_weight,
+            },
+            learn::train::ObjectiveKind::Cvae => Objective::Cvae,
+        },
+    })
+}
+
+/// `train fit`: the run `a` asks for ([`learn::fit::run`]), with a progress bar and a summary.
+pub fn run_fit(a: &FitArgs) -> Result<()> {
+    let run = learn::fit::FitRun {
+        data: a.data.clone(),
+        out: a.out.clone(),
+        init: a.init.clone(),
+        resume: a.resume,
+        overwrite: a.overwrite,
+        config: train_config(a)?,
+    };
+    let done = learn::fit::run(&run, &cmdline::progress(0, "train"))?;
+    println!(
+        "trained {} steps ({} this run) in {:.1} s ({:.0} samples/s); validation: {}",
+        done.steps,
+        done.steps_this_run,
+        done.seconds,
+        done.samples_per_second,
+        done.validation.unwrap_or_default()
+    );
+    println!("model -> {}", done.model.display());
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -320,7 +374,7 @@ mod tests {
         };
         let stage = energy_stage(&cvae, "o/model".into());
         assert_eq!(stage.init, Some(PathBuf::from("o/cvae/model.safetensors")));
-        let want = crate::train_fit::train_config(&stage).unwrap();
+        let want = train_config(&stage).unwrap();
         let shipped = cmdline::LearnedArgs::shipped_model().unwrap();
         let prov = &shipped.info().provenance;
         let got: learn::train::TrainConfig =

@@ -9,7 +9,7 @@
 //!
 //! The acceptance asks for that agreement "at equal or lower render time". `--equal-time` renders
 //! for the time Mitsuba took (scene.json's median seconds per view, or `--time-per-view`): every
-//! view advances by passes of [`EQUAL_TIME_PASS`] spp ([`volpath::Progressive`], which continues
+//! view advances by passes of [`inverse::views::EQUAL_TIME_PASS`] spp ([`volpath::Progressive`], which continues
 //! each pixel's random streams, so the result is the image of a single render at the spp
 //! reached) until the next pass would overrun the budget. The spp reached depends on the
 //! machine; it is printed, and `--spp` with it reproduces the images bit for bit.
@@ -19,15 +19,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use geometry::LightBins;
 use inverse::forward::ModelKind;
-use rayon::prelude::*;
 use scene::scene_file::ViewDesc;
 use scene::{Dataset, Image};
-use volpath::{Progressive, VolpathScene, VolpathSettings, shadow_lists};
+use volpath::VolpathSettings;
 
 use cmdline::{LearnedArgs, by_rows, check_output_free, progress, write_outputs};
-use inverse::views::{RenderReport, build_accel};
+use inverse::views::build_accel;
 use scene::image::pair_stats;
 
 #[derive(Args)]
@@ -96,9 +94,6 @@ fn mitsuba_seconds(dir: &std::path::Path) -> Option<(f64, u32)> {
     Some((s, spp))
 }
 
-/// Samples per pixel of one `--equal-time` pass.
-const EQUAL_TIME_PASS: u32 = 32;
-
 /// The `--equal-time` budget in seconds per view: `--time-per-view`, else Mitsuba's render time
 /// from scene.json. `None` without `--equal-time`.
 fn equal_time_budget(a: &ValidateArgs) -> Result<Option<f64>> {
@@ -120,93 +115,6 @@ fn equal_time_budget(a: &ValidateArgs) -> Result<Option<f64>> {
         "--time-per-view must be a positive number of seconds (got {s})"
     );
     Ok(Some(s))
-}
-
-/// When to stop rendering passes within a time budget: after each pass, another one is started
-/// only if the time so far plus the slowest pass so far stays within the budget.
-#[derive(Debug, Clone, Copy)]
-struct PassBudget {
-    total: f64,
-    slowest: f64,
-}
-
-impl PassBudget {
-    fn new(total_seconds: f64) -> Self {
-        Self {
-            total: total_seconds,
-            slowest: 0.0,
-        }
-    }
-
-    /// After a pass that took `pass` seconds, with `elapsed` seconds spent in all: start another?
-    fn another(&mut self, elapsed: f64, pass: f64) -> bool {
-        self.slowest = self.slowest.max(pass);
-        elapsed + self.slowest <= self.total
-    }
-}
-
-/// Render every view in passes of [`EQUAL_TIME_PASS`] spp until the next pass (estimated by the
-/// slowest pass so far) would take the whole render past `budget` seconds per view. At least one
-/// pass. Views that share a light share its shadow lists. Returns the images and their spp.
-fn render_equal_time(
-    accel: &geometry::Accel,
-    medium: &scene::Medium,
-    views: &[ViewDesc],
-    seed: u64,
-    settings: &VolpathSettings,
-    budget: f64,
-) -> (RenderReport, u32) {
-    let t0 = Instant::now();
-    let total = budget * views.len() as f64;
-    let pb = progress((total * 1000.0).ceil() as u64, "equal time");
-    let scene_of = |v: &ViewDesc| VolpathScene {
-        accel,
-        medium: *medium,
-        light: Some(v.light),
-        environment: None,
-        light_bins: None,
-    };
-    let mut lists: Vec<(glam::Vec3, Option<LightBins>)> = Vec::new();
-    for v in views {
-        if !lists.iter().any(|(p, _)| *p == v.light.position) {
-            lists.push((v.light.position, shadow_lists(&scene_of(v), settings)));
-        }
-    }
-    let mut renders: Vec<Progressive> = views
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let scene = VolpathScene {
-                light_bins: lists
-                    .iter()
-                    .find(|(p, _)| *p == v.light.position)
-                    .and_then(|(_, b)| b.as_ref()),
-                ..scene_of(v)
-            };
-            Progressive::new(&scene, settings, &v.camera, seed, i as u64)
-        })
-        .collect();
-    let mut passes = PassBudget::new(total);
-    loop {
-        let tp = Instant::now();
-        // All views of a pass in one parallel job, so that the threads wait for each other
-        // once per pass, not once per view.
-        renders
-            .par_iter_mut()
-            .for_each(|r| r.advance(EQUAL_TIME_PASS, None));
-        pb.set_position((t0.elapsed().as_secs_f64() * 1000.0) as u64);
-        if !passes.another(t0.elapsed().as_secs_f64(), tp.elapsed().as_secs_f64()) {
-            break;
-        }
-    }
-    pb.finish_and_clear();
-    let per_view = t0.elapsed().as_secs_f64() / views.len() as f64;
-    let report = RenderReport {
-        images: renders.iter().map(Progressive::image).collect(),
-        derivatives: Vec::new(),
-        seconds_per_view: vec![per_view; views.len()],
-    };
-    (report, renders[0].spp())
 }
 
 pub fn run(a: &ValidateArgs) -> Result<()> {
@@ -270,8 +178,10 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     };
     let rep = match (learned, budget) {
         (false, Some(budget)) => {
-            let (images, reached) =
-                render_equal_time(&accel, &medium, &views, a.seed, &settings, budget);
+            let pb = progress(0, "equal time");
+            let (images, reached) = inverse::views::volpath_equal_time(
+                &accel, &medium, &views, a.seed, &settings, budget, &pb,
+            );
             spp = reached;
             images
         }
@@ -358,7 +268,8 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     if let Some(budget) = budget {
         println!(
             "equal time: {spp} spp in {per_view:.3} s/view against a budget of {budget:.3} s/view \
-             (passes of {EQUAL_TIME_PASS} spp; `--spp {spp}` gives the same images)"
+             (passes of {} spp; `--spp {spp}` gives the same images)",
+            inverse::views::EQUAL_TIME_PASS
         );
     }
     match mitsuba_seconds(&a.dir) {
@@ -382,32 +293,4 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     }
     println!("all {} views within tolerance", views.len());
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::PassBudget;
-
-    /// Passes continue while the time so far plus the slowest pass fits the budget; a slow pass
-    /// makes the estimate of the next one pessimistic; at least one pass is always rendered
-    /// (the caller renders before asking).
-    #[test]
-    fn pass_budget_stops_before_the_slowest_pass_would_overrun() {
-        let mut b = PassBudget::new(1.0);
-        assert!(b.another(0.2, 0.2));
-        assert!(b.another(0.4, 0.2));
-        assert!(b.another(0.6, 0.2));
-        assert!(b.another(0.8, 0.2));
-        assert!(!b.another(1.0, 0.2));
-
-        let mut b = PassBudget::new(1.0);
-        assert!(b.another(0.1, 0.1));
-        assert!(!b.another(0.6, 0.5), "0.6 s + a 0.5 s pass overruns 1 s");
-
-        let mut b = PassBudget::new(0.1);
-        assert!(
-            !b.another(0.3, 0.3),
-            "one pass over the whole budget: stop after it"
-        );
-    }
 }

@@ -35,13 +35,33 @@ pub enum CmdlineError {
         "--method {0}: the renderer is chosen with --model (learned, volpath, dipole or a model file)"
     )]
     MethodFlag(String),
+    /// An option's value, or a combination of options, that cannot run (the message names them).
+    #[error("{0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Recovery(#[from] inverse::recovery::RecoveryError),
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
     #[error(transparent)]
     Model(#[from] bssrdf::model::ModelError),
 }
 
-type Result<T, E = CmdlineError> = std::result::Result<T, E>;
+pub type Result<T, E = CmdlineError> = std::result::Result<T, E>;
+
+pub mod optimize;
+
+/// The terminal as an observer of the library's work ([`inverse::recovery::Observer`]): its
+/// lines on stdout, its progress bars on stderr (hidden with `--quiet`).
+pub struct Terminal;
+
+impl inverse::recovery::Observer for Terminal {
+    fn progress(&self, len: u64, label: &str) -> ProgressBar {
+        progress(len, label)
+    }
+    fn say(&self, line: &str) {
+        println!("{line}");
+    }
+}
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 

@@ -128,6 +128,34 @@ pub fn render_estimators(
         .collect()
 }
 
+/// Writes each estimator's two derivative images as EXR and as false-colour PNG
+/// (`<method>_d_sigma_t`, `<method>_d_albedo`), one colour range per parameter: the 99th
+/// percentile of the differences' |∂I| (the last of `results`), so the estimators compare.
+pub fn write_estimators(
+    results: &[EstimatorImages],
+    out: &std::path::Path,
+    overwrite: bool,
+) -> Result<(), scene::SceneError> {
+    let Some(fd) = results.last().map(|r| &r.images) else {
+        return Ok(());
+    };
+    let zero = Image::new(fd.value.width, fd.value.height);
+    let (_, r_t) = Image::false_colour_diff_with_range(&fd.d_sigma_t, &zero, None)?;
+    let (_, r_a) = Image::false_colour_diff_with_range(&fd.d_albedo, &zero, None)?;
+    for r in results {
+        for (what, d, range) in [
+            ("d_sigma_t", &r.images.d_sigma_t, r_t),
+            ("d_albedo", &r.images.d_albedo, r_a),
+        ] {
+            let stem = format!("{}_{what}", r.method.name());
+            d.write_exr(&out.join(format!("{stem}.exr")), overwrite)?;
+            let (fc, _) = Image::false_colour_diff_with_range(d, &zero, Some(range))?;
+            fc.write_png(&out.join(format!("{stem}.png")), 1.0, overwrite)?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -11,10 +11,12 @@ use std::time::Instant;
 
 use geometry::{Accel, LightBins};
 use indicatif::ProgressBar;
+use rayon::prelude::*;
 use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
 use scene::{Dataset, Image, Medium};
 use volpath::{
-    RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings, render_image, shadow_lists,
+    Progressive, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings, render_image,
+    shadow_lists,
 };
 
 use crate::optimize::InverseError;
@@ -275,5 +277,149 @@ pub fn random_medium(seed: u64) -> Medium {
         albedo,
         g: 0.0,
         eta: 1.0,
+    }
+}
+
+/// Renders the views of `rig` around `mesh` in `medium` with the volumetric path tracer and saves
+/// them as a dataset in `out` ([`render_dataset`]), with a progress bar of one step per image row
+/// from `obs`; returns it, with images.
+pub fn make_dataset(
+    rig: &scene::Rig,
+    mesh: scene::MeshSource,
+    medium: Medium,
+    opts: RenderOpts,
+    out: &Path,
+    overwrite: bool,
+    obs: &dyn crate::recovery::Observer,
+) -> Result<Dataset, InverseError> {
+    let desc = SceneDesc {
+        mesh,
+        medium,
+        views: rig.build(),
+        render: RenderInfo::default(),
+        path: out.join("dataset.json"),
+    };
+    let pb = obs.progress(total_rows(&desc.views), "volpath");
+    let ds = render_dataset(desc, opts, out, overwrite, &pb)?;
+    pb.finish_and_clear();
+    Ok(ds)
+}
+
+/// Samples per pixel of one pass of [`volpath_equal_time`].
+pub const EQUAL_TIME_PASS: u32 = 32;
+
+/// When to stop rendering passes within a time budget: after each pass, another one is started
+/// only if the time so far plus the slowest pass so far stays within the budget.
+#[derive(Debug, Clone, Copy)]
+pub struct PassBudget {
+    total: f64,
+    slowest: f64,
+}
+
+impl PassBudget {
+    pub fn new(total_seconds: f64) -> Self {
+        Self {
+            total: total_seconds,
+            slowest: 0.0,
+        }
+    }
+
+    /// After a pass that took `pass` seconds, with `elapsed` seconds spent in all: start another?
+    pub fn another(&mut self, elapsed: f64, pass: f64) -> bool {
+        self.slowest = self.slowest.max(pass);
+        elapsed + self.slowest <= self.total
+    }
+}
+
+/// Renders every view with the volumetric path tracer in passes of [`EQUAL_TIME_PASS`] spp until the next pass (estimated by the
+/// slowest pass so far) would take the whole render past `budget` seconds per view. At least one
+/// pass. Views that share a light share its shadow lists. Returns the images and their spp.
+/// `pb` advances in milliseconds of the whole budget.
+pub fn volpath_equal_time(
+    accel: &Accel,
+    medium: &Medium,
+    views: &[ViewDesc],
+    seed: u64,
+    settings: &VolpathSettings,
+    budget: f64,
+    pb: &ProgressBar,
+) -> (RenderReport, u32) {
+    let t0 = Instant::now();
+    let total = budget * views.len() as f64;
+    pb.set_length((total * 1000.0).ceil() as u64);
+    let scene_of = |v: &ViewDesc| VolpathScene {
+        accel,
+        medium: *medium,
+        light: Some(v.light),
+        environment: None,
+        light_bins: None,
+    };
+    let mut lists: Vec<(glam::Vec3, Option<LightBins>)> = Vec::new();
+    for v in views {
+        if !lists.iter().any(|(p, _)| *p == v.light.position) {
+            lists.push((v.light.position, shadow_lists(&scene_of(v), settings)));
+        }
+    }
+    let mut renders: Vec<Progressive> = views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let scene = VolpathScene {
+                light_bins: lists
+                    .iter()
+                    .find(|(p, _)| *p == v.light.position)
+                    .and_then(|(_, b)| b.as_ref()),
+                ..scene_of(v)
+            };
+            Progressive::new(&scene, settings, &v.camera, seed, i as u64)
+        })
+        .collect();
+    let mut passes = PassBudget::new(total);
+    loop {
+        let tp = Instant::now();
+        // All views of a pass in one parallel job, so that the threads wait for each other
+        // once per pass, not once per view.
+        renders
+            .par_iter_mut()
+            .for_each(|r| r.advance(EQUAL_TIME_PASS, None));
+        pb.set_position((t0.elapsed().as_secs_f64() * 1000.0) as u64);
+        if !passes.another(t0.elapsed().as_secs_f64(), tp.elapsed().as_secs_f64()) {
+            break;
+        }
+    }
+    pb.finish_and_clear();
+    let per_view = t0.elapsed().as_secs_f64() / views.len() as f64;
+    let report = RenderReport {
+        images: renders.iter().map(Progressive::image).collect(),
+        derivatives: Vec::new(),
+        seconds_per_view: vec![per_view; views.len()],
+    };
+    (report, renders[0].spp())
+}
+#[cfg(test)]
+mod tests {
+    use super::PassBudget;
+
+    /// Passes continue while the time so far plus the slowest pass fits the budget; a slow pass
+    /// makes the estimate of the next one pessimistic; at least one pass is always rendered
+    /// (the caller renders before asking).
+    #[test]
+    fn pass_budget_stops_before_the_slowest_pass_would_overrun() {
+        let mut b = PassBudget::new(1.0);
+        assert!(b.another(0.2, 0.2));
+        assert!(b.another(0.4, 0.2));
+        assert!(b.another(0.6, 0.2));
+        assert!(b.another(0.8, 0.2));
+        assert!(!b.another(1.0, 0.2));
+
+        let mut b = PassBudget::new(1.0);
+        assert!(b.another(0.1, 0.1));
+        assert!(!b.another(0.6, 0.5), "0.6 s + a 0.5 s pass overruns 1 s");
+
+        let mut b = PassBudget::new(0.1);
+        assert!(
+            !b.another(0.3, 0.3),
+            "one pass over the whole budget: stop after it"
+        );
     }
 }

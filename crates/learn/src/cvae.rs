@@ -511,3 +511,45 @@ pub fn loss_only(
         pass::run(model, batch, r, weights, inv, g, t)
     }))
 }
+
+impl std::str::FromStr for Widths {
+    type Err = String;
+
+    /// Parses `son24`, `vkj19` or `F=..;A=..;D=..;E=..` (the `--widths` of `train fit`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "son24" => return Ok(Self::son24()),
+            "vkj19" => return Ok(Self::vkj19()),
+            _ => {}
+        }
+        let mut w = Self::son24();
+        for part in s.split(';').filter(|p| !p.trim().is_empty()) {
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| format!("--widths: '{part}' is not KEY=w1,w2,…"))?;
+            let list: Vec<usize> = v
+                .split(',')
+                .map(|x| x.trim().parse::<usize>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("--widths: '{v}' is not a list of integers"))?;
+            if list.contains(&0) {
+                return Err("--widths: widths must be ≥ 1".into());
+            }
+            match k.trim() {
+                "F" => w.feature = list,
+                "A" => w.absorption_hidden = list,
+                "D" => w.decoder_hidden = list,
+                "E" => w.encoder_hidden = list,
+                other => {
+                    return Err(format!(
+                        "--widths: unknown block '{other}' (use F, A, D, E)"
+                    ));
+                }
+            }
+        }
+        if w.feature.is_empty() {
+            return Err("--widths: F needs at least one layer".into());
+        }
+        Ok(w)
+    }
+}

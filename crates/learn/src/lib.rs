@@ -19,6 +19,7 @@
 pub mod cvae;
 pub mod datagen;
 pub mod energy;
+pub mod fit;
 pub mod mlp_grad;
 /// Adam lives in `base`, shared with the inverse loop.
 pub use base::optim;

@@ -6,22 +6,23 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use crate::bail;
+use crate::error::{Context, Result};
 use inverse::params::Params;
 use plot::{Figure, Panel, Series};
 
-use super::AccuracyArgs;
+use crate::accuracy::AccuracyArgs;
 
 /// One finished run.
 #[derive(Clone)]
-pub(super) struct Row {
-    pub(super) case: String,
-    pub(super) method: String,
-    pub(super) init: Params,
-    pub(super) truth: Params,
-    pub(super) estimate: Params,
-    pub(super) seconds_per_iteration: f64,
-    pub(super) run_dir: PathBuf,
+pub struct Row {
+    pub case: String,
+    pub method: String,
+    pub init: Params,
+    pub truth: Params,
+    pub estimate: Params,
+    pub seconds_per_iteration: f64,
+    pub run_dir: PathBuf,
 }
 
 impl Row {
@@ -51,12 +52,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// The Markdown table and the per-method summary.
 /// The Markdown report: every row, then the per-group summary (each method of `rows`, the random
 /// initialisations `init_rows` and, when bias-corrected, their corrections `init_bc_rows`).
-pub(super) fn report(
-    a: &AccuracyArgs,
-    rows: &[Row],
-    init_rows: &[Row],
-    init_bc_rows: &[Row],
-) -> String {
+pub fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row], init_bc_rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -171,7 +167,7 @@ pub(super) fn report(
     s
 }
 
-pub(super) fn results_csv<'a>(rows: impl Iterator<Item = &'a Row>) -> String {
+pub fn results_csv<'a>(rows: impl Iterator<Item = &'a Row>) -> String {
     let mut s = String::from(
         "case,method,init_sigma_t_r,init_sigma_t_g,init_sigma_t_b,init_albedo_r,init_albedo_g,init_albedo_b,\
          truth_sigma_t_r,truth_sigma_t_g,truth_sigma_t_b,truth_albedo_r,truth_albedo_g,truth_albedo_b,\
@@ -199,7 +195,7 @@ pub(super) fn results_csv<'a>(rows: impl Iterator<Item = &'a Row>) -> String {
 
 /// σ_t and α of every random initialisation against the iteration (from the runs'
 /// iterations.csv), truth dashed: paper Fig. 7.
-pub(super) fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
+pub fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
     const CH: [&str; 3] = ["R", "G", "B"];
     let traj: Vec<Vec<[f64; 7]>> = rows
         .iter()
@@ -238,7 +234,7 @@ pub(super) fn inits_plot(rows: &[Row], path: &Path) -> Result<()> {
 }
 
 /// (iteration, σ_t R/G/B, α R/G/B) per row of an `iterations.csv`.
-pub(super) fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
+pub fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     text.lines()
@@ -262,15 +258,15 @@ pub(super) fn read_trajectory(path: &Path) -> Result<Vec<[f64; 7]>> {
 /// One iteration of a run, read by column name from an `iterations.csv` (ours or
 /// `tools/mitsuba/prb_optimize.py`'s): iteration, cumulative seconds at its end, σ_t and α.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Step {
-    pub(super) iteration: f64,
-    pub(super) seconds: f64,
-    pub(super) sigma_t: [f64; 3],
-    pub(super) albedo: [f64; 3],
+pub struct Step {
+    pub iteration: f64,
+    pub seconds: f64,
+    pub sigma_t: [f64; 3],
+    pub albedo: [f64; 3],
 }
 
 /// The steps of `path` (module docs of [`Step`]).
-pub(super) fn read_steps(path: &Path) -> Result<Vec<Step>> {
+pub fn read_steps(path: &Path) -> Result<Vec<Step>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();

@@ -8,17 +8,18 @@
 //! the first view side by side with the target (`OUT/renders-<case>.png`: target, then each
 //! method, one exposure).
 
+use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use crate::error::{Context, Result};
 use clap::Args;
 use plot::{Figure, Panel, Series};
 use scene::Image;
 
 use super::report::{Row, read_trajectory};
-use super::{AccuracyArgs, accuracy};
-use crate::optimize_cmd::IterationArgs;
+use crate::accuracy::{AccuracyArgs, accuracy};
 use cmdline::arg_defaults;
+use cmdline::optimize::IterationArgs;
 
 #[derive(Args)]
 pub struct PlanarArgs {
@@ -46,7 +47,7 @@ pub struct PlanarArgs {
 /// The methods compared (paper Fig. 6).
 const METHODS: [&str; 3] = ["ours", "naive", "dipole"];
 
-pub fn run(a: &PlanarArgs) -> Result<()> {
+pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
     let out = a.out.to_string_lossy().to_string();
     let mut acc: AccuracyArgs = arg_defaults(&["--out", &out]);
     acc.shapes = a.shapes.clone();
@@ -56,13 +57,13 @@ pub fn run(a: &PlanarArgs) -> Result<()> {
     acc.methods = METHODS.map(String::from).to_vec();
     acc.inits = 0;
     // The paper compares the plain methods.
-    acc.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
+    acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
     if a.quick {
         (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();
-    let rows = accuracy(&acc)?;
+    let rows = accuracy(&acc, obs)?;
     if a.jobs.list_jobs {
         return Ok(());
     }
@@ -76,11 +77,11 @@ pub fn run(a: &PlanarArgs) -> Result<()> {
         let (renders, exposure) = side_by_side(&of_case)?;
         renders.write_png(&a.out.join(format!("renders-{case}.png")), exposure, true)?;
     }
-    println!(
+    obs.say(&format!(
         "wrote {} (planar-<case>.png/.svg: errors over iterations; renders-<case>.png: target, {})",
         a.out.display(),
         METHODS.join(", ")
-    );
+    ));
     Ok(())
 }
 

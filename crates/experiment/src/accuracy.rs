@@ -21,62 +21,20 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
-use clap::{Args, Subcommand};
+use clap::Args;
+use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 use geometry::Shape;
 use inverse::forward::ModelKind;
 use inverse::params::Params;
-use scene::rig::Rig;
+use inverse::recovery::Observer;
+use inverse::views::{RenderOpts, make_dataset, random_medium};
+use scene::rig::{Rig, paper_rig};
 use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
-mod gradients;
-mod inits;
-pub(crate) mod jobs;
-mod planar;
-mod prb;
-mod report;
-pub(crate) mod robustness;
-mod timing;
-mod volumetric;
-
-use report::{Row, inits_plot, report, results_csv};
-
-use crate::dataset_cmd::{RenderOpts, make_dataset};
-use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
-use inverse::views::random_medium;
-use scene::rig::paper_rig;
-
-#[derive(Subcommand)]
-pub enum ExperimentCommand {
-    /// Accuracy of the recovered σ_t and α on volumetric-path-traced datasets (paper Table 1,
-    /// Fig. 7): shapes × media, methods, random initialisations.
-    Accuracy(Box<AccuracyArgs>),
-    /// `optimize`'s defaults on twelve cases we did not tune on (flash, fixed light, turntable,
-    /// back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh file): errors, 95 % intervals
-    /// and their calibration, whether σ_t is determined, consistency, status.
-    Robustness(Box<robustness::RobustnessArgs>),
-    /// Seconds per iteration of every forward model × estimator at the paper's workload
-    /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
-    /// `--mitsuba-python`.
-    Timing(timing::TimingArgs),
-    /// Derivative images of the learned renderer's estimators (ours, naive) against central
-    /// differences on a cone and a blob (paper Fig. 3 and 5): relative error of the summed
-    /// derivative and per-pixel correlation.
-    Gradients(gradients::GradientsArgs),
-    /// The paper's comparison with the planar dipole (Fig. 6): ours, naive and the dipole on
-    /// three shapes × two media; errors over iterations and re-renders side by side.
-    Planar(planar::PlanarArgs),
-    /// Random initialisations on one case (paper Fig. 7): the mean ± s.d. of the errors over
-    /// the iterations, and every start's curve.
-    Inits(inits::InitsArgs),
-    /// σ_t alone with α fixed, grey medium (paper Fig. 8): ours at 32 spp against the
-    /// volumetric baseline at 32 and 128 spp, at equal iterations and at equal time.
-    Volumetric(volumetric::VolumetricArgs),
-    /// RGB σ_t and α (paper Fig. 9): ours against the volumetric baseline and, with
-    /// `--mitsuba-python`, Mitsuba 3's PRB, by iterations and by time.
-    Prb(prb::PrbArgs),
-}
+use crate::error::{Context, Result};
+use crate::report::{Row, inits_plot, report, results_csv};
+use crate::{bail, baseline_model, jobs};
 
 #[derive(Args)]
 pub struct AccuracyArgs {
@@ -132,22 +90,9 @@ pub struct AccuracyArgs {
     pub jobs: jobs::JobArgs,
 }
 
-pub fn run(cmd: &ExperimentCommand) -> Result<()> {
-    match cmd {
-        ExperimentCommand::Accuracy(a) => accuracy(a).map(|_| ()),
-        ExperimentCommand::Robustness(a) => robustness::run(a),
-        ExperimentCommand::Timing(a) => timing::run(a),
-        ExperimentCommand::Gradients(a) => gradients::run(a),
-        ExperimentCommand::Planar(a) => planar::run(a),
-        ExperimentCommand::Inits(a) => inits::run(a),
-        ExperimentCommand::Volumetric(a) => volumetric::run(a),
-        ExperimentCommand::Prb(a) => prb::run(a),
-    }
-}
-
 /// Runs the accuracy experiment; returns every row: the cases', then the random starts' (case
 /// `<name> init <i>`).
-fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
+pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
         bail!("--shapes, --methods and --media must name at least one of each");
     }
@@ -160,12 +105,12 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
                     let names = |it: &mut dyn Iterator<Item = &'static str>| {
                         it.collect::<Vec<_>>().join(", ")
                     };
-                    anyhow::anyhow!(
+                    crate::ExperimentError::Invalid(format!(
                         "--methods: unknown method {m:?} (expected an estimator of the learned \
                          model: {}, or a baseline model: {})",
                         names(&mut ModelKind::Learned.estimators().iter().map(|d| d.name())),
                         names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
-                    )
+                    ))
                 })?;
         }
     }
@@ -197,7 +142,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
         .map(|i| format!("{init_name}-init{i}"))
         .collect();
     let jobs: Vec<String> = names.iter().chain(&init_jobs).cloned().collect();
-    if a.jobs.listed(&jobs)? {
+    if a.jobs.listed(&jobs, obs)? {
         return Ok(Vec::new());
     }
     let _lock = a.jobs.lock(&a.out)?;
@@ -211,7 +156,16 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     let dataset = |name: &str, built: &Shape, medium: Medium| -> Result<()> {
         let dir = a.out.join("data").join(name);
         a.jobs.shared_input(&a.out, name, || {
-            ensure_dataset(a, &rig, built.clone(), medium, a.target_spp, &dir, name)
+            ensure_dataset(
+                a,
+                &rig,
+                built.clone(),
+                medium,
+                a.target_spp,
+                &dir,
+                name,
+                obs,
+            )
         })?;
         Ok(())
     };
@@ -241,7 +195,17 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
         let run = a.jobs.runs(name);
         for method in &a.methods {
             let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
-            let Some(row) = optimize(a, run, dir, &run_dir, method, default_init, medium, name)?
+            let Some(row) = optimize(
+                a,
+                run,
+                dir,
+                &run_dir,
+                method,
+                default_init,
+                medium,
+                name,
+                obs,
+            )?
             else {
                 missing.push(name.clone());
                 continue;
@@ -251,7 +215,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
                 for step in 1..=a.bc.bias_correction_steps {
                     let current = corrected.last().unwrap_or(&row);
                     match bias_corrected_row(
-                        a, run, &rig, shape, name, medium, &row, current, step,
+                        a, run, &rig, shape, name, medium, &row, current, step, obs,
                     )? {
                         Some(next) => corrected.push(next),
                         None => {
@@ -281,7 +245,17 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
             }
             let run_dir = a.out.join("runs").join(job);
             let label = format!("{name} init {i}");
-            let Some(row) = optimize(a, run, dir, &run_dir, &a.methods[0], init, medium, &label)?
+            let Some(row) = optimize(
+                a,
+                run,
+                dir,
+                &run_dir,
+                &a.methods[0],
+                init,
+                medium,
+                &label,
+                obs,
+            )?
             else {
                 missing.push(job.clone());
                 continue;
@@ -295,7 +269,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
                 0
             } {
                 let Some(c) = &current else { break };
-                current = bias_corrected_row(a, run, &rig, shape, job, medium, &row, c, step)?;
+                current = bias_corrected_row(a, run, &rig, shape, job, medium, &row, c, step, obs)?;
             }
             if a.bc.enabled() {
                 match current {
@@ -307,10 +281,10 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
         }
     }
     missing.dedup();
-    a.jobs.report_missing(&missing);
+    a.jobs.report_missing(&missing, obs);
 
     let table = report(a, &rows, &init_rows, &init_bc_rows);
-    print!("{table}");
+    obs.say(table.trim_end_matches('\n'));
     std::fs::write(a.out.join("table.md"), &table)?;
     std::fs::write(
         a.out.join("results.csv"),
@@ -319,7 +293,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
     if !init_rows.is_empty() {
         inits_plot(&init_rows, &a.out.join("inits.png"))?;
     }
-    println!(
+    obs.say(&format!(
         "wrote {} (table.md, results.csv{})",
         a.out.display(),
         if init_rows.is_empty() {
@@ -327,7 +301,7 @@ fn accuracy(a: &AccuracyArgs) -> Result<Vec<Row>> {
         } else {
             ", inits.png"
         }
-    );
+    ));
     Ok(rows
         .into_iter()
         .chain(init_rows)
@@ -352,6 +326,7 @@ fn bias_corrected_row(
     row: &Row,
     current: &Row,
     step: u32,
+    obs: &dyn Observer,
 ) -> Result<Option<Row>> {
     let at = current.estimate.medium(truth);
     let suffix = if step == 1 {
@@ -363,7 +338,7 @@ fn bias_corrected_row(
     let data = a.out.join("data").join(&boot);
     let spp = a.bc.bias_correction_spp.unwrap_or(a.target_spp);
     if run {
-        ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot)?;
+        ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot, obs)?;
     }
     let run_dir = a
         .out
@@ -378,6 +353,7 @@ fn bias_corrected_row(
         row.init,
         &at,
         &format!("{name} bootstrap {step}"),
+        obs,
     )?
     else {
         return Ok(None);
@@ -393,12 +369,12 @@ fn bias_corrected_row(
             })?;
     let (bs, ba) = inverse::bootstrap::estimated_bias(&current.estimate, &refit.estimate);
     if run {
-        println!(
+        obs.say(&format!(
             "bias of {} on {name} at step {step}'s medium: σ_t {:+.1?} %, α {:+.4?}",
             row.method,
             bs.map(|v| 100.0 * v),
             ba
-        );
+        ));
     }
     Ok(Some(Row {
         method: format!("{}+bc{suffix}", row.method),
@@ -410,6 +386,7 @@ fn bias_corrected_row(
 }
 
 /// Render the dataset unless `dir` already holds one with these settings.
+#[allow(clippy::too_many_arguments)]
 fn ensure_dataset(
     a: &AccuracyArgs,
     rig: &Rig,
@@ -418,6 +395,7 @@ fn ensure_dataset(
     spp: u32,
     dir: &Path,
     name: &str,
+    obs: &dyn Observer,
 ) -> Result<()> {
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
@@ -429,7 +407,7 @@ fn ensure_dataset(
                 .is_some_and(|v| v.camera.width == a.res && v.camera.height == a.res)
             && ds.render.spp == Some(spp);
         if same {
-            println!("dataset {name}: reusing {}", dir.display());
+            obs.say(&format!("dataset {name}: reusing {}", dir.display()));
             return Ok(());
         }
         bail!(
@@ -437,10 +415,10 @@ fn ensure_dataset(
             dir.display()
         );
     }
-    println!(
+    obs.say(&format!(
         "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",
         a.views, a.res, a.res, spp, medium.sigma_t, medium.albedo
-    );
+    ));
     make_dataset(
         rig,
         MeshSource::Shape(shape),
@@ -453,13 +431,14 @@ fn ensure_dataset(
         },
         dir,
         false,
+        obs,
     )?;
     Ok(())
 }
 
 /// The `optimize` settings of one run: its defaults with the experiment's budget, method, start
 /// and learned-renderer options.
-pub(crate) fn run_args(
+pub fn run_args(
     a: &AccuracyArgs,
     dataset: &Path,
     run_dir: &Path,
@@ -482,97 +461,9 @@ pub(crate) fn run_args(
     o.final_spp = 16;
     // The experiment corrects its runs itself (rows `<method>+bc`), and compares the learned
     // model's estimators on the learned model alone: no volumetric refinement.
-    o.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
+    o.bc = cmdline::optimize::BiasCorrectionArgs::off();
     o.refine = Some(0);
     o
-}
-
-/// The blob dataset of the single-dataset experiments in `dir`: `views` views of `res`² on the
-/// paper's rig (one fixed light), `medium`, targets by the volumetric path tracer at `spp`
-/// (depth 32, seed `seed`); rendered unless `dir` holds it already.
-pub(crate) fn blob_dataset(
-    dir: &Path,
-    views: usize,
-    res: u32,
-    medium: Medium,
-    spp: u32,
-    seed: u64,
-) -> Result<Dataset> {
-    if dir.join("dataset.json").exists() {
-        return Ok(Dataset::load(dir)?);
-    }
-    println!(
-        "dataset: blob, {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}",
-        medium.sigma_t, medium.albedo
-    );
-    make_dataset(
-        &paper_rig(views, res),
-        MeshSource::Shape(Shape::from_name("blob")?),
-        medium,
-        RenderOpts {
-            spp,
-            seed,
-            max_depth: 32,
-            shadow: Default::default(),
-        },
-        dir,
-        false,
-    )
-}
-
-/// Mitsuba 3's PRB (`tools/mitsuba/prb_optimize.py`, run by `python`) on the dataset `data`
-/// into `out`: `iterations` × `spp`, one view per iteration, seed `seed`. Returns its mean
-/// seconds per iteration after the first (from its `result.json`).
-pub(crate) fn run_prb(
-    python: &Path,
-    data: &Path,
-    out: &Path,
-    iterations: u32,
-    spp: u32,
-    seed: u64,
-) -> Result<f64> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
-    let status = std::process::Command::new(python)
-        .arg(&script)
-        .arg(data)
-        .args(["--iterations", &iterations.to_string()])
-        .args(["--spp", &spp.to_string()])
-        .args(["--seed", &seed.to_string()])
-        .args(["--views-per-iter", "1", "--print-every", "50"])
-        .args(["--overwrite", "--out"])
-        .arg(out)
-        .status()
-        .with_context(|| format!("running {}", python.display()))?;
-    if !status.success() {
-        bail!(
-            "{} {} failed ({status})",
-            python.display(),
-            script.display()
-        );
-    }
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json"))?)?;
-    v["seconds_per_iteration"]
-        .as_f64()
-        .context("PRB's result.json has no seconds_per_iteration")
-}
-
-/// The workload of the single-dataset experiments (views, resolution, target spp, iterations,
-/// spp): the paper's (40 views of 256², targets at 128 spp, `iterations` × 32 spp), or the
-/// smoke test's with `quick` (4 views of 32², 4 spp, 6 iterations × 2 spp).
-pub(crate) fn workload(quick: bool, iterations: u32) -> (usize, u32, u32, u32, u32) {
-    if quick {
-        (4, 32, 4, 6, 2)
-    } else {
-        (40, 256, 128, iterations, 32)
-    }
-}
-
-/// The baseline model a `--methods` entry names (`dipole`, `volpath`), if it names one.
-pub(crate) fn baseline_model(method: &str) -> Option<ModelKind> {
-    method
-        .parse::<ModelKind>()
-        .ok()
-        .filter(|m| *m != ModelKind::Learned)
 }
 
 /// Run (or resume, or reuse) one optimisation and read its result; with `run` false, only read
@@ -587,12 +478,13 @@ fn optimize(
     init: Params,
     truth: &Medium,
     label: &str,
+    obs: &dyn Observer,
 ) -> Result<Option<Row>> {
     let o = run_args(a, dataset, run_dir, method, init);
     let done = if run {
-        Some(run_or_reuse(&o, label)?)
+        Some(run_or_reuse(&o, obs, label)?)
     } else {
-        crate::optimize_cmd::finished_run(&o)?
+        cmdline::optimize::finished_run(&o)?
     };
     Ok(done.map(|done| Row {
         case: label.to_string(),

@@ -25,10 +25,12 @@
 //! the intervals hold the truth) and the accuracy where σ_t is determined. `OUT/robustness.md`
 //! and `OUT/robustness.csv`; an interrupted run continues where it stopped.
 
+use inverse::recovery::Observer;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use crate::bail;
+use crate::error::{Context, Result};
 use clap::Args;
 use glam::Vec3;
 use inverse::optimize::OptimizeConfig;
@@ -36,11 +38,11 @@ use scene::rig::{Rig, RigLight};
 use scene::{Dataset, Medium, MeshSource, RenderInfo, SceneDesc};
 use volpath::rng::Sampler;
 
-use crate::dataset_cmd::{RenderOpts, make_dataset};
-use crate::optimize_cmd::{IterationArgs, OptimizeArgs, run_or_reuse};
 use cmdline::by_rows;
+use cmdline::optimize::{IterationArgs, OptimizeArgs, run_or_reuse};
 use inverse::recovery::reuse::read_json;
 use inverse::views::build_accel;
+use inverse::views::{RenderOpts, make_dataset};
 
 #[derive(Args)]
 pub struct RobustnessArgs {
@@ -384,7 +386,13 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
 /// Σ_pixels target per channel. An estimate can be no better than this allows: a model that
 /// renders the truth 10 % too dark must move σ_t or α to match the images. Cached in
 /// `RUN/model-ratio.json`.
-fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Result<[f64; 3]> {
+fn model_ratio(
+    o: &OptimizeArgs,
+    data: &Path,
+    run_dir: &Path,
+    quick: bool,
+    obs: &dyn Observer,
+) -> Result<[f64; 3]> {
     let kind = o.learned.kind();
     if kind == inverse::forward::ModelKind::Volpath {
         // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches).
@@ -412,7 +420,7 @@ fn model_ratio(o: &OptimizeArgs, data: &Path, run_dir: &Path, quick: bool) -> Re
         seed: o.seed,
     };
     let rep = if kind == inverse::forward::ModelKind::Dipole {
-        let pb = cmdline::progress(views.len() as u64, "dipole");
+        let pb = obs.progress(views.len() as u64, "dipole");
         let rep = inverse::views::dipole(&job, false, &pb)?;
         pb.finish_and_clear();
         rep
@@ -456,6 +464,7 @@ fn ensure_dataset(
     rep: u64,
     targets: Targets,
     dir: &Path,
+    obs: &dyn Observer,
 ) -> Result<()> {
     let spp = if a.quick { 8 } else { a.target_spp };
     let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
@@ -479,14 +488,14 @@ fn ensure_dataset(
             dir.display()
         );
     }
-    println!(
+    obs.say(&format!(
         "dataset {} (repetition {rep}, {} targets): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",
         case.name,
         targets.name(),
         case.medium.sigma_t,
         case.medium.albedo,
         0.5 * case.scale
-    );
+    ));
     let mesh_dir = dir.with_extension("mesh");
     match targets {
         Targets::Volpath => {
@@ -503,6 +512,7 @@ fn ensure_dataset(
                 },
                 dir,
                 false,
+                obs,
             )?;
         }
         Targets::Mitsuba => {
@@ -603,9 +613,9 @@ fn mitsuba_available(a: &RobustnessArgs) -> std::result::Result<String, String> 
 
 /// The target renderers of this run (`--targets`, or the default: ours, and Mitsuba's when
 /// found and not `--quick`).
-fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
+fn target_renderers(a: &RobustnessArgs, obs: &dyn Observer) -> Result<Vec<Targets>> {
     if let Some(t) = &a.targets {
-        anyhow::ensure!(!t.is_empty(), "--targets: name volpath, mitsuba or both");
+        crate::ensure!(!t.is_empty(), "--targets: name volpath, mitsuba or both");
         if t.contains(&Targets::Mitsuba)
             && let Err(why) = mitsuba_available(a)
         {
@@ -624,15 +634,15 @@ fn target_renderers(a: &RobustnessArgs) -> Result<Vec<Targets>> {
     match mitsuba_available(a) {
         Ok(v) => {
             if say {
-                println!("targets: our volumetric path tracer and {v}");
+                obs.say(&format!("targets: our volumetric path tracer and {v}"));
             }
             Ok(vec![Targets::Volpath, Targets::Mitsuba])
         }
         Err(_) if !say => Ok(vec![Targets::Volpath]),
         Err(why) => {
-            println!(
+            obs.say(&format!(
                 "targets: our volumetric path tracer only (Mitsuba 3 not usable: {why}; `pip install mitsuba numpy` adds its renders as an independent check)"
-            );
+            ));
             Ok(vec![Targets::Volpath])
         }
     }
@@ -659,7 +669,7 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     o
 }
 
-pub fn run(a: &RobustnessArgs) -> Result<()> {
+pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
     let mut all = cases(a.seed);
     if let Some(want) = &a.cases {
         for w in want {
@@ -675,8 +685,8 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         }
         all.retain(|c| want.contains(&c.name));
     }
-    anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
-    let renderers = target_renderers(a)?;
+    crate::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    let renderers = target_renderers(a, obs)?;
     // Repetition by repetition, so that an interrupted run has every renderer's first ones.
     let mut jobs: Vec<(u64, Targets, &Case)> = Vec::new();
     for rep in 0..a.seeds {
@@ -688,7 +698,7 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         .iter()
         .map(|(rep, t, c)| t.tag(&c.name, *rep))
         .collect();
-    if a.jobs.listed(&tags)? {
+    if a.jobs.listed(&tags, obs)? {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
@@ -700,32 +710,32 @@ pub fn run(a: &RobustnessArgs) -> Result<()> {
         let o = run_args(a, &data, &run_dir, rep);
         let run = a.jobs.runs(tag);
         if run {
-            ensure_dataset(a, case, rep, targets, &data)?;
-            run_or_reuse(&o, tag)?;
-        } else if crate::optimize_cmd::finished_run(&o)?.is_none() {
+            ensure_dataset(a, case, rep, targets, &data, obs)?;
+            run_or_reuse(&o, obs, tag)?;
+        } else if cmdline::optimize::finished_run(&o)?.is_none() {
             missing.push(tag.clone());
             continue;
         }
         let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
         out.model_ratio = if run {
-            model_ratio(&o, &data, &run_dir, a.quick)?
+            model_ratio(&o, &data, &run_dir, a.quick, obs)?
         } else {
             // A finished job measured it; a table assembled here only reads it.
             read_json(&run_dir.join("model-ratio.json")).map_or([f64::NAN; 3], |v| rgb(&v["ratio"]))
         };
         outcomes.push(out);
     }
-    a.jobs.report_missing(&missing);
+    a.jobs.report_missing(&missing, obs);
     let (table, csv) = report(a, &outcomes);
-    println!("{table}");
+    obs.say(&table);
     std::fs::create_dir_all(&a.out)?;
     scene::fsutil::atomic_write(&a.out.join("robustness.md"), table.as_bytes(), true)?;
     scene::fsutil::atomic_write(&a.out.join("robustness.csv"), csv.as_bytes(), true)?;
-    println!(
+    obs.say(&format!(
         "wrote {} and {}",
         a.out.join("robustness.md").display(),
         a.out.join("robustness.csv").display()
-    );
+    ));
     Ok(())
 }
 

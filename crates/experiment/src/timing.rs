@@ -8,9 +8,11 @@
 //! Rows are kept in `OUT/timing.json` as they finish: an interrupted run continues with the
 //! missing ones, and a finished one prints its table again; other settings need another `--out`.
 
+use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use crate::bail;
+use crate::error::{Context, Result};
 use bssrdf::diff::DiffMethod;
 use clap::Args;
 use inverse::forward::ModelKind;
@@ -69,7 +71,7 @@ fn paper_figure(model: ModelKind, method: &str, spp_factor: u32) -> &'static str
     }
 }
 
-pub fn run(a: &TimingArgs) -> Result<()> {
+pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
     let (res, spp, iterations, views, target_spp) = if a.quick {
         (32, 4, 3, 2, 4)
     } else {
@@ -78,26 +80,34 @@ pub fn run(a: &TimingArgs) -> Result<()> {
     if iterations < 2 {
         bail!("--iterations must be at least 2 (the first iteration is not counted)");
     }
-    if a.jobs.listed(&["timing".to_string()])? {
+    if a.jobs.listed(&["timing".to_string()], obs)? {
         return Ok(());
     }
     if a.jobs.assemble {
         let path = a.out.join("timing.json");
         let Ok(bytes) = std::fs::read(&path) else {
-            a.jobs.report_missing(&["timing".to_string()]);
+            a.jobs.report_missing(&["timing".to_string()], obs);
             return Ok(());
         };
         let record: Record = serde_json::from_slice(&bytes)
             .with_context(|| format!("{}: not a timing record", path.display()))?;
         let (md, csv) = tables(&record, a.quick);
-        print!("{md}");
+        obs.say(md.trim_end_matches('\n'));
         std::fs::write(a.out.join("timing.md"), md)?;
         std::fs::write(a.out.join("timing.csv"), csv)?;
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    let ds = super::blob_dataset(&data, views, res, random_medium(a.seed), target_spp, a.seed)?;
+    let ds = super::blob_dataset(
+        &data,
+        views,
+        res,
+        random_medium(a.seed),
+        target_spp,
+        a.seed,
+        obs,
+    )?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {
         bail!(
             "{} holds a dataset of another resolution; use another --out",
@@ -147,22 +157,25 @@ pub fn run(a: &TimingArgs) -> Result<()> {
         if record.rows.iter().any(done) {
             continue;
         }
-        let pb = cmdline::progress(0, &format!("{model} × {method}, {spp} spp"));
+        let pb = obs.progress(0, &format!("{model} × {method}, {spp} spp"));
         let row = measure(&accel, &nets, base, &targets, model, method, spp, &settings)?;
         pb.finish_and_clear();
-        println!("{model} × {method}, {spp} spp: {:.3} s/it", row.mean());
+        obs.say(&format!(
+            "{model} × {method}, {spp} spp: {:.3} s/it",
+            row.mean()
+        ));
         record.rows.push(row);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
     // What `optimize` runs: the learned model, then the volumetric refinement.
     if !record.rows.iter().any(|r| r.method == DEFAULTS) {
-        let pb = cmdline::progress(0, "optimize's defaults");
+        let pb = obs.progress(0, "optimize's defaults");
         let row = measure_defaults(&accel, &nets, base, &targets, spp, &settings)?;
         pb.finish_and_clear();
-        println!(
+        obs.say(&format!(
             "optimize's defaults (learned, then the volumetric refinement), {spp} spp: {:.3} s/it",
             row.mean()
-        );
+        ));
         record.rows.push(row);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
@@ -178,10 +191,13 @@ pub fn run(a: &TimingArgs) -> Result<()> {
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
     let (md, csv) = tables(&record, a.quick);
-    print!("{md}");
+    obs.say(md.trim_end_matches('\n'));
     std::fs::write(a.out.join("timing.md"), md)?;
     std::fs::write(a.out.join("timing.csv"), csv)?;
-    println!("wrote {} (timing.md, timing.csv)", a.out.display());
+    obs.say(&format!(
+        "wrote {} (timing.md, timing.csv)",
+        a.out.display()
+    ));
     Ok(())
 }
 

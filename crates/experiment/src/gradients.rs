@@ -10,9 +10,11 @@
 //! A scene whose images are all there is not rendered again (an interrupted run continues with
 //! the missing scenes); other settings need another `--out`.
 
+use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use crate::bail;
+use crate::error::{Context, Result};
 use bssrdf::diff::{DiffMethod, Primal};
 use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
 use clap::Args;
@@ -21,8 +23,8 @@ use inverse::gradcheck::{Agreement, agreement, render_estimators};
 use scene::rig::RigLight;
 use scene::{Dataset, Image, Medium, MeshSource};
 
-use crate::dataset_cmd::{RenderOpts, make_dataset};
-use crate::gradcheck_cmd::write_estimators;
+use inverse::gradcheck::write_estimators;
+use inverse::views::{RenderOpts, make_dataset};
 use scene::rig::house_rig;
 
 #[derive(Args)]
@@ -63,11 +65,11 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
     ])
 }
 
-pub fn run(a: &GradientsArgs) -> Result<()> {
+pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
     let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
     let scenes = scenes()?;
     let cases: Vec<String> = scenes.iter().map(|(n, ..)| n.to_string()).collect();
-    if a.jobs.listed(&cases)? {
+    if a.jobs.listed(&cases, obs)? {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
@@ -125,6 +127,7 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
                 },
                 &data,
                 false,
+                obs,
             )?
         };
         let view = ds.views.first().context("the scene has no view")?;
@@ -144,10 +147,10 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
             view: 0,
         };
         let results = if finished {
-            println!("{name}: reusing {}", dir.display());
+            obs.say(&format!("{name}: reusing {}", dir.display()));
             reread(&dir)?
         } else {
-            let pb = cmdline::progress(0, &format!("{name}: ours, naive, fd"));
+            let pb = obs.progress(0, &format!("{name}: ours, naive, fd"));
             let r = render_estimators(
                 &scene,
                 &view.camera,
@@ -169,15 +172,15 @@ pub fn run(a: &GradientsArgs) -> Result<()> {
             rows.push((name.to_string(), *m, agreement(img, fd), *secs));
         }
     }
-    a.jobs.report_missing(&missing);
+    a.jobs.report_missing(&missing, obs);
     let (md, csv) = tables(&rows, &settings, a.quick);
-    print!("{md}");
+    obs.say(md.trim_end_matches('\n'));
     std::fs::write(a.out.join("gradients.md"), md)?;
     std::fs::write(a.out.join("gradients.csv"), csv)?;
-    println!(
+    obs.say(&format!(
         "wrote {} (gradients.md, gradients.csv, <scene>/<estimator>_d_*.png)",
         a.out.display()
-    );
+    ));
     Ok(())
 }
 

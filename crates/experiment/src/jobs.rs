@@ -8,9 +8,11 @@
 //! `--assemble` only tabulates. Cases run on any machine that sees the output folder, in any
 //! order, at the same time: Slurm and HyperQueue examples are in docs/commands.md.
 
+use inverse::recovery::Observer;
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use crate::bail;
+use crate::error::Result;
 use clap::Args;
 use scene::fsutil::FolderLock;
 
@@ -46,7 +48,7 @@ impl JobArgs {
 
     /// Checks `--case` against the experiment's `cases`; with `--list-jobs` prints one command
     /// per case and returns true (the caller stops there).
-    pub fn listed(&self, cases: &[String]) -> Result<bool> {
+    pub fn listed(&self, cases: &[String], obs: &dyn Observer) -> Result<bool> {
         if let Some(c) = &self.case
             && !cases.contains(c)
         {
@@ -65,7 +67,10 @@ impl JobArgs {
                 .iter()
                 .map(String::as_str)
                 .chain(["--case", case.as_str()]);
-            println!("{}", shlex::try_join(words)?);
+            obs.say(
+                &shlex::try_join(words)
+                    .map_err(|e| crate::ExperimentError::Invalid(format!("--list-jobs: {e}")))?,
+            );
         }
         Ok(true)
     }
@@ -77,19 +82,20 @@ impl JobArgs {
         Ok(if self.runs_all() {
             Some(scene::fsutil::lock_folder(out)?)
         } else {
-            std::fs::create_dir_all(out)
-                .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+            std::fs::create_dir_all(out).map_err(|e| {
+                crate::ExperimentError::Invalid(format!("cannot create {}: {e}", out.display()))
+            })?;
             None
         })
     }
 
     /// Says which cases the tables leave out because they have not finished.
-    pub fn report_missing(&self, missing: &[String]) {
+    pub fn report_missing(&self, missing: &[String], obs: &dyn Observer) {
         if !missing.is_empty() {
-            println!(
+            obs.say(&format!(
                 "not finished yet, left out of the tables: {}",
                 missing.join(", ")
-            );
+            ));
         }
     }
 }

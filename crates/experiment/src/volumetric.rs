@@ -9,15 +9,16 @@
 //! time (`OUT/volumetric.md`, `volumetric.csv`). Runs resume and are reused like `experiment
 //! accuracy`'s.
 
+use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use anyhow::Result;
+use crate::error::Result;
 use clap::Args;
 use plot::{Figure, Panel, Series};
 use scene::Medium;
 
 use super::report::read_steps;
-use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 
 #[derive(Args)]
 pub struct VolumetricArgs {
@@ -70,17 +71,17 @@ const VARIANTS: [Variant; 3] = [
     },
 ];
 
-pub fn run(a: &VolumetricArgs) -> Result<()> {
+pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let case = |v: &Variant| format!("{}-{}spp", v.name, spp * v.spp_factor);
     let cases: Vec<String> = VARIANTS.iter().map(case).collect();
-    if a.jobs.listed(&cases)? {
+    if a.jobs.listed(&cases, obs)? {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed)
+        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed, obs)
     })?;
     let mut missing = Vec::new();
     let mut curves = Vec::new();
@@ -114,8 +115,8 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         // The paper's method is the learned model alone: no volumetric refinement.
         o.refine = Some(0);
         let done = if a.jobs.runs(&case(v)) {
-            run_or_reuse(&o, &label)?
-        } else if let Some(done) = crate::optimize_cmd::finished_run(&o)? {
+            run_or_reuse(&o, obs, &label)?
+        } else if let Some(done) = cmdline::optimize::finished_run(&o)? {
             done
         } else {
             missing.push(case(v));
@@ -141,7 +142,7 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
         ));
         curves.push((label, t));
     }
-    a.jobs.report_missing(&missing);
+    a.jobs.report_missing(&missing, obs);
     let err = |s: f64| 100.0 * (s / TRUTH.sigma_t[0] as f64 - 1.0).abs();
     let panel = |title: &str, x_label: &str, by_time: bool| Panel {
         title: title.into(),
@@ -171,12 +172,12 @@ pub fn run(a: &VolumetricArgs) -> Result<()> {
     );
     fig.write_png(&a.out.join("volumetric.png"), true)?;
     fig.write_svg(&a.out.join("volumetric.svg"), true)?;
-    print!("{md}");
+    obs.say(md.trim_end_matches('\n'));
     std::fs::write(a.out.join("volumetric.md"), md)?;
     std::fs::write(a.out.join("volumetric.csv"), csv)?;
-    println!(
+    obs.say(&format!(
         "wrote {} (volumetric.md, volumetric.csv, volumetric.png/.svg)",
         a.out.display()
-    );
+    ));
     Ok(())
 }

@@ -9,14 +9,15 @@
 //! (`OUT/prb.png`, `.svg`), and per run the final errors, s/it, and the first iteration after
 //! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
 
+use inverse::recovery::Observer;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use crate::error::{Context, Result};
 use clap::Args;
 use plot::{Figure, Panel, Series};
 
 use super::report::{Step, read_steps};
-use crate::optimize_cmd::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
 use inverse::views::random_medium;
 
 #[derive(Args)]
@@ -43,20 +44,20 @@ pub struct PrbArgs {
 /// σ_t within this relative error (RMS over the channels) counts as converged.
 const CONVERGED: f64 = 0.10;
 
-pub fn run(a: &PrbArgs) -> Result<()> {
+pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let mut cases = vec!["ours".to_string(), "volumetric".to_string()];
     if a.mitsuba_python.is_some() {
         cases.push("mitsuba-prb".into());
     }
-    if a.jobs.listed(&cases)? {
+    if a.jobs.listed(&cases, obs)? {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     let truth = random_medium(a.seed);
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, truth, target_spp, a.seed)
+        super::blob_dataset(&data, views, res, truth, target_spp, a.seed, obs)
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();
@@ -75,8 +76,8 @@ pub fn run(a: &PrbArgs) -> Result<()> {
         // The paper's method is the learned model alone: no volumetric refinement.
         o.refine = Some(0);
         if a.jobs.runs(name) {
-            run_or_reuse(&o, name)?;
-        } else if crate::optimize_cmd::finished_run(&o)?.is_none() {
+            run_or_reuse(&o, obs, name)?;
+        } else if cmdline::optimize::finished_run(&o)?.is_none() {
             missing.push(name.to_string());
             continue;
         }
@@ -85,7 +86,7 @@ pub fn run(a: &PrbArgs) -> Result<()> {
     if let Some(py) = &a.mitsuba_python {
         let dir = a.out.join("runs").join("mitsuba-prb");
         if a.jobs.runs("mitsuba-prb") {
-            prb(py, &data, &dir, iterations, spp, a.seed)?;
+            prb(py, &data, &dir, iterations, spp, a.seed, obs)?;
         }
         if prb_finished(&dir, iterations, spp) {
             runs.push((
@@ -96,7 +97,7 @@ pub fn run(a: &PrbArgs) -> Result<()> {
             missing.push("mitsuba-prb".into());
         }
     }
-    a.jobs.report_missing(&missing);
+    a.jobs.report_missing(&missing, obs);
     let err_t = |p: &Step| rms(|c| p.sigma_t[c] / truth.sigma_t[c] as f64 - 1.0);
     let err_a = |p: &Step| rms(|c| p.albedo[c] - truth.albedo[c] as f64);
     let mut md = format!(
@@ -177,10 +178,13 @@ pub fn run(a: &PrbArgs) -> Result<()> {
     );
     fig.write_png(&a.out.join("prb.png"), true)?;
     fig.write_svg(&a.out.join("prb.svg"), true)?;
-    print!("{md}");
+    obs.say(md.trim_end_matches('\n'));
     std::fs::write(a.out.join("prb.md"), md)?;
     std::fs::write(a.out.join("prb.csv"), csv)?;
-    println!("wrote {} (prb.md, prb.csv, prb.png/.svg)", a.out.display());
+    obs.say(&format!(
+        "wrote {} (prb.md, prb.csv, prb.png/.svg)",
+        a.out.display()
+    ));
     Ok(())
 }
 
@@ -201,9 +205,17 @@ fn prb_finished(out: &Path, iterations: u32, spp: u32) -> bool {
 }
 
 /// Mitsuba's PRB on the dataset into `out`, unless it finished there with these settings.
-fn prb(python: &Path, data: &Path, out: &Path, iterations: u32, spp: u32, seed: u64) -> Result<()> {
+fn prb(
+    python: &Path,
+    data: &Path,
+    out: &Path,
+    iterations: u32,
+    spp: u32,
+    seed: u64,
+    obs: &dyn Observer,
+) -> Result<()> {
     if prb_finished(out, iterations, spp) {
-        println!("run Mitsuba PRB: reusing {}", out.display());
+        obs.say(&format!("run Mitsuba PRB: reusing {}", out.display()));
         return Ok(());
     }
     super::run_prb(python, data, out, iterations, spp, seed)?;

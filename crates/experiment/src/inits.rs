@@ -5,16 +5,18 @@
 //! (`OUT/inits.png`): the σ_t and α errors over the iterations, the mean over the starts with
 //! the mean ± one standard deviation and every start's curve (`OUT/inits-band.png` and `.svg`).
 
+use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use crate::bail;
+use crate::error::Result;
 use clap::Args;
 use plot::{Band, Figure, Panel, Series};
 
 use super::report::{Row, read_trajectory};
-use super::{AccuracyArgs, accuracy};
-use crate::optimize_cmd::IterationArgs;
+use crate::accuracy::{AccuracyArgs, accuracy};
 use cmdline::arg_defaults;
+use cmdline::optimize::IterationArgs;
 
 #[derive(Args)]
 pub struct InitsArgs {
@@ -39,7 +41,7 @@ pub struct InitsArgs {
     pub jobs: super::jobs::JobArgs,
 }
 
-pub fn run(a: &InitsArgs) -> Result<()> {
+pub fn run(a: &InitsArgs, obs: &dyn Observer) -> Result<()> {
     if a.inits < 2 {
         bail!("--inits must be at least 2 (a spread needs two starts)");
     }
@@ -51,31 +53,31 @@ pub fn run(a: &InitsArgs) -> Result<()> {
     acc.seed = a.seed;
     acc.methods = vec!["ours".into()];
     acc.inits = a.inits;
-    acc.bc = crate::optimize_cmd::BiasCorrectionArgs::off();
+    acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
     if a.quick {
         (acc.views, acc.res, acc.target_spp, acc.inits) = (4, 32, 4, 3);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();
-    let rows = accuracy(&acc)?;
+    let rows = accuracy(&acc, obs)?;
     if a.jobs.list_jobs {
         return Ok(());
     }
     let starts: Vec<&Row> = rows.iter().filter(|r| r.case.contains(" init ")).collect();
     if starts.len() < 2 {
-        println!(
+        obs.say(&format!(
             "{} of the starts finished so far: the band needs two",
             starts.len()
-        );
+        ));
         return Ok(());
     }
     let fig = band_figure(&starts)?;
     fig.write_png(&a.out.join("inits-band.png"), true)?;
     fig.write_svg(&a.out.join("inits-band.svg"), true)?;
-    println!(
+    obs.say(&format!(
         "wrote {} (inits-band.png/.svg: mean ± s.d. of the errors over the starts)",
         a.out.display()
-    );
+    ));
     Ok(())
 }
 

@@ -1,0 +1,178 @@
+//! The paper's experiments and the robustness suite (`translucent experiment …`): each one a set
+//! of named cases (datasets and recoveries) that runs, resumes after an interruption, reuses what
+//! a previous run left in its output folder, hands its cases to a cluster's scheduler
+//! ([`jobs`]), and writes its tables (Markdown and CSV) and plots (PNG and SVG).
+//!
+//! | experiment | module | the paper |
+//! |---|---|---|
+//! | `accuracy` | [`accuracy`] | Table 1, Fig. 7 |
+//! | `robustness` | [`robustness`] | (ours: captures we did not tune on) |
+//! | `timing` | [`timing`] | Table 1 |
+//! | `gradients` | [`gradients`] | Fig. 3, 5 |
+//! | `planar` | [`planar`] | Fig. 6 |
+//! | `inits` | [`inits`] | Fig. 7 |
+//! | `volumetric` | [`volumetric`] | Fig. 8 |
+//! | `prb` | [`prb`] | Fig. 9 |
+//!
+//! The runs are `optimize`'s own ([`cmdline::optimize::OptimizeArgs`]), with the defaults a user
+//! gets unless a row says otherwise. The library prints nothing: its lines and progress bars go
+//! to an [`Observer`]. Errors are typed ([`ExperimentError`]).
+
+use std::path::Path;
+
+use clap::Subcommand;
+use inverse::forward::ModelKind;
+use inverse::recovery::Observer;
+use inverse::views::{RenderOpts, make_dataset};
+use scene::rig::paper_rig;
+use scene::{Dataset, Medium, MeshSource};
+
+pub mod accuracy;
+mod error;
+pub mod gradients;
+pub mod inits;
+pub mod jobs;
+pub mod planar;
+pub mod prb;
+pub mod report;
+pub mod robustness;
+pub mod timing;
+pub mod volumetric;
+
+pub use error::{Context, ExperimentError, Result};
+
+use accuracy::AccuracyArgs;
+
+#[derive(Subcommand)]
+pub enum ExperimentCommand {
+    /// Accuracy of the recovered σ_t and α on volumetric-path-traced datasets (paper Table 1,
+    /// Fig. 7): shapes × media, methods, random initialisations.
+    Accuracy(Box<AccuracyArgs>),
+    /// `optimize`'s defaults on twelve cases we did not tune on (flash, fixed light, turntable,
+    /// back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh file): errors, 95 % intervals
+    /// and their calibration, whether σ_t is determined, consistency, status.
+    Robustness(Box<robustness::RobustnessArgs>),
+    /// Seconds per iteration of every forward model × estimator at the paper's workload
+    /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
+    /// `--mitsuba-python`.
+    Timing(timing::TimingArgs),
+    /// Derivative images of the learned renderer's estimators (ours, naive) against central
+    /// differences on a cone and a blob (paper Fig. 3 and 5): relative error of the summed
+    /// derivative and per-pixel correlation.
+    Gradients(gradients::GradientsArgs),
+    /// The paper's comparison with the planar dipole (Fig. 6): ours, naive and the dipole on
+    /// three shapes × two media; errors over iterations and re-renders side by side.
+    Planar(planar::PlanarArgs),
+    /// Random initialisations on one case (paper Fig. 7): the mean ± s.d. of the errors over
+    /// the iterations, and every start's curve.
+    Inits(inits::InitsArgs),
+    /// σ_t alone with α fixed, grey medium (paper Fig. 8): ours at 32 spp against the
+    /// volumetric baseline at 32 and 128 spp, at equal iterations and at equal time.
+    Volumetric(volumetric::VolumetricArgs),
+    /// RGB σ_t and α (paper Fig. 9): ours against the volumetric baseline and, with
+    /// `--mitsuba-python`, Mitsuba 3's PRB, by iterations and by time.
+    Prb(prb::PrbArgs),
+}
+
+pub fn run(cmd: &ExperimentCommand, obs: &dyn Observer) -> Result<()> {
+    match cmd {
+        ExperimentCommand::Accuracy(a) => accuracy::accuracy(a, obs).map(|_| ()),
+        ExperimentCommand::Robustness(a) => robustness::run(a, obs),
+        ExperimentCommand::Timing(a) => timing::run(a, obs),
+        ExperimentCommand::Gradients(a) => gradients::run(a, obs),
+        ExperimentCommand::Planar(a) => planar::run(a, obs),
+        ExperimentCommand::Inits(a) => inits::run(a, obs),
+        ExperimentCommand::Volumetric(a) => volumetric::run(a, obs),
+        ExperimentCommand::Prb(a) => prb::run(a, obs),
+    }
+}
+
+/// The blob dataset of the single-dataset experiments in `dir`: `views` views of `res`² on the
+/// paper's rig (one fixed light), `medium`, targets by the volumetric path tracer at `spp`
+/// (depth 32, seed `seed`); rendered unless `dir` holds it already.
+pub fn blob_dataset(
+    dir: &Path,
+    views: usize,
+    res: u32,
+    medium: Medium,
+    spp: u32,
+    seed: u64,
+    obs: &dyn Observer,
+) -> Result<Dataset> {
+    if dir.join("dataset.json").exists() {
+        return Ok(Dataset::load(dir)?);
+    }
+    obs.say(&format!(
+        "dataset: blob, {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}",
+        medium.sigma_t, medium.albedo
+    ));
+    Ok(make_dataset(
+        &paper_rig(views, res),
+        MeshSource::Shape(geometry::Shape::from_name("blob")?),
+        medium,
+        RenderOpts {
+            spp,
+            seed,
+            max_depth: 32,
+            shadow: Default::default(),
+        },
+        dir,
+        false,
+        obs,
+    )?)
+}
+
+/// Mitsuba 3's PRB (`tools/mitsuba/prb_optimize.py`, run by `python`) on the dataset `data`
+/// into `out`: `iterations` × `spp`, one view per iteration, seed `seed`. Returns its mean
+/// seconds per iteration after the first (from its `result.json`).
+pub fn run_prb(
+    python: &Path,
+    data: &Path,
+    out: &Path,
+    iterations: u32,
+    spp: u32,
+    seed: u64,
+) -> Result<f64> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
+    let status = std::process::Command::new(python)
+        .arg(&script)
+        .arg(data)
+        .args(["--iterations", &iterations.to_string()])
+        .args(["--spp", &spp.to_string()])
+        .args(["--seed", &seed.to_string()])
+        .args(["--views-per-iter", "1", "--print-every", "50"])
+        .args(["--overwrite", "--out"])
+        .arg(out)
+        .status()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !status.success() {
+        bail!(
+            "{} {} failed ({status})",
+            python.display(),
+            script.display()
+        );
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json"))?)?;
+    v["seconds_per_iteration"]
+        .as_f64()
+        .context("PRB's result.json has no seconds_per_iteration")
+}
+
+/// The workload of the single-dataset experiments (views, resolution, target spp, iterations,
+/// spp): the paper's (40 views of 256², targets at 128 spp, `iterations` × 32 spp), or the
+/// smoke test's with `quick` (4 views of 32², 4 spp, 6 iterations × 2 spp).
+pub fn workload(quick: bool, iterations: u32) -> (usize, u32, u32, u32, u32) {
+    if quick {
+        (4, 32, 4, 6, 2)
+    } else {
+        (40, 256, 128, iterations, 32)
+    }
+}
+
+/// The baseline model a `--methods` entry names (`dipole`, `volpath`), if it names one.
+pub fn baseline_model(method: &str) -> Option<ModelKind> {
+    method
+        .parse::<ModelKind>()
+        .ok()
+        .filter(|m| *m != ModelKind::Learned)
+}
