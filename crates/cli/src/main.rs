@@ -30,12 +30,8 @@ images are linear RGB float32 EXR with sRGB PNG previews. Cameras follow Mitsuba
 #[derive(Parser)]
 #[command(name = "translucent", version, about = "Inverse rendering of translucent objects (Son et al. 2024) — forward renderers, datasets and tools", long_about = None, after_help = UNITS_HELP)]
 struct Cli {
-    /// Worker threads (default: all cores). Same seed and thread count give the same output.
-    #[arg(long, global = true)]
-    threads: Option<usize>,
-    /// Less output (no progress bars).
-    #[arg(long, short, global = true)]
-    quiet: bool,
+    #[command(flatten)]
+    global: cmdline::GlobalArgs,
     #[command(subcommand)]
     command: Command,
 }
@@ -113,17 +109,6 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = parse_args();
-    let filter =
-        tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| {
-            tracing_subscriber::EnvFilter::new(if cli.quiet { "warn" } else { "info" })
-        });
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_target(false)
-        .without_time()
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_writer(std::io::stderr)
-        .init();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");
         std::process::exit(1);
@@ -173,13 +158,7 @@ fn negative_count_error(e: clap::Error) -> clap::Error {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    if let Some(n) = cli.threads {
-        anyhow::ensure!(n > 0, "--threads must be at least 1");
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()?;
-    }
-    cmdline::set_quiet(cli.quiet);
+    cli.global.apply()?;
     match cli.command {
         Command::Demo(a) => demo::run(&a),
         Command::Render(a) => render_cmd::run(&a),

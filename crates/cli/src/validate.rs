@@ -9,7 +9,7 @@
 //!
 //! The acceptance asks for that agreement "at equal or lower render time". `--equal-time` renders
 //! for the time Mitsuba took (scene.json's median seconds per view, or `--time-per-view`): every
-//! view advances by passes of [`inverse::views::EQUAL_TIME_PASS`] spp ([`volpath::Progressive`], which continues
+//! view advances by passes of 32 spp ([`inverse::views::volpath_equal_time`], which continues
 //! each pixel's random streams, so the result is the image of a single render at the spp
 //! reached) until the next pass would overrun the budget. The spp reached depends on the
 //! machine; it is printed, and `--spp` with it reproduces the images bit for bit.

@@ -50,6 +50,47 @@ pub type Result<T, E = CmdlineError> = std::result::Result<T, E>;
 
 pub mod optimize;
 
+/// The options every command of a program takes (`--threads`, `--quiet`).
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub struct GlobalArgs {
+    /// Worker threads (default: all cores). Same seed and thread count give the same output.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+    /// Less output (no progress bars).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+}
+
+impl GlobalArgs {
+    /// Sets up the process: log lines on stderr (warnings only with `--quiet`; the
+    /// `TRANSLUCENT_LOG` filter overrides), progress bars unless `--quiet`, and the worker
+    /// threads.
+    pub fn apply(&self) -> Result<()> {
+        let filter =
+            tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG").unwrap_or_else(|_| {
+                tracing_subscriber::EnvFilter::new(if self.quiet { "warn" } else { "info" })
+            });
+        tracing_subscriber::fmt()
+            .with_env_filter(filter)
+            .with_target(false)
+            .without_time()
+            .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+            .with_writer(std::io::stderr)
+            .init();
+        set_quiet(self.quiet);
+        if let Some(n) = self.threads {
+            if n == 0 {
+                return Err(CmdlineError::Invalid("--threads must be at least 1".into()));
+            }
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .map_err(|e| CmdlineError::Invalid(format!("--threads {n}: {e}")))?;
+        }
+        Ok(())
+    }
+}
+
 /// The terminal as an observer of the library's work ([`inverse::recovery::Observer`]): its
 /// lines on stdout, its progress bars on stderr (hidden with `--quiet`).
 pub struct Terminal;

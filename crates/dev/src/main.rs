@@ -20,12 +20,8 @@ use clap::{Parser, Subcommand};
     about = "translucent's maintainer diagnostics: the measurements behind BENCHMARKS.md"
 )]
 struct Cli {
-    /// Worker threads (default: all cores). Same seed and thread count give the same output.
-    #[arg(long, global = true)]
-    threads: Option<usize>,
-    /// Less output (no progress bars).
-    #[arg(long, short, global = true)]
-    quiet: bool,
+    #[command(flatten)]
+    global: cmdline::GlobalArgs,
     #[command(subcommand)]
     command: Command,
 }
@@ -54,16 +50,6 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::new(if cli.quiet {
-            "warn"
-        } else {
-            "info"
-        }))
-        .with_target(false)
-        .without_time()
-        .with_writer(std::io::stderr)
-        .init();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");
         std::process::exit(1);
@@ -71,13 +57,7 @@ fn main() {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    if let Some(n) = cli.threads {
-        anyhow::ensure!(n > 0, "--threads must be at least 1");
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()?;
-    }
-    cmdline::set_quiet(cli.quiet);
+    cli.global.apply()?;
     match cli.command {
         Command::Volpath(a) => volpath_bench::run(&a),
         Command::LearnedVsVolpath(a) => learned::run(&a),
