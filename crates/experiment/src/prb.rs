@@ -86,7 +86,11 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     if let Some(py) = &a.mitsuba_python {
         let dir = a.out.join("runs").join("mitsuba-prb");
         if a.jobs.runs("mitsuba-prb") {
-            prb(py, &data, &dir, iterations, spp, a.seed, obs)?;
+            if prb_finished(&dir, iterations, spp) {
+                obs.say(&format!("run Mitsuba PRB: reusing {}", dir.display()));
+            } else {
+                super::run_prb(py, &data, &dir, iterations, spp, a.seed)?;
+            }
         }
         if prb_finished(&dir, iterations, spp) {
             runs.push((
@@ -202,22 +206,4 @@ fn prb_finished(out: &Path, iterations: u32, spp: u32) -> bool {
             v["iterations"].as_u64() == Some(iterations as u64)
                 && v["spp"].as_u64() == Some(spp as u64)
         })
-}
-
-/// Mitsuba's PRB on the dataset into `out`, unless it finished there with these settings.
-fn prb(
-    python: &Path,
-    data: &Path,
-    out: &Path,
-    iterations: u32,
-    spp: u32,
-    seed: u64,
-    obs: &dyn Observer,
-) -> Result<()> {
-    if prb_finished(out, iterations, spp) {
-        obs.say(&format!("run Mitsuba PRB: reusing {}", out.display()));
-        return Ok(());
-    }
-    super::run_prb(python, data, out, iterations, spp, seed)?;
-    Ok(())
 }
