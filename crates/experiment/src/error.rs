@@ -10,8 +10,9 @@ pub enum ExperimentError {
     /// Options (or an output folder) that cannot run; the message names them and the fix.
     #[error("{0}")]
     Invalid(String),
-    /// What the experiment was doing when the error below happened.
-    #[error("{context}: {source}")]
+    /// What the experiment was doing when the error below happened (the error follows in the
+    /// chain of sources, as `{:#}` of anyhow prints it).
+    #[error("{context}")]
     Context {
         context: String,
         #[source]
