@@ -174,14 +174,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
     }
     a.jobs.report_missing(&missing, obs);
     let (md, csv) = tables(&rows, &settings, a.quick);
-    obs.say(md.trim_end_matches('\n'));
-    std::fs::write(a.out.join("gradients.md"), md)?;
-    std::fs::write(a.out.join("gradients.csv"), csv)?;
-    obs.say(&format!(
-        "wrote {} (gradients.md, gradients.csv, <scene>/<estimator>_d_*.png)",
-        a.out.display()
-    ));
-    Ok(())
+    super::write_tables(&a.out, "gradients", &md, &csv, ", <scene>/<estimator>_d_*.png", obs)
 }
 
 /// The derivative images of a finished scene, read back (the value image is not kept, and the

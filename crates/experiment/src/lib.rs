@@ -122,6 +122,26 @@ pub fn blob_dataset(
     )?)
 }
 
+/// Prints the table `md` and writes it as `OUT/<stem>.md` beside `OUT/<stem>.csv`, then says
+/// what the folder holds (`extra`: the further files, e.g. `, <stem>.png/.svg`).
+fn write_tables(
+    out: &Path,
+    stem: &str,
+    md: &str,
+    csv: &str,
+    extra: &str,
+    obs: &dyn Observer,
+) -> Result<()> {
+    obs.say(md.trim_end_matches('\n'));
+    std::fs::write(out.join(format!("{stem}.md")), md)?;
+    std::fs::write(out.join(format!("{stem}.csv")), csv)?;
+    obs.say(&format!(
+        "wrote {} ({stem}.md, {stem}.csv{extra})",
+        out.display()
+    ));
+    Ok(())
+}
+
 /// Mitsuba 3's PRB (`tools/mitsuba/prb_optimize.py`, run by `python`) on the dataset `data`
 /// into `out`: `iterations` × `spp`, one view per iteration, seed `seed`. Returns its mean
 /// seconds per iteration after the first (from its `result.json`).

@@ -182,14 +182,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     );
     fig.write_png(&a.out.join("prb.png"), true)?;
     fig.write_svg(&a.out.join("prb.svg"), true)?;
-    obs.say(md.trim_end_matches('\n'));
-    std::fs::write(a.out.join("prb.md"), md)?;
-    std::fs::write(a.out.join("prb.csv"), csv)?;
-    obs.say(&format!(
-        "wrote {} (prb.md, prb.csv, prb.png/.svg)",
-        a.out.display()
-    ));
-    Ok(())
+    super::write_tables(&a.out, "prb", &md, &csv, ", prb.png/.svg", obs)
 }
 
 /// √(mean over the channels of f(c)²).

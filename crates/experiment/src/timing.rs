@@ -92,10 +92,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         let record: Record = serde_json::from_slice(&bytes)
             .with_context(|| format!("{}: not a timing record", path.display()))?;
         let (md, csv) = tables(&record, a.quick);
-        obs.say(md.trim_end_matches('\n'));
-        std::fs::write(a.out.join("timing.md"), md)?;
-        std::fs::write(a.out.join("timing.csv"), csv)?;
-        return Ok(());
+        return super::write_tables(&a.out, "timing", &md, &csv, "", obs);
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
@@ -191,14 +188,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
     let (md, csv) = tables(&record, a.quick);
-    obs.say(md.trim_end_matches('\n'));
-    std::fs::write(a.out.join("timing.md"), md)?;
-    std::fs::write(a.out.join("timing.csv"), csv)?;
-    obs.say(&format!(
-        "wrote {} (timing.md, timing.csv)",
-        a.out.display()
-    ));
-    Ok(())
+    super::write_tables(&a.out, "timing", &md, &csv, "", obs)
 }
 
 /// The Markdown and CSV tables.

@@ -172,12 +172,5 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     );
     fig.write_png(&a.out.join("volumetric.png"), true)?;
     fig.write_svg(&a.out.join("volumetric.svg"), true)?;
-    obs.say(md.trim_end_matches('\n'));
-    std::fs::write(a.out.join("volumetric.md"), md)?;
-    std::fs::write(a.out.join("volumetric.csv"), csv)?;
-    obs.say(&format!(
-        "wrote {} (volumetric.md, volumetric.csv, volumetric.png/.svg)",
-        a.out.display()
-    ));
-    Ok(())
+    super::write_tables(&a.out, "volumetric", &md, &csv, ", volumetric.png/.svg", obs)
 }
