@@ -174,7 +174,14 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
     }
     a.jobs.report_missing(&missing, obs);
     let (md, csv) = tables(&rows, &settings, a.quick);
-    super::write_tables(&a.out, "gradients", &md, &csv, ", <scene>/<estimator>_d_*.png", obs)
+    super::write_tables(
+        &a.out,
+        "gradients",
+        &md,
+        &csv,
+        ", <scene>/<estimator>_d_*.png",
+        obs,
+    )
 }
 
 /// The derivative images of a finished scene, read back (the value image is not kept, and the

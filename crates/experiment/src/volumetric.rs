@@ -172,5 +172,12 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     );
     fig.write_png(&a.out.join("volumetric.png"), true)?;
     fig.write_svg(&a.out.join("volumetric.svg"), true)?;
-    super::write_tables(&a.out, "volumetric", &md, &csv, ", volumetric.png/.svg", obs)
+    super::write_tables(
+        &a.out,
+        "volumetric",
+        &md,
+        &csv,
+        ", volumetric.png/.svg",
+        obs,
+    )
 }
