@@ -7,7 +7,7 @@
 //! (seeds `seed` and `seed + 1`). Per channel it reports
 //!
 //! * the decorrelated loss L = Σ (I₁ − T)(I₂ − T) over the views' pixels, an unbiased estimate
-//!   of Σ (E[I] − T)²: a plain L2 of one render adds the render's own variance, which grows as
+//!   of Σ (E\[I\] − T)²: a plain L2 of one render adds the render's own variance, which grows as
 //!   σ_t falls and would put the minimum at the truth by itself
 //!   (docs/notes/learned-model-bias.md, "The model's own loss minimum on the torus, and the
 //!   descriptor's refit");

@@ -8,7 +8,7 @@
 //! 2. Recovery: `translucent optimize` with each method of `--methods` from σ_t = 50, α = 0.5
 //!    (`--iterations`, `--spp`), and `--inits` random initialisations on one case
 //!    (`--inits-case`, default the first; Fig. 7). With `--bias-correction` every run, the
-//!    random starts included, is corrected by the parametric bootstrap ([`bias_corrected_row`]);
+//!    random starts included, is corrected by the parametric bootstrap (`bias_corrected_row`);
 //!    a start's bootstrap recovery starts from that start, so it is the same estimator.
 //! 3. Report: per case and method σ_t relative error and α absolute error per channel, the
 //!    paper-style RMSE over the channels (σ_t in 1/unit), seconds per iteration; per method the

@@ -297,7 +297,7 @@ pub struct Outcome {
     pub status: String,
     pub seconds_per_iteration: f64,
     /// The learned model's own error on this case: its render of the truth against the
-    /// targets, pooled brightness ratio per channel ([`model_ratio`]).
+    /// targets, pooled brightness ratio per channel (`model_ratio`).
     pub model_ratio: [f64; 3],
 }
 

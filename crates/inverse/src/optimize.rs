@@ -954,7 +954,7 @@ pub fn split_sample_gradient(
 
 /// The L2 misfit of two independent renders `a` and `b` of one view against `target`, without
 /// the renders' noise: per channel, (1/3N) Σ_pixels (I_a − T)(I_b − T), whose expectation is
-/// (1/3N) Σ (E[I] − T)² since the two renders' errors are independent (the loss ½[ℓ(I_a) +
+/// (1/3N) Σ (E\[I\] − T)² since the two renders' errors are independent (the loss ½[ℓ(I_a) +
 /// ℓ(I_b)] adds their variance, which changes with the parameters). Summed over channels it is
 /// on the scale of `loss`. A single draw can be negative where the renders are noisier than
 /// the misfit.

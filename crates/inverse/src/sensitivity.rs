@@ -118,7 +118,7 @@ pub fn measure(
 /// The tracer's curvature k̂_V along the valleys of slope `slope` at `medium` from its
 /// derivative images ([`volpath::render_derivatives`]): two independent renders per view give
 /// J¹_p, J²_p with J = σ_t ∂I/∂σ_t + s ∂I/∂α = ∂I/∂u, and k̂_V = Σ_p J¹_p J²_p is unbiased
-/// for Σ_p (∂I_p/∂u)² (E[J¹J²] = (E J)²), with no step and no finite-difference error. Returns
+/// for Σ_p (∂I_p/∂u)² (E\[J¹J²\] = (E J)²), with no step and no finite-difference error. Returns
 /// (k̂_V, its standard error bound √Σ(J¹J²)²) per channel.
 pub fn tracer_curvature(
     accel: &Accel,

@@ -11,7 +11,7 @@
 //! **Determinism.** Step `s` uses the rows `perm_e[(s·B + i) mod N]` of the epoch permutation
 //! `perm_e` (Fisher–Yates from `hash(seed, e)`), and the reparameterisation noise
 //! `ε = BoxMuller(hash(seed, s, i))`; the gradient is summed in a fixed order by
-//! [`crate::vae::loss_and_grad`]. Nothing depends on the thread count or on whether the run was
+//! [`crate::cvae::loss_and_grad`]. Nothing depends on the thread count or on whether the run was
 //! interrupted: a resumed run reproduces the uninterrupted one bit for bit.
 //!
 //! **Checkpoint file** (`checkpoint.bin`): magic `TLCKPT01`, u64 LE length of a JSON document
