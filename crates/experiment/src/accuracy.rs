@@ -410,10 +410,7 @@ fn ensure_dataset(
             obs.say(&format!("dataset {name}: reusing {}", dir.display()));
             return Ok(());
         }
-        bail!(
-            "{} holds a dataset made with other settings; remove it or choose another --out",
-            dir.display()
-        );
+        return Err(crate::other_dataset(dir));
     }
     obs.say(&format!(
         "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",

@@ -122,6 +122,15 @@ pub fn blob_dataset(
     )?)
 }
 
+/// The refusal of a dataset folder that holds a dataset made with other settings than the
+/// experiment's (reusing it would mix two experiments).
+fn other_dataset(dir: &Path) -> ExperimentError {
+    ExperimentError::Invalid(format!(
+        "{} holds a dataset made with other settings; remove it or choose another --out",
+        dir.display()
+    ))
+}
+
 /// Prints the table `md` and writes it as `OUT/<stem>.md` beside `OUT/<stem>.csv`, then says
 /// what the folder holds (`extra`: the further files, e.g. `, <stem>.png/.svg`).
 fn write_tables(

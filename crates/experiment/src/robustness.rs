@@ -483,10 +483,7 @@ fn ensure_dataset(
         if same {
             return Ok(());
         }
-        bail!(
-            "{} holds a dataset made with other settings; remove it or choose another --out",
-            dir.display()
-        );
+        return Err(crate::other_dataset(dir));
     }
     obs.say(&format!(
         "dataset {} (repetition {rep}, {} targets): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",

@@ -9,7 +9,7 @@
 //! missing ones, and a finished one prints its table again; other settings need another `--out`.
 
 use inverse::recovery::Observer;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
@@ -154,27 +154,20 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         if record.rows.iter().any(done) {
             continue;
         }
-        let pb = obs.progress(0, &format!("{model} × {method}, {spp} spp"));
+        let label = format!("{model} × {method}, {spp} spp");
+        let pb = obs.progress(0, &label);
         let row = measure(&accel, &nets, base, &targets, model, method, spp, &settings)?;
         pb.finish_and_clear();
-        obs.say(&format!(
-            "{model} × {method}, {spp} spp: {:.3} s/it",
-            row.mean()
-        ));
-        record.rows.push(row);
-        scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
+        keep_row(&mut record, row, &label, &path, obs)?;
     }
     // What `optimize` runs: the learned model, then the volumetric refinement.
     if !record.rows.iter().any(|r| r.method == DEFAULTS) {
         let pb = obs.progress(0, "optimize's defaults");
         let row = measure_defaults(&accel, &nets, base, &targets, spp, &settings)?;
         pb.finish_and_clear();
-        obs.say(&format!(
-            "optimize's defaults (learned, then the volumetric refinement), {spp} spp: {:.3} s/it",
-            row.mean()
-        ));
-        record.rows.push(row);
-        scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
+        let label =
+            format!("optimize's defaults (learned, then the volumetric refinement), {spp} spp");
+        keep_row(&mut record, row, &label, &path, obs)?;
     }
     if let (Some(py), None) = (&a.mitsuba_python, record.prb) {
         record.prb = Some(super::run_prb(
@@ -192,6 +185,21 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
 }
 
 /// The Markdown and CSV tables.
+/// Says the row's mean seconds per iteration, adds it to the record and saves the record at
+/// `path` (atomically), so that an interrupted run keeps every row it measured.
+fn keep_row(
+    record: &mut Record,
+    row: TimingRow,
+    label: &str,
+    path: &Path,
+    obs: &dyn Observer,
+) -> Result<()> {
+    obs.say(&format!("{label}: {:.3} s/it", row.mean()));
+    record.rows.push(row);
+    scene::fsutil::atomic_write(path, &serde_json::to_vec_pretty(record)?, true)?;
+    Ok(())
+}
+
 fn tables(r: &Record, quick: bool) -> (String, String) {
     let s = &r.settings;
     let mut md = format!(
