@@ -44,7 +44,8 @@ enum Command {
     #[command(name = "loss-scan")]
     LossScan(scan::LossScanArgs),
     /// Per-pixel and loss-gradient variance of the learned renderer (each pixel-sampling scheme)
-    /// against the volumetric path tracer at equal time, on coloured media.
+    /// against the volumetric path tracer at equal time, on coloured media, and the ceiling of
+    /// any scheme that lets each sample serve every channel.
     Noise(noise::NoiseBenchArgs),
 }
 

@@ -17,6 +17,13 @@
 //! 1/(v·t) with t the render time of one render; the table gives volpath's v·t over each
 //! learned scheme's (> 1: the learned renderer is less noisy per second).
 //!
+//! On a coloured medium a third row bounds what any channel-sharing scheme can reach (a
+//! proposal per channel with multiple importance sampling, a density ratio, …): per channel c,
+//! the learned renderer on the grey medium of channel c (σ_t,c and α_c in every channel), where
+//! every sample serves channel c from c's own proposal at the cost of one sample, against the
+//! tracer on the coloured medium. A scheme that lets each sample serve all three channels gains at
+//! most this ratio unless it also lowers the variance of a single sample.
+//!
 //! Gradient variance: the loss gradient of an `optimize` iteration with its default settings
 //! (`ours`, two renders, `--grad-spp` samples per pixel) on view 0 against the volpath render, at
 //! the truth, over `--grad-seeds` iterations (each its own random numbers); per parameter the
@@ -236,21 +243,28 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
         let mask = mean_image(&v0, &v1);
         let vrel = relative_variance(&v0, &v1, &mask);
         let vol_vt: [f64; 3] = vrel.map(|v| v * vt);
-        let row =
-            |name: &str, spp: u32, t: f64, v: [f64; 3], csv: &mut std::fs::File| -> Result<()> {
-                let ratio: [f64; 3] = std::array::from_fn(|c| vol_vt[c] / (v[c] * t));
-                println!(
-                    "{:<22} {:<18} {:>7.2} {:>8.5} {:>8.5} {:>8.5} {:>7.2} {:>7.2} {:>7.2}",
-                    case.name, name, t, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
-                );
-                writeln!(
-                    csv,
-                    "{},{name},{spp},{t:.4},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.4}",
-                    case.name, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
-                )?;
-                Ok(())
-            };
-        row("volpath", a.volpath_spp, vt, vrel, &mut csv)?;
+        let row = |name: &str,
+                   spp: u32,
+                   ts: [f64; 3],
+                   v: [f64; 3],
+                   csv: &mut std::fs::File|
+         -> Result<()> {
+            // `ts`: seconds per render behind each channel's variance (one render for all
+            // three, except the ceiling's one render per channel); the table shows their mean.
+            let ratio: [f64; 3] = std::array::from_fn(|c| vol_vt[c] / (v[c] * ts[c]));
+            let t = ts.iter().sum::<f64>() / 3.0;
+            println!(
+                "{:<22} {:<18} {:>7.2} {:>8.5} {:>8.5} {:>8.5} {:>7.2} {:>7.2} {:>7.2}",
+                case.name, name, t, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+            );
+            writeln!(
+                csv,
+                "{},{name},{spp},{t:.4},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.4}",
+                case.name, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+            )?;
+            Ok(())
+        };
+        row("volpath", a.volpath_spp, [vt; 3], vrel, &mut csv)?;
         for &scheme in &schemes {
             let settings = bssrdf::render::LearnedSettings {
                 sampling: scheme,
@@ -271,10 +285,51 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
             row(
                 &format!("learned {}", scheme_name(scheme)),
                 a.spp,
-                lt,
+                [lt; 3],
                 lrel,
                 &mut csv,
             )?;
+        }
+        if case
+            .medium
+            .sigma_t
+            .iter()
+            .any(|&s| s != case.medium.sigma_t[0])
+            || case
+                .medium
+                .albedo
+                .iter()
+                .any(|&x| x != case.medium.albedo[0])
+        {
+            // The ceiling of channel sharing (module docs): channel c of the learned renderer on
+            // the grey medium of channel c, where every sample serves c from c's own proposal.
+            let mut v = [0.0; 3];
+            let mut ts = [0.0; 3];
+            for c in 0..3 {
+                let grey = Medium {
+                    sigma_t: [case.medium.sigma_t[c]; 3],
+                    albedo: [case.medium.albedo[c]; 3],
+                    ..case.medium
+                };
+                let (l0, l1, lt) = timed(&|seed| {
+                    Ok(by_rows(&views, "learned", |pb| {
+                        inverse::views::learned(
+                            &inverse::views::Job {
+                                seed,
+                                medium: &grey,
+                                ..job
+                            },
+                            &model,
+                            bssrdf::render::LearnedSettings::default(),
+                            false,
+                            pb,
+                        )
+                    })?)
+                })?;
+                v[c] = relative_variance(&l0, &l1, &mask)[c];
+                ts[c] = lt;
+            }
+            row("ceiling (grey)", a.spp, ts, v, &mut csv)?;
         }
         if a.grad_seeds > 0 {
             gradient_noise(

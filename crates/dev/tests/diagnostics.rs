@@ -217,3 +217,59 @@ fn every_diagnostic_has_help() {
         );
     }
 }
+
+/// `noise` on a tiny scene: a volpath row and a learned row per case, and on the coloured medium
+/// the ceiling row of channel sharing, every ratio finite and positive.
+#[test]
+fn noise_reports_the_ceiling_of_channel_sharing() {
+    let t = tempfile::tempdir().unwrap();
+    let out = t.path().join("noise");
+    let printed = ok(
+        t.path(),
+        &[
+            "-q",
+            "noise",
+            "--scales",
+            "0.3",
+            "--views",
+            "1",
+            "--res",
+            "16",
+            "--spp",
+            "8",
+            "--volpath-spp",
+            "8",
+            "--grad-seeds",
+            "0",
+            "--schemes",
+            "stratified",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    has(&printed, &["ceiling (grey)", "learned stratified"]);
+    let csv = std::fs::read_to_string(out.join("noise.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // Flash and fixed coloured cases (volpath, learned, ceiling) and the grey case (volpath,
+    // learned): the grey medium has no ceiling row.
+    let names: Vec<(&str, &str)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    assert_eq!(rows.len(), 3 + 3 + 2, "{csv}");
+    assert!(
+        names.contains(&("blob0.3-flash", "ceiling (grey)")),
+        "{csv}"
+    );
+    assert!(
+        !names.contains(&("blob0.3-flash-grey", "ceiling (grey)")),
+        "{csv}"
+    );
+    for r in &rows {
+        for ratio in &r[7..10] {
+            let x: f64 = ratio.parse().unwrap();
+            assert!(x.is_finite() && x > 0.0, "{csv}");
+        }
+    }
+}

@@ -548,7 +548,8 @@ pub fn run(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryError
     let learned_model = opt.config().final_model() == ModelKind::Learned;
     let sensitivity = uncertainty
         .as_ref()
-        .filter(|_| learned_model)
+        // With σ_t fixed there is no interval of σ_t to widen.
+        .filter(|u| learned_model && !u.fixed[0])
         .and_then(|u| {
             // The checked views whose learned bread the intervals measured.
             let (views, breads): (Vec<_>, Vec<_>) = check_views
@@ -570,7 +571,12 @@ pub fn run(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryError
                 &shown.medium(&base),
                 &views,
                 &breads,
-                crate::sensitivity::valley_slope(&u.bread()),
+                // With α fixed there is no valley: the direction is σ_t alone.
+                if u.fixed[1] {
+                    [0.0; 3]
+                } else {
+                    crate::sensitivity::valley_slope(&u.bread())
+                },
                 check_spp,
                 check_depth,
                 cfg.optimize.seed ^ 0x5E_4517,
@@ -625,11 +631,16 @@ pub fn run(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryError
                 (2.0 * s.volpath_se[c] / s.learned[c]).abs()
             )
         };
+        let along = if cfg.optimize.params.fix_albedo {
+            "σ_t (α fixed)"
+        } else {
+            "σ_t along the σ_t–α valley"
+        };
         obs.say(&format!(
-            "  sensitivity to σ_t along the σ_t–α valley (volumetric path tracer, {} views): the \
-             images curve ({}, {}, {})× as much as the learned model says (± two standard \
-             errors); the intervals widen by up to √ρ = ({:.2}, {:.2}, {:.2}) from the lower \
-             end, to at most a factor 10 either way",
+            "  sensitivity to {along} (volumetric path tracer, {} views): the images curve ({}, \
+             {}, {})× as much as the learned model says (± two standard errors); the intervals \
+             widen by up to √ρ = ({:.2}, {:.2}, {:.2}) from the lower end, to at most a factor \
+             10 either way",
             s.views.len(),
             rel(0),
             rel(1),

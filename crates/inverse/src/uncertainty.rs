@@ -464,8 +464,10 @@ impl Uncertainty {
         u
     }
 
-    /// Keeps `from`'s missing intervals missing (a fixed parameter) and its views' breads.
+    /// Keeps `from`'s missing intervals missing (a fixed parameter), which parameters it kept
+    /// fixed, and its views' breads.
     fn keep_from(&mut self, from: &Self) {
+        self.fixed = from.fixed;
         for c in 0..3 {
             if from.sigma_t[c].is_none() {
                 self.sigma_t[c] = None;
@@ -822,5 +824,45 @@ mod tests {
         let [lo, hi] = w.sigma_t[1].unwrap();
         assert!((hi / lo - (2.0 * Z95 * 0.2f64).exp()).abs() < 1e-9);
         assert!(w.sigma_t[2].is_none());
+    }
+
+    /// A parameter the run kept fixed stays fixed through the tracer's widening and the bias
+    /// correction: no interval, not "undetermined", and the summary says "(fixed)".
+    #[test]
+    fn a_fixed_parameter_stays_fixed_through_widening_and_correction() {
+        let narrow = Some([0.02f64.powi(2), 0.0, 0.0]);
+        let at = crate::params::Params {
+            sigma_t: [80.0; 3],
+            albedo: [0.9; 3],
+        };
+        let mut u = Uncertainty::new(at.sigma_t, at.albedo, [narrow; 3], [narrow; 3], 8);
+        u.albedo = [None; 3];
+        u.sd_albedo = [None; 3];
+        u.determined_albedo = [false; 3];
+        u.fixed = [false, true];
+        let s = Sensitivity {
+            slope: [0.0; 3],
+            learned: [1.0; 3],
+            volpath: [0.5; 3],
+            volpath_se: [0.0; 3],
+            ratio: [2.0; 3],
+            views: vec![0],
+            spp: 16,
+        };
+        let corrected = crate::params::Params {
+            sigma_t: [82.0; 3],
+            ..at
+        };
+        for (what, v) in [
+            ("widened", u.with_sensitivity(&at, &s)),
+            ("corrected", u.corrected(&at, &corrected)),
+        ] {
+            assert_eq!(v.fixed, [false, true], "{what}");
+            assert_eq!(v.albedo, [None; 3], "{what}");
+            let lines = crate::report::interval_lines(&at, &v).join("\n");
+            assert!(lines.contains("α = 0.9000 (fixed)"), "{what}: {lines}");
+            assert!(!lines.contains("α is NOT determined"), "{what}: {lines}");
+            assert!(!lines.contains("no finite interval"), "{what}: {lines}");
+        }
     }
 }
