@@ -8,6 +8,8 @@
 //! * [`MeanEstimate`]: running mean and standard error, to compare an estimator against a known
 //!   value at a tolerance derived from its own variance.
 //! * [`random_unit_vector`]: uniform directions by rejection from the cube, for test fixtures.
+//! * [`CsvTable`]: a CSV table a command wrote, read back as a header and rows of fields, for
+//!   the command-line tests.
 
 /// ln Γ(x) by the Lanczos approximation (g = 7, n = 9), |error| < 1e-13 for x > 0.
 pub fn ln_gamma(x: f64) -> f64 {
@@ -278,5 +280,71 @@ mod tests {
         (bad[0], bad[1]) = (300.0, 100.0);
         assert!(chi2_two_sample(&a, &same, 5.0).p_value > 0.5);
         assert!(chi2_two_sample(&a, &bad, 5.0).p_value < 1e-6);
+    }
+}
+
+/// A CSV table a command wrote (plain comma-separated fields, no quoting: what the commands
+/// write), read back for a test: the header's names and the rows' fields.
+#[derive(Clone, Debug)]
+pub struct CsvTable {
+    /// The file's text, for assertion messages.
+    pub text: String,
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl CsvTable {
+    /// Reads `path`; panics with the path when it cannot be read or has no header line.
+    pub fn read(path: impl AsRef<std::path::Path>) -> Self {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path)
+            .unwrap_or_else(|e| panic!("{}: cannot read: {e}", path.display()));
+        let mut lines = text.lines();
+        let header = lines
+            .next()
+            .unwrap_or_else(|| panic!("{}: empty, no header", path.display()))
+            .split(',')
+            .map(String::from)
+            .collect();
+        let rows = lines
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect();
+        Self { text, header, rows }
+    }
+
+    /// The index of the column `name`; panics naming the columns there are.
+    pub fn column(&self, name: &str) -> usize {
+        self.header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no column {name:?} in {:?}", self.header))
+    }
+
+    /// The first `n` fields of each row, joined by spaces (e.g. "case method").
+    pub fn keys(&self, n: usize) -> Vec<String> {
+        self.rows
+            .iter()
+            .map(|r| r[..n.min(r.len())].join(" "))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod csv_tests {
+    use super::CsvTable;
+
+    #[test]
+    fn reads_header_rows_and_keys() {
+        let dir = std::env::temp_dir().join(format!("testkit-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.csv");
+        std::fs::write(&path, "case,method,value\na,ours,1.5\nb,naive,2\n").unwrap();
+        let t = CsvTable::read(&path);
+        assert_eq!(t.header, ["case", "method", "value"]);
+        assert_eq!(t.rows.len(), 2);
+        assert_eq!(t.column("value"), 2);
+        assert_eq!(t.keys(2), ["a ours", "b naive"]);
+        assert_eq!(t.rows[1][2], "2");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

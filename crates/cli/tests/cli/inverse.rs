@@ -691,13 +691,11 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
     ];
     let r = ok(d, &args);
     assert_stdout_has(&r, &["calibration", "QUICK", "model at truth ÷ targets"]);
-    let csv = std::fs::read_to_string(d.join("rb/robustness.csv")).unwrap();
-    let rows: Vec<&str> = csv.lines().skip(1).collect();
-    assert_eq!(rows.len(), 12 * 3, "{csv}");
-    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    for row in &rows {
-        let f: Vec<&str> = row.split(',').collect();
+    let csv = testkit::CsvTable::read(d.join("rb/robustness.csv"));
+    let rows: Vec<&str> = csv.text.lines().skip(1).collect();
+    assert_eq!(csv.rows.len(), 12 * 3, "{}", csv.text);
+    let col = |name: &str| csv.column(name);
+    for (row, f) in rows.iter().zip(&csv.rows) {
         assert_eq!(f[col("targets")], "volpath", "{row}");
         for name in [
             "sigma_t_est",
@@ -874,14 +872,9 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
     let t = tmp();
     let d = t.path();
     let r = ok(d, &["-q", "experiment", "timing", "--quick", "--out", "tm"]);
-    let csv = std::fs::read_to_string(d.join("tm/timing.csv")).unwrap();
-    let rows: Vec<&str> = csv.lines().skip(1).collect();
-    let pairs: Vec<String> = rows
-        .iter()
-        .map(|l| l.split(',').take(3).collect::<Vec<_>>().join(" "))
-        .collect();
+    let csv = testkit::CsvTable::read(d.join("tm/timing.csv"));
     assert_eq!(
-        pairs,
+        csv.keys(3),
         [
             "learned ours 4",
             "learned ours-alpha-offsets 4",
@@ -895,9 +888,9 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
             "learned defaults 4"
         ]
     );
-    for l in &rows {
-        let s: f64 = l.split(',').nth(3).unwrap().parse().unwrap();
-        assert!(s > 0.0 && s.is_finite(), "{l}");
+    for l in &csv.rows {
+        let s: f64 = l[3].parse().unwrap();
+        assert!(s > 0.0 && s.is_finite(), "{l:?}");
     }
     assert!(r.stdout.contains("1.40 (ours)") && r.stdout.contains("QUICK"));
     assert!(
@@ -910,7 +903,7 @@ fn experiment_timing_quick_times_every_model_and_estimator() {
     assert!(!again.stdout.contains("s/it\n"), "{}", again.stdout);
     assert_eq!(
         std::fs::read_to_string(d.join("tm/timing.csv")).unwrap(),
-        csv
+        csv.text
     );
     let other = fails(d, &["-q", "experiment", "timing", "--out", "tm"]);
     assert_stderr_has(&other, &["another"]);
@@ -927,15 +920,10 @@ fn experiment_gradients_quick_compares_estimators_with_differences() {
         d,
         &["-q", "experiment", "gradients", "--quick", "--out", "g"],
     );
-    let csv = std::fs::read_to_string(d.join("g/gradients.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
-    let names: Vec<String> = rows.iter().map(|r| format!("{} {}", r[0], r[1])).collect();
+    let csv = testkit::CsvTable::read(d.join("g/gradients.csv"));
+    let rows = &csv.rows;
     assert_eq!(
-        names,
+        csv.keys(2),
         [
             "cone ours",
             "cone naive",
@@ -945,7 +933,7 @@ fn experiment_gradients_quick_compares_estimators_with_differences() {
             "blob fd"
         ]
     );
-    for r in &rows {
+    for r in rows {
         let v: Vec<f64> = r[2..6].iter().map(|x| x.parse().unwrap()).collect();
         assert!(v.iter().all(|x| x.is_finite()), "{r:?}");
         if r[1] == "fd" {
@@ -1028,13 +1016,8 @@ fn experiment_volumetric_quick_runs_sigma_t_alone() {
         d,
         &["-q", "experiment", "volumetric", "--quick", "--out", "v"],
     );
-    let csv = std::fs::read_to_string(d.join("v/volumetric.csv")).unwrap();
-    let runs: Vec<String> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(" "))
-        .collect();
-    assert_eq!(runs, ["ours 2", "volumetric 2", "volumetric 8"]);
+    let csv = testkit::CsvTable::read(d.join("v/volumetric.csv"));
+    assert_eq!(csv.keys(2), ["ours 2", "volumetric 2", "volumetric 8"]);
     for dir in ["ours-2spp", "volumetric-2spp", "volumetric-8spp"] {
         let res = read_json(&d.join("v/runs").join(dir).join("result.json"));
         let albedo = &res["estimate"]["albedo"];
@@ -1057,21 +1040,11 @@ fn experiment_prb_quick_compares_ours_with_the_volumetric_baseline() {
     let t = tmp();
     let d = t.path();
     ok(d, &["-q", "experiment", "prb", "--quick", "--out", "r"]);
-    let csv = std::fs::read_to_string(d.join("r/prb.csv")).unwrap();
-    let runs: Vec<&str> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').next().unwrap())
-        .collect();
-    assert_eq!(runs, ["ours", "volumetric"]);
-    for l in csv.lines().skip(1) {
-        let f: Vec<f64> = l
-            .split(',')
-            .skip(1)
-            .take(3)
-            .map(|x| x.parse().unwrap())
-            .collect();
-        assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0), "{l}");
+    let csv = testkit::CsvTable::read(d.join("r/prb.csv"));
+    assert_eq!(csv.keys(1), ["ours", "volumetric"]);
+    for l in &csv.rows {
+        let f: Vec<f64> = l[1..4].iter().map(|x| x.parse().unwrap()).collect();
+        assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0), "{l:?}");
     }
     assert!(d.join("r/prb.png").is_file() && d.join("r/prb.svg").is_file());
     let again = ok(d, &["-q", "experiment", "prb", "--quick", "--out", "r"]);
