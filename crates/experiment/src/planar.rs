@@ -5,16 +5,31 @@
 //! bias correction (the paper compares the plain methods). Besides
 //! its table (`OUT/table.md`, `results.csv`), per case a figure of the σ_t and α errors over the
 //! iterations, one line per method (`OUT/planar-<case>.png` and `.svg`), and the re-renders of
-//! the first view side by side with the target (`OUT/renders-<case>.png`: target, then each
-//! method, one exposure).
+//! the first view (below, "Re-renders").
+//!
+//! # Re-renders
+//! The paper shows each method's estimate re-rendered beside the truth ("planar blurrier"). Here
+//! the truth and every estimate are rendered by the volumetric path tracer in the first view,
+//! all at `--rerender-spp` with one seed, so that they differ by their media alone and their
+//! noise is well below the targets': `OUT/renders-<case>.png` (truth, then each method, one
+//! exposure), the EXRs in `OUT/rerenders/`, and per method and channel, against the truth's
+//! re-render I_T:
+//!
+//! * brightness ratio  Σ_p I_p / Σ_p I_T,p;
+//! * relative RMS difference  √(Σ_p (I_p − I_T,p)² / Σ_p I_T,p²);
+//!
+//! with a noise-floor row: the truth rendered again with another seed. A render is kept (and
+//! reused by a later assembly) beside a JSON file of the medium, spp, seed and depth it was made
+//! with.
+
+pub mod rerender;
 
 use inverse::recovery::Observer;
 use std::path::PathBuf;
 
-use crate::error::{Context, Result};
+use crate::error::Result;
 use clap::Args;
 use plot::{Figure, Panel, Series};
-use scene::Image;
 
 use super::report::{Row, read_trajectory};
 use crate::accuracy::{AccuracyArgs, accuracy};
@@ -40,6 +55,10 @@ pub struct PlanarArgs {
     /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
     #[arg(long)]
     pub quick: bool,
+    /// Samples per pixel of the re-renders of the first view (truth and each estimate, by the
+    /// volumetric path tracer; module docs).
+    #[arg(long, default_value_t = 512)]
+    pub rerender_spp: u32,
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
 }
@@ -69,16 +88,29 @@ pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
     }
     let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
     cases.dedup();
+    let spp = if a.quick { 4 } else { a.rerender_spp };
+    let mut compared = Vec::new();
     for case in cases {
         let of_case: Vec<&Row> = rows.iter().filter(|r| r.case == case).collect();
         let fig = error_figure(case, &of_case)?;
         fig.write_png(&a.out.join(format!("planar-{case}.png")), true)?;
         fig.write_svg(&a.out.join(format!("planar-{case}.svg")), true)?;
-        let (renders, exposure) = side_by_side(&of_case)?;
-        renders.write_png(&a.out.join(format!("renders-{case}.png")), exposure, true)?;
+        let r = rerender::case(&a.out, case, &of_case, spp, a.seed, obs)?;
+        r.figure
+            .write_png(&a.out.join(format!("renders-{case}.png")), r.exposure, true)?;
+        compared.extend(r.rows);
+    }
+    if !compared.is_empty() {
+        let table = rerender::table(&compared, spp);
+        obs.say(&table);
+        scene::fsutil::atomic_write(&a.out.join("rerenders.md"), table.as_bytes(), true)?;
+        let csv = rerender::csv(&compared, spp);
+        scene::fsutil::atomic_write(&a.out.join("rerenders.csv"), csv.as_bytes(), true)?;
     }
     obs.say(&format!(
-        "wrote {} (planar-<case>.png/.svg: errors over iterations; renders-<case>.png: target, {})",
+        "wrote {} (planar-<case>.png/.svg: errors over iterations; renders-<case>.png: the first \
+         view re-rendered at {spp} spp by the volumetric path tracer: truth, {}; rerenders.md/.csv: \
+         each re-render against the truth's)",
         a.out.display(),
         METHODS.join(", ")
     ));
@@ -122,34 +154,4 @@ fn error_figure(case: &str, rows: &[&Row]) -> Result<Figure> {
         ],
         2,
     ))
-}
-
-/// The first view's target, then each method's re-render, side by side, with their shared
-/// exposure.
-fn side_by_side(rows: &[&Row]) -> Result<(Image, f32)> {
-    let first = rows.first().context("no runs")?;
-    let read = |p: PathBuf| Image::read_exr(&p).with_context(|| format!("reading {}", p.display()));
-    // Runs are OUT/runs/<case>-<method>, datasets OUT/data/<case>.
-    let data = first.run_dir.join("../../data").join(&first.case);
-    let dataset = scene::Dataset::load(&data)?;
-    let target = dataset
-        .views
-        .first()
-        .and_then(|v| v.image.clone())
-        .context("the dataset has no images")?;
-    let mut images = vec![target];
-    for r in rows {
-        images.push(read(r.run_dir.join("final/view_000.exr"))?);
-    }
-    let (w, h) = (images[0].width, images[0].height);
-    let mut out = Image::new(w * images.len() as u32, h);
-    for (k, img) in images.iter().enumerate() {
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                out.data[y * out.width as usize + k * w as usize + x] =
-                    img.data[y * w as usize + x];
-            }
-        }
-    }
-    Ok((out, scene::image::auto_exposure(&images)))
 }

@@ -955,8 +955,8 @@ fn experiment_gradients_quick_compares_estimators_with_differences() {
 }
 
 /// `experiment planar --quick`: ours, naive and the dipole on three shapes, the table holding
-/// every method, an error figure (PNG and SVG) and the side-by-side re-renders per case, and the
-/// dipole's runs made with the dipole model.
+/// every method, an error figure (PNG and SVG) and the side-by-side re-renders per case with
+/// their comparison against the truth's, and the dipole's runs made with the dipole model.
 #[test]
 fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
     let t = tmp();
@@ -984,6 +984,24 @@ fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
     }
     let res = read_json(&d.join("p/runs/cone-m0-dipole/result.json"));
     assert_eq!(res["config"]["model"], "dipole");
+    // The re-renders: per case the noise floor and each method against the truth's, finite.
+    let rr = testkit::CsvTable::read(&d.join("p/rerenders.csv"));
+    assert_eq!(rr.rows.len(), 3 * 4, "{}", rr.text);
+    for case in ["blob-m0", "torus-m0", "cone-m0"] {
+        for m in ["truth (another seed)", "ours", "naive", "dipole"] {
+            let row = rr
+                .rows
+                .iter()
+                .find(|r| r[0] == case && r[1] == m)
+                .unwrap_or_else(|| panic!("{case} {m}:\n{}", rr.text));
+            for v in &row[3..9] {
+                let v: f64 = v.parse().unwrap();
+                assert!(v.is_finite() && v >= 0.0, "{case} {m}: {v}");
+            }
+        }
+    }
+    assert!(d.join("p/rerenders/cone-m0-dipole.exr").is_file());
+    assert!(d.join("p/rerenders/cone-m0-dipole.json").is_file());
 }
 
 /// `experiment inits --quick`: one case with `ours`, three random starts in the table, the
