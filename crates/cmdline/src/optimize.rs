@@ -47,6 +47,11 @@ pub struct OptimizeArgs {
     /// --iterations with the learned model, none with the others; 0: the learned model alone.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, value_name = "N")]
     pub refine: Option<u32>,
+    /// Samples per pixel of the refinement's iterations (default: --spp). The tracer's
+    /// iteration costs about twice the learned model's at high albedo; fewer samples there
+    /// trade gradient noise for time.
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub refine_spp: Option<u32>,
     /// Carry Adam's moments into the refinement instead of starting them again. The tracer's
     /// gradient is smaller than the learned model's, so carried moments shrink the
     /// refinement's steps (docs/notes/default-model.md).
@@ -241,6 +246,15 @@ pub fn config_for(
         };
     }
     c.spp = a.budget.spp;
+    if let Some(r) = a.refine_spp {
+        if c.refine_iterations == 0 {
+            return Err(CmdlineError::Invalid(format!(
+                "--refine-spp {r} without a refinement (--refine 0, --bias-correction or a \
+                 model other than the learned one); fix: drop --refine-spp or refine"
+            )));
+        }
+        c.refine_spp = Some(r);
+    }
     c.views_per_iter = a.budget.views_per_iter;
     c.view_subset = a.view_subset.clone();
     c.loss = a.loss;

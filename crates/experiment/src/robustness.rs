@@ -68,6 +68,10 @@ pub struct RobustnessArgs {
     /// the volumetric path tracer. Default: `optimize`'s.
     #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N")]
     pub refine: Option<u32>,
+    /// Samples per pixel of the refinement's iterations (`optimize --refine-spp`). Default:
+    /// `optimize`'s (--spp).
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub refine_spp: Option<u32>,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
@@ -655,6 +659,7 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     o.seed = a.seed + rep;
     o.final_spp = 16;
     o.refine = a.refine;
+    o.refine_spp = a.refine_spp;
     if a.quick {
         o.budget.iterations = 12;
         o.budget.spp = 4;
@@ -775,7 +780,11 @@ fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
                     ", bias correction".to_string()
                 }
                 0 => String::new(),
-                r => format!(", the last {r} by the volumetric path tracer"),
+                r => format!(
+                    ", the last {r} by the volumetric path tracer{}",
+                    a.refine_spp
+                        .map_or(String::new(), |s| format!(" at {s} spp"))
+                ),
             }
         },
         a.seeds,

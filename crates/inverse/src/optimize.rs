@@ -105,6 +105,13 @@ pub struct OptimizeConfig {
     pub refine_restarts_moments: bool,
     /// Samples per pixel per iteration.
     pub spp: u32,
+    /// Samples per pixel of the refinement's iterations ([`OptimizeConfig::spp_at`]); `None`:
+    /// `spp`. The tracer's iteration costs about twice the learned model's at high albedo
+    /// (its paths run to the depth limit), so fewer samples there trade gradient noise for
+    /// time. (Left out of the JSON when `None`, so runs written before the option compare
+    /// equal.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine_spp: Option<u32>,
     /// Views rendered per iteration.
     pub views_per_iter: usize,
     /// Render a random `crop × crop` window of each view per iteration instead of the whole
@@ -304,6 +311,16 @@ impl OptimizeConfig {
                 self.refine_iterations, self.iterations
             ));
         }
+        if let Some(r) = self.refine_spp {
+            if r == 0 {
+                return Err("refine_spp must be at least 1".into());
+            }
+            if self.refine_iterations == 0 {
+                return Err(format!(
+                    "refine_spp = {r} without a refinement (refine_iterations = 0)"
+                ));
+            }
+        }
         if self.refine_iterations > 0 && self.model == ModelKind::Volpath {
             return Err(
                 "refine_iterations with the volumetric model: the tracer is the model already"
@@ -373,6 +390,19 @@ impl OptimizeConfig {
         }
     }
 
+    /// Samples per pixel of iteration `k`: [`OptimizeConfig::refine_spp`] in the refinement,
+    /// else `spp`.
+    pub fn spp_at(&self, k: u32) -> u32 {
+        match self.refine_spp {
+            Some(r)
+                if self.refine_iterations > 0 && k >= self.iterations - self.refine_iterations =>
+            {
+                r
+            }
+            _ => self.spp,
+        }
+    }
+
     /// The forward model that makes the estimate: the model of the last iteration.
     pub fn final_model(&self) -> ModelKind {
         self.model_at(self.iterations.saturating_sub(1))
@@ -416,6 +446,7 @@ impl OptimizeConfig {
             refine_iterations: Self::default_refinement(ModelKind::Learned, 300),
             refine_restarts_moments: true,
             spp: 32,
+            refine_spp: None,
             views_per_iter: 1,
             crop: None,
             loss: Loss::L2,
@@ -743,20 +774,21 @@ impl<'a> Optimizer<'a> {
                 },
                 None => TargetView { ..*full },
             };
+            let spp = c.spp_at(k);
             let rs = RenderSettings {
-                spp: c.spp,
+                spp,
                 seed: hash_key(&[c.seed, k as u64]),
                 view: v as u64,
             };
             let mut view_misfit = None;
-            let g = if c.two_renders && c.split_samples && c.spp >= 2 {
+            let g = if c.two_renders && c.split_samples && spp >= 2 {
                 // Two derivative renders with half the samples each and independent seeds:
                 // ∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ], no covariance bias, the
                 // cost of one render at `spp`.
-                let half = c.spp / 2;
+                let half = spp / 2;
                 let rs_a = RenderSettings { spp: half, ..rs };
                 let rs_b = RenderSettings {
-                    spp: c.spp - half,
+                    spp: spp - half,
                     seed: hash_key(&[c.seed, k as u64, 0xB]),
                     ..rs
                 };

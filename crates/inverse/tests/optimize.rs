@@ -686,3 +686,60 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     (bad.model, bad.method) = (ModelKind::Volpath, bssrdf::diff::DiffMethod::Ad);
     assert!(bad.check().unwrap_err().contains("refine_iterations"));
 }
+
+/// `refine_spp`: the refinement's iterations render at their own samples per pixel and the
+/// others at `spp`. A run with `refine_spp = spp` is the run without it, bit for bit; with fewer
+/// samples the iterations before the refinement are unchanged and the refinement's gradients
+/// differ. It is left out of the JSON when unset, and refused at 0 or without a refinement.
+#[test]
+fn refine_spp_sets_the_samples_of_the_refinement_alone() {
+    let s = setup();
+    let mut c = config(6);
+    c.refine_iterations = 2;
+    c.volpath_max_depth = Some(8);
+    assert!(
+        serde_json::to_value(&c)
+            .unwrap()
+            .get("refine_spp")
+            .is_none()
+    );
+    let history = |c: &OptimizeConfig| {
+        let mut o = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        o.run(None, |_, _| {}).unwrap();
+        o.history()
+            .iter()
+            .map(|r| (r.loss, r.d_albedo, r.params.albedo))
+            .collect::<Vec<_>>()
+    };
+    let plain = history(&c);
+    let mut same = c.clone();
+    same.refine_spp = Some(c.spp);
+    assert_eq!(history(&same), plain);
+    let mut fewer = c.clone();
+    fewer.refine_spp = Some(2);
+    assert_eq!(
+        (fewer.spp_at(3), fewer.spp_at(4), fewer.spp_at(5)),
+        (8, 2, 2)
+    );
+    assert_eq!(serde_json::to_value(&fewer).unwrap()["refine_spp"], 2);
+    let back: OptimizeConfig =
+        serde_json::from_value(serde_json::to_value(&fewer).unwrap()).unwrap();
+    assert_eq!(back, fewer);
+    let cheap = history(&fewer);
+    assert_eq!(
+        cheap[..4],
+        plain[..4],
+        "the learned iterations are unchanged"
+    );
+    assert_ne!(
+        cheap[4].1, plain[4].1,
+        "the refinement renders fewer samples"
+    );
+
+    let mut bad = fewer.clone();
+    bad.refine_spp = Some(0);
+    assert!(bad.check().unwrap_err().contains("refine_spp"));
+    let mut bad = fewer;
+    bad.refine_iterations = 0;
+    assert!(bad.check().unwrap_err().contains("refine_spp"));
+}

@@ -173,7 +173,7 @@ fn assert_bootstrap_step(
 /// settings, and `result.json` reports θ₂ = θ₁ + θ̂ − θ̂₂' as `estimate` beside the optimiser's
 /// own; `--resume` reuses the steps, `--overwrite` drops them. `--bias-correction` means the
 /// learned model alone, in the main run and in the steps' recoveries: with a refinement it is
-/// refused.
+/// refused, as is `--refine-spp` without a refinement.
 #[test]
 fn optimize_bias_correction_reports_the_iterated_correction() {
     let t = tmp();
@@ -183,6 +183,11 @@ fn optimize_bias_correction_reports_the_iterated_correction() {
     assert_stderr_has(
         &fails(d, &both),
         &["--bias-correction with --refine 1", "fix"],
+    );
+    let unrefined = [&TINY_OPTIMIZE[..], &["--refine", "0", "--refine-spp", "4"]].concat();
+    assert_stderr_has(
+        &fails(d, &unrefined),
+        &["--refine-spp 4 without a refinement", "fix"],
     );
     let mut args = TINY_OPTIMIZE.to_vec();
     args.extend(["--bias-correction", "--bias-correction-steps", "2"]);
