@@ -17,6 +17,8 @@
 //!
 //! * brightness ratio  Σ_p I_p / Σ_p I_T,p;
 //! * relative RMS difference  √(Σ_p (I_p − I_T,p)² / Σ_p I_T,p²);
+//! * the same at equal brightness, with I_p divided by the brightness ratio: what differs
+//!   besides the overall brightness (how far the light spreads, the contrast), plus noise;
 //!
 //! with a noise-floor row: the truth rendered again with another seed. A render is kept (and
 //! reused by a later assembly) beside a JSON file of the medium, spp, seed and depth it was made

@@ -999,7 +999,7 @@ fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
                 .iter()
                 .find(|r| r[0] == case && r[1] == m)
                 .unwrap_or_else(|| panic!("{case} {m}:\n{}", rr.text));
-            for v in &row[3..9] {
+            for v in &row[3..12] {
                 let v: f64 = v.parse().unwrap();
                 assert!(v.is_finite() && v >= 0.0, "{case} {m}: {v}");
             }

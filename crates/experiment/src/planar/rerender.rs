@@ -26,6 +26,10 @@ pub struct Compared {
     pub brightness: [f64; 3],
     /// √(Σ (I − I_T)² / Σ I_T²).
     pub rel_rms: [f64; 3],
+    /// The same after scaling I to the truth's brightness, √(Σ (I/m − I_T)² / Σ I_T²) with m
+    /// the brightness ratio: what differs besides the overall brightness (the spread of the
+    /// light, its contrast), plus noise.
+    pub rel_rms_shape: [f64; 3],
 }
 
 /// A case's re-renders: the figure (truth, then each method), its exposure and the comparisons.
@@ -131,21 +135,26 @@ pub fn case(
 
 /// `img` against the truth's re-render `reference` (module docs of [`super`]).
 pub fn compare(case: &str, method: &str, img: &Image, reference: &Image) -> Compared {
-    let (mut s, mut st, mut d2, mut t2) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
-    for (p, q) in img.data.iter().zip(&reference.data) {
-        for c in 0..3 {
-            let (x, t) = (p[c] as f64, q[c] as f64);
-            s[c] += x;
-            st[c] += t;
-            d2[c] += (x - t) * (x - t);
-            t2[c] += t * t;
-        }
-    }
+    let pairs = || img.data.iter().zip(&reference.data);
+    let sum = |f: &dyn Fn(f64, f64) -> f64| -> [f64; 3] {
+        std::array::from_fn(|c| pairs().map(|(p, q)| f(p[c] as f64, q[c] as f64)).sum())
+    };
+    let (s, st) = (sum(&|x, _| x), sum(&|_, t| t));
+    let t2 = sum(&|_, t| t * t);
+    let brightness: [f64; 3] = std::array::from_fn(|c| s[c] / st[c]);
+    let d2 = sum(&|x, t| (x - t) * (x - t));
+    let shape: [f64; 3] = std::array::from_fn(|c| {
+        let m = brightness[c];
+        pairs()
+            .map(|(p, q)| (p[c] as f64 / m - q[c] as f64).powi(2))
+            .sum()
+    });
     Compared {
         case: case.into(),
         method: method.into(),
-        brightness: std::array::from_fn(|c| s[c] / st[c]),
+        brightness,
         rel_rms: std::array::from_fn(|c| (d2[c] / t2[c]).sqrt()),
+        rel_rms_shape: std::array::from_fn(|c| (shape[c] / t2[c]).sqrt()),
     }
 }
 
@@ -154,13 +163,14 @@ pub fn table(rows: &[Compared], spp: u32) -> String {
     let mut s = format!(
         "First view re-rendered by the volumetric path tracer at {spp} spp, against the truth's \
          re-render (same seed; `{FLOOR}`: the truth with another seed, the noise floor)\n\n\
-         | case | re-render | brightness ratio (R, G, B) | relative RMS difference % (R, G, B) |\n\
-         |---|---|---|---|\n"
+         | case | re-render | brightness ratio (R, G, B) | relative RMS difference % (R, G, B) | \
+         the same at equal brightness % |\n\
+         |---|---|---|---|---|\n"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3}, {:.3}, {:.3} | {:.1}, {:.1}, {:.1} |",
+            "| {} | {} | {:.3}, {:.3}, {:.3} | {:.1}, {:.1}, {:.1} | {:.1}, {:.1}, {:.1} |",
             r.case,
             r.method,
             r.brightness[0],
@@ -168,7 +178,10 @@ pub fn table(rows: &[Compared], spp: u32) -> String {
             r.brightness[2],
             100.0 * r.rel_rms[0],
             100.0 * r.rel_rms[1],
-            100.0 * r.rel_rms[2]
+            100.0 * r.rel_rms[2],
+            100.0 * r.rel_rms_shape[0],
+            100.0 * r.rel_rms_shape[1],
+            100.0 * r.rel_rms_shape[2]
         );
     }
     s
@@ -177,12 +190,13 @@ pub fn table(rows: &[Compared], spp: u32) -> String {
 /// The comparisons as CSV.
 pub fn csv(rows: &[Compared], spp: u32) -> String {
     let mut s = String::from(
-        "case,rerender,spp,brightness_r,brightness_g,brightness_b,rel_rms_r,rel_rms_g,rel_rms_b\n",
+        "case,rerender,spp,brightness_r,brightness_g,brightness_b,rel_rms_r,rel_rms_g,rel_rms_b,\
+         rel_rms_shape_r,rel_rms_shape_g,rel_rms_shape_b\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{spp},{},{},{},{},{},{}",
+            "{},{},{spp},{},{},{},{},{},{},{},{},{}",
             r.case,
             r.method,
             r.brightness[0],
@@ -190,7 +204,10 @@ pub fn csv(rows: &[Compared], spp: u32) -> String {
             r.brightness[2],
             r.rel_rms[0],
             r.rel_rms[1],
-            r.rel_rms[2]
+            r.rel_rms[2],
+            r.rel_rms_shape[0],
+            r.rel_rms_shape[1],
+            r.rel_rms_shape[2]
         );
     }
     s
@@ -215,6 +232,22 @@ mod tests {
         let r = compare("c", "m", &image([1.5, 2.0, 2.0]), &reference);
         assert_eq!(r.brightness, [1.5, 1.0, 0.5]);
         assert_eq!(r.rel_rms, [0.5, 0.0, 0.5]);
+        // A uniform scale is all brightness, no shape.
+        assert_eq!(r.rel_rms_shape, [0.0; 3]);
+        // Half the image twice as bright, the other half as before: brightness 1.5, and at
+        // equal brightness the halves are 4/3 and 2/3 of the truth: √((1/9 + 1/9)/2) = 1/3.
+        let mut uneven = reference.clone();
+        uneven.data[0] = [2.0, 4.0, 8.0];
+        uneven.data[1] = [2.0, 4.0, 8.0];
+        let r = compare("c", "m", &uneven, &reference);
+        for c in 0..3 {
+            assert!((r.brightness[c] - 1.5).abs() < 1e-12);
+            assert!(
+                (r.rel_rms_shape[c] - 1.0 / 3.0).abs() < 1e-12,
+                "{:?}",
+                r.rel_rms_shape
+            );
+        }
     }
 
     #[test]
@@ -226,7 +259,11 @@ mod tests {
         let csv = csv(&rows, 8);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 3);
-        assert!(lines[2].starts_with("c,ours,8,2,2,2,1,1,1"), "{}", lines[2]);
-        assert!(table(&rows, 8).contains("| c | ours | 2.000, 2.000, 2.000 | 100.0"));
+        assert_eq!(lines[2], "c,ours,8,2,2,2,1,1,1,0,0,0");
+        assert!(
+            table(&rows, 8).contains(
+                "| c | ours | 2.000, 2.000, 2.000 | 100.0, 100.0, 100.0 | 0.0, 0.0, 0.0 |"
+            )
+        );
     }
 }
