@@ -990,7 +990,7 @@ fn experiment_planar_quick_compares_ours_naive_and_the_dipole() {
     let res = read_json(&d.join("p/runs/cone-m0-dipole/result.json"));
     assert_eq!(res["config"]["model"], "dipole");
     // The re-renders: per case the noise floor and each method against the truth's, finite.
-    let rr = testkit::CsvTable::read(&d.join("p/rerenders.csv"));
+    let rr = testkit::CsvTable::read(d.join("p/rerenders.csv"));
     assert_eq!(rr.rows.len(), 3 * 4, "{}", rr.text);
     for case in ["blob-m0", "torus-m0", "cone-m0"] {
         for m in ["truth (another seed)", "ours", "naive", "dipole"] {
