@@ -583,6 +583,14 @@ fn non_finite_gradient_names_iteration_and_view_and_keeps_the_last_good_state() 
     }
 }
 
+/// Six iterations, the last two refined by the volumetric path tracer at depth 8.
+fn refined_config() -> OptimizeConfig {
+    let mut c = config(6);
+    c.refine_iterations = 2;
+    c.volpath_max_depth = Some(8);
+    c
+}
+
 /// `refine_iterations`: the last iterations of a run use the volumetric path tracer. After the
 /// run, the optimiser renders exactly as a run of the tracer itself does (and not as the
 /// learned model does), a run resumed from a checkpoint inside the refinement ends where the
@@ -592,9 +600,7 @@ fn non_finite_gradient_names_iteration_and_view_and_keeps_the_last_good_state() 
 fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     use inverse::forward::ModelKind;
     let s = setup();
-    let mut c = config(6);
-    c.refine_iterations = 2;
-    c.volpath_max_depth = Some(8);
+    let c = refined_config();
     assert_eq!(c.model_at(3), ModelKind::Learned);
     assert_eq!(c.model_at(4), ModelKind::Volpath);
     assert_eq!(c.final_model(), ModelKind::Volpath);
@@ -694,9 +700,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
 #[test]
 fn refine_spp_sets_the_samples_of_the_refinement_alone() {
     let s = setup();
-    let mut c = config(6);
-    c.refine_iterations = 2;
-    c.volpath_max_depth = Some(8);
+    let c = refined_config();
     assert!(
         serde_json::to_value(&c)
             .unwrap()

@@ -168,20 +168,15 @@ pub fn table(rows: &[Compared], spp: u32) -> String {
          |---|---|---|---|---|\n"
     );
     for r in rows {
+        let pct = |v: &[f64; 3]| join(v, |x| format!("{:.1}", 100.0 * x), ", ");
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3}, {:.3}, {:.3} | {:.1}, {:.1}, {:.1} | {:.1}, {:.1}, {:.1} |",
+            "| {} | {} | {} | {} | {} |",
             r.case,
             r.method,
-            r.brightness[0],
-            r.brightness[1],
-            r.brightness[2],
-            100.0 * r.rel_rms[0],
-            100.0 * r.rel_rms[1],
-            100.0 * r.rel_rms[2],
-            100.0 * r.rel_rms_shape[0],
-            100.0 * r.rel_rms_shape[1],
-            100.0 * r.rel_rms_shape[2]
+            join(&r.brightness, |x| format!("{x:.3}"), ", "),
+            pct(&r.rel_rms),
+            pct(&r.rel_rms_shape)
         );
     }
     s
@@ -194,23 +189,21 @@ pub fn csv(rows: &[Compared], spp: u32) -> String {
          rel_rms_shape_r,rel_rms_shape_g,rel_rms_shape_b\n",
     );
     for r in rows {
+        let values = [r.brightness, r.rel_rms, r.rel_rms_shape].concat();
         let _ = writeln!(
             s,
-            "{},{},{spp},{},{},{},{},{},{},{},{},{}",
+            "{},{},{spp},{}",
             r.case,
             r.method,
-            r.brightness[0],
-            r.brightness[1],
-            r.brightness[2],
-            r.rel_rms[0],
-            r.rel_rms[1],
-            r.rel_rms[2],
-            r.rel_rms_shape[0],
-            r.rel_rms_shape[1],
-            r.rel_rms_shape[2]
+            join(&values, |x| x.to_string(), ",")
         );
     }
     s
+}
+
+/// `values`, each formatted by `f`, separated by `sep`.
+fn join(values: &[f64], f: impl Fn(f64) -> String, sep: &str) -> String {
+    values.iter().map(|&x| f(x)).collect::<Vec<_>>().join(sep)
 }
 
 #[cfg(test)]
