@@ -12,7 +12,8 @@
 //!   input derivative of the absorption output (§4).
 //! * [`model`]: our model file format (safetensors + JSON metadata) and its validation.
 //! * [`projection`]: the projection Π of proposed points onto the mesh (§7, A5).
-//! * [`boundary`]: Fresnel transmittance, FM1 and the light-side factor Sw (§1).
+//! * the boundary factors (Fresnel transmittance, FM1, the light-side factor Sw, §1) are
+//!   `base::boundary`, shared with the dipole.
 //! * [`exit`]: the light-side exit law from half-space walks, conditioned on the camera side
 //!   (replaces the cosine law of Sw by default).
 //! * [`incidence`]: the light-side incidence factor: where obliquely entering light leaves,
@@ -22,16 +23,12 @@
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
-//! * [`dipole`]: the planar dipole baseline (DLW22, §9): the Jensen dipole between the camera
-//!   point and entry points from probe rays, with derivatives at fixed sample positions.
 //! * [`gaussian`]: standard normal samples by inversion.
 //! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
 //!   dependency).
 
-pub mod boundary;
 pub mod curvature;
 pub mod diff;
-pub mod dipole;
 pub mod exit;
 pub mod fit;
 pub mod gaussian;

@@ -44,7 +44,6 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
 
-use crate::boundary::transmittance;
 use crate::curvature::{CurvatureCoords, CurvatureSlice, CurvatureTable};
 use crate::exit::{ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{FitError, interpolate};
@@ -52,12 +51,14 @@ use crate::gaussian::probit;
 use crate::incidence::{IncidenceSlice, IncidenceTable};
 use crate::medium::{ReducedMedium, effective_albedo};
 use crate::model::FrameConvention;
-use crate::nn::{INPUT_DIM, LATENT_DIM, POSITION_DIM, ShapeAdaptiveModel, Workspace};
+use crate::nn::{INPUT_DIM, LATENT_DIM, ShapeAdaptiveModel, Workspace};
 use crate::polynomial::{Poly3, align_direction, light_space_frame};
 use crate::projection::ProjectionRule;
+use base::boundary::transmittance;
 
 mod entry;
 mod features;
+mod networks;
 mod sampling;
 mod walks;
 pub use entry::{Incidence, LightCurvature};
@@ -65,6 +66,7 @@ pub(crate) use entry::{
     light_contribution, place_and_project, projection_gradient, proposed_point,
 };
 pub use features::{DFIT_STEP, VertexFeatures};
+pub(crate) use networks::{NetOutputs, evaluate_networks, run_networks};
 use sampling::PixelPlan;
 pub use sampling::PixelSampling;
 pub use walks::{EntrySampler, MAX_TRIES as WALK_MAX_TRIES, walk_exit};
@@ -79,8 +81,6 @@ pub enum RenderError {
     Fit(#[from] FitError),
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
-    #[error("derivative estimator: {0}")]
-    Estimator(String),
 }
 
 /// Settings of the learned renderer.
@@ -308,16 +308,6 @@ impl<'a> LearnedScene<'a> {
         let norm = self.model.normalisation();
         norm.inputs(&p.0, self.eff_albedo[c], m.g, m.eta)
     }
-}
-
-/// The outputs of the three networks for a batch of samples.
-#[derive(Default)]
-pub(crate) struct NetOutputs {
-    pub(crate) feats: Vec<f32>,
-    /// Absorb (S_abs = 1 − Absorb).
-    pub(crate) absorb: Vec<f32>,
-    /// Decoder outputs (light-space offsets in units of σ_n).
-    pub(crate) y: Vec<[f32; POSITION_DIM]>,
 }
 
 /// One BSSRDF sample between the batched network calls.
@@ -579,54 +569,4 @@ pub(crate) fn prepare_row(
             });
         }
     }
-}
-
-/// Stage 2 of a row: feature MLP, S_abs and the decoder, batched over the row's samples.
-/// With [`EntrySampler::Walks`] the decoder's outputs are replaced by walk exits.
-pub(crate) fn run_networks(scene: &LearnedScene, buf: &mut RowBuffers) -> Result<(), RenderError> {
-    evaluate_networks(
-        scene.model,
-        &buf.inputs,
-        &buf.z,
-        &mut buf.point,
-        &mut buf.net,
-        &mut buf.ws,
-    )?;
-    if scene.settings.entry == EntrySampler::Walks {
-        let k = |c: usize| scene.descriptor_scale[c];
-        let media = walk_media(scene);
-        walk_entries(
-            &media,
-            &buf.pending,
-            &buf.coeffs,
-            &buf.dcoeffs,
-            k,
-            &mut buf.net.y,
-        );
-    }
-    Ok(())
-}
-
-/// Feature MLP, Absorb and decoder for the samples `inputs` with latents `z` (one per input).
-pub(crate) fn evaluate_networks(
-    model: &ShapeAdaptiveModel,
-    inputs: &[[f32; INPUT_DIM]],
-    z: &[[f32; LATENT_DIM]],
-    point: &mut Vec<u32>,
-    out: &mut NetOutputs,
-    ws: &mut Workspace,
-) -> Result<(), RenderError> {
-    let n = inputs.len();
-    if n == 0 {
-        return Ok(());
-    }
-    out.feats.resize(n * model.feature_dim(), 0.0);
-    out.absorb.resize(n, 0.0);
-    out.y.resize(n, [0.0; POSITION_DIM]);
-    point.clear();
-    point.extend(0..n as u32);
-    model.features_with(inputs, &mut out.feats, ws)?;
-    model.absorb_with(&out.feats, &mut out.absorb, ws)?;
-    model.decode_with(&out.feats, z, point, &mut out.y, ws)?;
-    Ok(())
 }

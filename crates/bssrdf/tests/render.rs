@@ -20,7 +20,7 @@
 
 mod common;
 
-use bssrdf::boundary::{sw, transmittance};
+use base::boundary::{sw, transmittance};
 use bssrdf::exit::{ExitLaw, ExitTable};
 use bssrdf::medium::{ReducedMedium, effective_albedo};
 use bssrdf::nn::ShapeAdaptiveModel;

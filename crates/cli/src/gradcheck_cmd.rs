@@ -5,9 +5,10 @@
 //! channel, its relative error against `fd`, and the per-pixel correlation with `fd`.
 
 use anyhow::{Context, Result, bail};
-use bssrdf::diff::{DiffMethod, Primal};
-use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
+use bssrdf::diff::{Estimator, Primal};
+use bssrdf::render::RenderSettings;
 use clap::Args;
+use inverse::forward::learned::LearnedSpec;
 use scene::{Dataset, Medium};
 use std::path::PathBuf;
 
@@ -38,7 +39,7 @@ pub struct GradcheckArgs {
         value_delimiter = ',',
         default_value = "ours,naive"
     )]
-    pub methods: Vec<String>,
+    pub estimators: Vec<String>,
     /// Samples per pixel.
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
@@ -88,26 +89,26 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
     let model = a.learned.load_model()?;
-    let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, a.seed)?;
-    let scene = LearnedScene::new(&accel, &model, &features, medium, a.learned.settings())?;
     let rs = RenderSettings {
         spp: a.spp,
         seed: a.seed,
         view: a.view as u64,
     };
-    let methods: Vec<DiffMethod> = a
-        .methods
+    let estimators: Vec<Estimator> = a
+        .estimators
         .iter()
         .map(|m| m.parse())
         .collect::<Result<_, _>>()?;
     std::fs::create_dir_all(&a.out)?;
     let results = render_estimators(
-        &scene,
+        &accel,
+        LearnedSpec::new(&model, a.learned.settings(), a.seed),
+        medium,
         &view.camera,
         &view.light,
         &rs,
         &rs,
-        &methods,
+        &estimators,
         a.delta_rel,
         a.primal,
     )?;
@@ -138,7 +139,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         let (st, sa) = (g.sum_d_sigma_t, g.sum_d_albedo);
         println!(
             "{:<20} {:>8.2} | {:>+11.3e} {:>+11.3e} {:>+11.3e} {:>8.3} {:>6.3} | {:>+11.3e} {:>+11.3e} {:>+11.3e} {:>8.3} {:>6.3}",
-            r.method.name(),
+            r.estimator.name(),
             r.seconds,
             st[0],
             st[1],
@@ -154,7 +155,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         for c in 0..3 {
             csv.push_str(&format!(
                 "{},{},{c},{},{}\n",
-                r.method.name(),
+                r.estimator.name(),
                 r.seconds,
                 st[c],
                 sa[c]

@@ -19,7 +19,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use inverse::forward::ModelKind;
+use inverse::forward::learned::LearnedSpec;
+use inverse::forward::{ModelKind, ModelSpec};
 use scene::{Dataset, RenderInfo, SceneDesc};
 use volpath::{ChannelSampling, VolpathSettings};
 
@@ -79,7 +80,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let spp = a.spp.or(desc.render.spp).unwrap_or(64);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
     let seed = a.seed.or(desc.render.seed).unwrap_or(0);
-    let max_depth = a.max_depth.or(desc.render.max_depth).unwrap_or(32);
+    let max_depth = a
+        .max_depth
+        .or(desc.render.max_depth)
+        .unwrap_or(volpath::DEFAULT_MAX_DEPTH);
     anyhow::ensure!(max_depth > 0, "--max-depth must be at least 1");
     let names: Vec<String> = (0..desc.views.len())
         .map(|i| format!("view_{i:03}"))
@@ -122,30 +126,27 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         spp,
         seed,
     };
-    let (rep, renderer) = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
-        ModelKind::Dipole => (
-            {
-                let pb = cmdline::progress(views.len() as u64, "dipole");
-                let rep = inverse::views::dipole(&job, a.derivatives, &pb)?;
-                pb.finish_and_clear();
-                rep
+    let kind = a.learned.renderer(&a.method, ModelKind::Volpath)?;
+    let networks = match kind {
+        ModelKind::Learned => Some(a.learned.load_model()?),
+        _ => None,
+    };
+    let (spec, renderer) = match (kind, &networks) {
+        (ModelKind::Learned, Some(n)) => (
+            ModelSpec::Learned(LearnedSpec::new(n, a.learned.settings(), seed)),
+            format!("learned BSSRDF ({})", a.learned.describe()),
+        ),
+        (ModelKind::Dipole, _) => (
+            ModelSpec::Dipole {
+                estimator: Default::default(),
             },
             "planar dipole".to_string(),
         ),
-        ModelKind::Volpath => (
-            by_rows(views, "volpath", |pb| {
-                inverse::views::volpath(&job, &settings, a.derivatives, pb)
-            }),
-            "volpath".to_string(),
-        ),
-        ModelKind::Learned => {
-            let model = a.learned.load_model()?;
-            let rep = by_rows(views, "learned", |pb| {
-                inverse::views::learned(&job, &model, a.learned.settings(), a.derivatives, pb)
-            })?;
-            (rep, format!("learned BSSRDF ({})", a.learned.describe()))
-        }
+        _ => (ModelSpec::tracer(settings), "volpath".to_string()),
     };
+    let rep = by_rows(views, kind.name(), |pb| {
+        inverse::views::render(spec, &job, a.derivatives, pb)
+    })?;
     if a.as_dataset {
         let mut ds = Dataset::from_scene(&desc);
         ds.render = RenderInfo {

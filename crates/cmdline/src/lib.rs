@@ -25,14 +25,14 @@ pub enum CmdlineError {
         path.display()
     )]
     OutputExists { path: PathBuf },
-    /// `--model volpath` or `dipole` where a learned model is needed.
+    /// A learned model's file given to a model that has no networks.
     #[error(
-        "--model {0}: not a learned model; this command needs one (a model file, or `shipped`)"
+        "{0}: only the learned model reads a model file; drop --model-file or use --model learned"
     )]
     NotLearned(String),
-    /// The `--method` flag that `render` and `validate-mitsuba` once took.
+    /// `--method` on `render` or `validate-mitsuba`, which choose the renderer with `--model`.
     #[error(
-        "--method {0}: the renderer is chosen with --model (learned, volpath, dipole or a model file)"
+        "--method {0}: the renderer is chosen with --model (learned, volpath or dipole; a learned model file with --model-file)"
     )]
     MethodFlag(String),
     /// An option's value, or a combination of options, that cannot run (the message names them).
@@ -207,14 +207,16 @@ pub const CHECK_OPTIONS: &str = "Advanced: outputs and checks after the fit";
 /// Options of the learned BSSRDF, shared by the commands that render.
 #[derive(clap::Args, Clone, Debug)]
 pub struct LearnedArgs {
-    /// The forward model: `learned` (the learned BSSRDF shipped in `models/`, built into the
-    /// binary; the default of `optimize`), a learned model file (translucent safetensors format,
-    /// written by `translucent train` or `translucent model import-son24`; `shipped` names the
-    /// built-in one), `volpath` (the volumetric path tracer: the default of `render` and
-    /// `validate-mitsuba`, in `optimize` the volumetric baseline) or `dipole` (the planar dipole
-    /// baseline of Deng et al. 2022).
+    /// The forward model: `learned` (the learned BSSRDF, by default the one shipped in
+    /// `models/` and built into the binary; the default of `optimize`), `volpath` (the
+    /// volumetric path tracer: the default of `render` and `validate-mitsuba`, in `optimize`
+    /// the volumetric baseline) or `dipole` (the planar dipole baseline of Deng et al. 2022).
     #[arg(long)]
-    pub model: Option<std::path::PathBuf>,
+    pub model: Option<inverse::forward::ModelKind>,
+    /// The learned model's networks from a file (translucent safetensors format, written by
+    /// `translucent train` or `translucent model import-son24`) in place of the shipped ones.
+    #[arg(long, value_name = "FILE")]
+    pub model_file: Option<std::path::PathBuf>,
     /// Planar-features ablation: the shape descriptor is the plane p = u_z and the projection
     /// goes along −n(x_o).
     #[arg(help_heading = LEARNED_OPTIONS, long)]
@@ -295,7 +297,7 @@ impl LearnedArgs {
     /// One line naming the model and the settings that differ between runs (for report headers).
     pub fn describe(&self) -> String {
         let model = self
-            .model
+            .model_file
             .as_ref()
             .map_or("shipped".to_string(), |p| p.display().to_string());
         use bssrdf::render::{EntrySampler, LightCurvature, PixelSampling};
@@ -353,15 +355,30 @@ impl LearnedArgs {
         }
     }
 
+    /// The learned model's networks: `--model-file`, or the shipped ones.
     pub fn load_model(&self) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
-        match &self.model {
+        match &self.model_file {
             Some(path) => load_model_arg(path),
             None => Self::shipped_model(),
         }
     }
 
+    /// `--model-file` where the model is the learned one; an error naming the flags for a
+    /// model file given to another model, which has no networks.
+    pub fn model_file_of(
+        &self,
+        kind: inverse::forward::ModelKind,
+    ) -> Result<Option<std::path::PathBuf>> {
+        match (&self.model_file, kind) {
+            (Some(f), k) if k != inverse::forward::ModelKind::Learned => Err(
+                CmdlineError::NotLearned(format!("--model-file {} with --model {k}", f.display())),
+            ),
+            (f, _) => Ok(f.clone()),
+        }
+    }
+
     /// The renderer of `render` and `validate-mitsuba`: `--model`, `default` when it is not
-    /// given; an error for the `--method` these commands once took.
+    /// given; an error for `--method`, which names the renderer in other tools.
     pub fn renderer(
         &self,
         method: &Option<String>,
@@ -370,26 +387,20 @@ impl LearnedArgs {
         if let Some(m) = method {
             return Err(CmdlineError::MethodFlag(m.clone()));
         }
-        Ok(self.kind_or(default))
+        let kind = self.kind_or(default);
+        self.model_file_of(kind)?;
+        Ok(kind)
     }
 
     /// Which forward model `--model` names, `default` when it is not given (`render` and
     /// `validate-mitsuba` render with the volumetric path tracer unless told otherwise).
     pub fn kind_or(&self, default: inverse::forward::ModelKind) -> inverse::forward::ModelKind {
-        match self.model {
-            None => default,
-            Some(_) => self.kind(),
-        }
+        self.model.unwrap_or(default)
     }
 
-    /// Which forward model `--model` names: the volumetric path tracer for `volpath`, the
-    /// planar dipole for `dipole`, the learned BSSRDF otherwise.
+    /// Which forward model `--model` names; the learned BSSRDF when it is not given.
     pub fn kind(&self) -> inverse::forward::ModelKind {
-        match &self.model {
-            Some(p) if p.as_os_str() == "volpath" => inverse::forward::ModelKind::Volpath,
-            Some(p) if p.as_os_str() == "dipole" => inverse::forward::ModelKind::Dipole,
-            _ => inverse::forward::ModelKind::Learned,
-        }
+        self.model.unwrap_or_default()
     }
 
     /// The model shipped in `models/` (see `models/MODEL_CARD.md`), built into the library
@@ -399,12 +410,10 @@ impl LearnedArgs {
     }
 }
 
-/// Loads a `--model` value: a file, or `shipped` (or `learned`) for the built-in model.
-/// `volpath` and `dipole` are not learned models: commands that need one say so.
+/// Loads a learned model file, or the built-in model for `shipped` (or `learned`).
 pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
     match path.as_os_str().to_str() {
         Some("shipped" | "learned") => LearnedArgs::shipped_model(),
-        Some(m @ ("volpath" | "dipole")) => Err(CmdlineError::NotLearned(m.to_string())),
         _ => Ok(bssrdf::model::load(path)?),
     }
 }

@@ -4,9 +4,9 @@
 
 use std::path::PathBuf;
 
-use bssrdf::diff::{DiffMethod, Loss, Primal};
+use bssrdf::diff::{Loss, Primal};
 use clap::Args;
-use inverse::forward::ModelKind;
+use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::OptimizeConfig;
 use inverse::params::{ParamSpec, Parameterisation, Params};
 use inverse::recovery::{self, Observer, RecoveryConfig};
@@ -30,13 +30,8 @@ pub struct OptimizeArgs {
     pub out: PathBuf,
     /// Gradient estimator of the model (`--model`). The learned BSSRDF takes ours (default),
     /// ours-alpha-offsets, naive and fd; `volpath` and `dipole` take ad (default) and fd.
-    #[arg(
-        long = "estimator",
-        alias = "method",
-        value_enum,
-        value_name = "ESTIMATOR"
-    )]
-    pub method: Option<DiffMethod>,
+    #[arg(long, alias = "method", value_name = "ESTIMATOR")]
+    pub estimator: Option<String>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
     /// semantics; default: the dataset's own, else 32).
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
@@ -216,13 +211,12 @@ pub fn config_for(
     dataset_depth: impl FnOnce() -> Result<Option<u32>>,
 ) -> Result<OptimizeConfig> {
     let model = a.learned.kind();
-    let method = a.method.unwrap_or(model.estimators()[0]);
     let mut c = OptimizeConfig::new(Params {
         sigma_t: a.init_sigma_t.map(|v| v as f64),
         albedo: a.init_albedo.map(|v| v as f64),
     });
-    c.model = model;
-    c.method = method;
+    c.model = ModelChoice::new(model, a.estimator.as_deref())
+        .map_err(|e| CmdlineError::Invalid(format!("--estimator: {e}")))?;
     c.iterations = a.budget.iterations;
     c.refine_iterations = match a.refine {
         Some(r) if r > 0 && a.bc.bias_correction => {
@@ -295,11 +289,8 @@ pub fn config_for(
 
 /// The library's recovery for `a` ([`inverse::recovery`]): the flags as a typed configuration.
 pub fn recovery_config(a: &OptimizeArgs) -> Result<RecoveryConfig> {
-    let model_file = match &a.learned.model {
-        Some(p) if a.learned.kind() == ModelKind::Learned => match p.as_os_str().to_str() {
-            Some("shipped" | "learned") => None,
-            _ => Some(p.clone()),
-        },
+    let model_file = match a.learned.model_file_of(a.learned.kind())? {
+        Some(p) if !matches!(p.as_os_str().to_str(), Some("shipped" | "learned")) => Some(p),
         _ => None,
     };
     Ok(RecoveryConfig {

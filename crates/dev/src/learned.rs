@@ -1,5 +1,5 @@
 //! `translucent-dev learned-vs-volpath`: accuracy of the learned BSSRDF against the volumetric
-//! path tracer (issue #3 acceptance 4, issue #4 acceptance 2).
+//! path tracer.
 //!
 //! For every shape × σ_t × α (η = 1, g = 0, objects about 1 unit across, camera rig at distance
 //! 2 with an attached light), render the views with volpath (≥ 1024 spp; cached as EXR under
@@ -23,6 +23,7 @@ use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
 use cmdline::by_rows;
+use inverse::forward::ModelSpec;
 use inverse::views::build_accel;
 use scene::image::pair_stats;
 
@@ -160,16 +161,16 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     Some(v) => v,
                     None => {
                         let rep = by_rows(&views, "volpath", |pb| {
-                            inverse::views::volpath(
+                            inverse::views::render(
+                                ModelSpec::tracer(VolpathSettings::default()),
                                 &inverse::views::Job {
                                     spp: a.volpath_spp,
                                     ..job
                                 },
-                                &VolpathSettings::default(),
                                 false,
                                 pb,
                             )
-                        });
+                        })?;
                         cmdline::write_outputs(&dir, &names, &rep.images, true)?;
                         rep.images
                     }
@@ -186,7 +187,8 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                             ..Default::default()
                         };
                         let rep = by_rows(&views, "learned", |pb| {
-                            inverse::views::learned(&job, model, settings, false, pb)
+                            let spec = ModelSpec::learned(model, settings, job.seed);
+                            inverse::views::render(spec, &job, false, pb)
                         })?;
                         let (me, rr) = errors(&rep.images, &reference)?;
                         print!(

@@ -45,6 +45,7 @@ use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
 use cmdline::{by_rows, parse_rgb};
+use inverse::forward::ModelSpec;
 use inverse::views::build_accel;
 use scene::rig::house_rig;
 
@@ -228,17 +229,17 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
         };
         let (v0, v1, vt) = timed(&|seed| {
             Ok(by_rows(&views, "volpath", |pb| {
-                inverse::views::volpath(
+                inverse::views::render(
+                    ModelSpec::tracer(vs),
                     &inverse::views::Job {
                         spp: a.volpath_spp,
                         seed,
                         ..job
                     },
-                    &vs,
                     false,
                     pb,
                 )
-            }))
+            })?)
         })?;
         let mask = mean_image(&v0, &v1);
         let vrel = relative_variance(&v0, &v1, &mask);
@@ -272,10 +273,9 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
             };
             let (l0, l1, lt) = timed(&|seed| {
                 Ok(by_rows(&views, "learned", |pb| {
-                    inverse::views::learned(
+                    inverse::views::render(
+                        ModelSpec::learned(&model, settings, seed),
                         &inverse::views::Job { seed, ..job },
-                        &model,
-                        settings,
                         false,
                         pb,
                     )
@@ -313,14 +313,17 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
                 };
                 let (l0, l1, lt) = timed(&|seed| {
                     Ok(by_rows(&views, "learned", |pb| {
-                        inverse::views::learned(
+                        inverse::views::render(
+                            ModelSpec::learned(
+                                &model,
+                                bssrdf::render::LearnedSettings::default(),
+                                seed,
+                            ),
                             &inverse::views::Job {
                                 seed,
                                 medium: &grey,
                                 ..job
                             },
-                            &model,
-                            bssrdf::render::LearnedSettings::default(),
                             false,
                             pb,
                         )
@@ -373,7 +376,7 @@ fn gradient_noise(
             light: &view.light,
             image: target,
         }];
-        let opt = Optimizer::new(config, accel, model, case.medium, targets)?;
+        let opt = Optimizer::new(config, accel, Some(model), case.medium, targets)?;
         let mut g: Vec<[f64; 6]> = Vec::new();
         let t0 = Instant::now();
         for k in 0..a.grad_seeds {
@@ -448,34 +451,22 @@ fn volpath_gradient_variance(
 ) -> Result<([f64; 6], f64)> {
     use bssrdf::diff::{DiffImages, Loss};
     use volpath::rng::hash_key;
-    let settings = VolpathSettings::default();
-    let mut scene = volpath::VolpathScene {
-        accel,
-        medium: case.medium,
-        light: Some(view.light),
-        environment: None,
-        light_bins: None,
-    };
-    let lists = volpath::shadow_lists(&scene, &settings);
-    scene.light_bins = lists.as_ref();
-    let render = |spp: u32, seed: u64| {
+    let model = ModelSpec::tracer(VolpathSettings::default()).build(accel);
+    let at = model.at(case.medium)?;
+    let tracer = at.view(&view.camera, &view.light);
+    let render = |spp: u32, seed: u64| -> Result<DiffImages> {
         let rs = volpath::RenderSettings { spp, seed, view: 0 };
-        let d = volpath::render_derivatives(&scene, &settings, &view.camera, &rs, None);
-        DiffImages {
-            value: d.value,
-            d_sigma_t: d.d_sigma_t,
-            d_albedo: d.d_albedo,
-        }
+        Ok(tracer.derivatives(&rs, None)?)
     };
     let half = (a.grad_spp / 2).max(1);
     let mut g: Vec<[f64; 6]> = Vec::new();
     let t0 = Instant::now();
     for k in 0..a.grad_seeds as u64 {
-        let da = render(half, hash_key(&[a.seed, k]));
+        let da = render(half, hash_key(&[a.seed, k]))?;
         let db = render(
             a.grad_spp.saturating_sub(half).max(1),
             hash_key(&[a.seed, k, 0xB]),
-        );
+        )?;
         let r = inverse::optimize::split_sample_gradient(&da, &db, target, Loss::L2);
         g.push(six(r.d_sigma_t, r.d_albedo));
     }

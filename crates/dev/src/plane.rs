@@ -1,5 +1,5 @@
 //! `translucent-dev plane`: the learned models against directly simulated random walks on a
-//! half-space (issue #4 acceptance 2, "distribution check on a plane").
+//! half-space (a distribution check on a plane).
 //!
 //! For each albedo (g = 0, η = 1, σ_t = 1 — the model is scale-invariant, docs/model.md §2) and
 //! incidence angle, random walks in the half-space below the plane p = u_z

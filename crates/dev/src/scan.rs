@@ -42,6 +42,7 @@ use clap::Args;
 use scene::{Dataset, Image};
 
 use cmdline::{LearnedArgs, by_rows};
+use inverse::forward::ModelSpec;
 use inverse::views::build_accel;
 
 mod cosines;
@@ -308,7 +309,8 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         m.sigma_t = m.sigma_t.map(|v| v * s);
         let render = |seed| {
             by_rows(&views, "learned", |pb| {
-                inverse::views::learned(
+                inverse::views::render(
+                    ModelSpec::learned(&model, a.learned.settings(), seed),
                     &inverse::views::Job {
                         accel: &accel,
                         medium: &m,
@@ -316,8 +318,6 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
                         spp: a.spp,
                         seed,
                     },
-                    &model,
-                    a.learned.settings(),
                     false,
                     pb,
                 )

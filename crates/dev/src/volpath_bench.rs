@@ -66,7 +66,7 @@ pub enum SamplingName {
     Single,
 }
 
-/// Mitsuba 3 (llvm_ad_rgb, 2 cores, 32 spp) seconds per view, from the measurement.
+/// Mitsuba 3 (llvm_ad_rgb, 2 cores, 32 spp) seconds per view, as measured on the project machine (BENCHMARKS.md, "Speed against Mitsuba 3").
 const MITSUBA_SECONDS: [(u32, f64); 2] = [(64, 0.064), (128, 0.25)];
 
 pub fn run(a: &VolpathBenchArgs) -> Result<()> {

@@ -142,8 +142,8 @@ fn loss_scan_at_the_truth_of_learned_targets_and_the_cosine_table() {
     };
     let model = bssrdf::model::shipped().unwrap();
     let settings = cmdline::arg_defaults::<cmdline::LearnedArgs>(&[]).settings();
-    let rep =
-        inverse::views::learned(&job, &model, settings, false, &ProgressBar::hidden()).unwrap();
+    let spec = inverse::forward::ModelSpec::learned(&model, settings, job.seed);
+    let rep = inverse::views::render(spec, &job, false, &ProgressBar::hidden()).unwrap();
     let mut ds = Dataset::from_scene(&desc);
     ds.render = RenderInfo {
         spp: Some(2),

@@ -1,5 +1,5 @@
 //! `translucent experiment accuracy`: the paper's accuracy experiment (Son et al. 2024 §5,
-//! Table 1 and Fig. 7; issue #5 acceptance 2) as one command.
+//! Table 1 and Fig. 7) as one command.
 //!
 //! 1. Datasets: each built-in shape of `--shapes` × `--media` hidden media drawn from the paper's
 //!    ranges (σ_t ~ U[30, 100], α ~ U[0.8, 0.98] per channel; medium k is the same for every shape),
@@ -98,20 +98,16 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     }
     for m in &a.methods {
         if baseline_model(m).is_none() {
-            m.parse::<bssrdf::diff::DiffMethod>()
-                .ok()
-                .filter(|d| ModelKind::Learned.estimators().contains(d))
-                .ok_or_else(|| {
-                    let names = |it: &mut dyn Iterator<Item = &'static str>| {
-                        it.collect::<Vec<_>>().join(", ")
-                    };
-                    crate::ExperimentError::Invalid(format!(
-                        "--methods: unknown method {m:?} (expected an estimator of the learned \
+            m.parse::<bssrdf::diff::Estimator>().ok().ok_or_else(|| {
+                let names =
+                    |it: &mut dyn Iterator<Item = &'static str>| it.collect::<Vec<_>>().join(", ");
+                crate::ExperimentError::Invalid(format!(
+                    "--methods: unknown method {m:?} (expected an estimator of the learned \
                          model: {}, or a baseline model: {})",
-                        names(&mut ModelKind::Learned.estimators().iter().map(|d| d.name())),
-                        names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
-                    ))
-                })?;
+                    names(&mut ModelKind::Learned.estimators().iter().copied()),
+                    names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
+                ))
+            })?;
         }
     }
     let shapes: Vec<Shape> = a
@@ -446,8 +442,8 @@ pub fn run_args(
     o.learned = a.learned.clone();
     match baseline_model(method) {
         // A baseline model with its default estimator.
-        Some(m) => o.learned.model = Some(m.name().into()),
-        None => o.method = Some(method.parse().expect("methods are checked before the runs")),
+        Some(m) => o.learned.model = Some(m),
+        None => o.estimator = Some(method.to_string()),
     }
     o.budget = a.budget;
     o.scaled_sigma_t = a.scaled_sigma_t;

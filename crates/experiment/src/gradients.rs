@@ -15,10 +15,11 @@ use std::path::PathBuf;
 
 use crate::bail;
 use crate::error::{Context, Result};
-use bssrdf::diff::{DiffMethod, Primal};
-use bssrdf::render::{LearnedScene, RenderSettings, VertexFeatures};
+use bssrdf::diff::{Estimator, Primal};
+use bssrdf::render::RenderSettings;
 use clap::Args;
 use geometry::Shape;
+use inverse::forward::learned::LearnedSpec;
 use inverse::gradcheck::{Agreement, agreement, render_estimators};
 use scene::rig::RigLight;
 use scene::{Dataset, Image, Medium, MeshSource};
@@ -49,7 +50,7 @@ pub struct GradientsArgs {
 }
 
 /// The estimators compared with the differences.
-const METHODS: [DiffMethod; 2] = [DiffMethod::Ours, DiffMethod::Naive];
+const METHODS: [Estimator; 2] = [Estimator::Ours, Estimator::Naive];
 
 /// The scenes: a cone (the paper's Fig. 3) and a blob, with a medium of the paper's ranges.
 fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
@@ -85,12 +86,12 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
             std::fs::write(&stamp, &settings)?;
         }
     }
-    let mut rows: Vec<(String, DiffMethod, Agreement, f64)> = Vec::new();
+    let mut rows: Vec<(String, Estimator, Agreement, f64)> = Vec::new();
     let mut missing = Vec::new();
     for (name, shape, medium) in scenes {
         let dir = a.out.join(name);
-        let done = |m: DiffMethod| dir.join(format!("{}_d_albedo.exr", m.name())).exists();
-        let finished = METHODS.iter().chain([&DiffMethod::Fd]).all(|m| done(*m));
+        let done = |m: Estimator| dir.join(format!("{}_d_albedo.exr", m.name())).exists();
+        let finished = METHODS.iter().chain([&Estimator::Fd]).all(|m| done(*m));
         if !a.jobs.runs(name) {
             if !finished {
                 missing.push(name.to_string());
@@ -133,8 +134,6 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         let view = ds.views.first().context("the scene has no view")?;
         let (mesh, warnings) = ds.load_mesh()?;
         let accel = inverse::views::build_accel(mesh, &warnings, name);
-        let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, a.seed)?;
-        let scene = LearnedScene::new(&accel, &model, &features, medium, Default::default())?;
         let rs = RenderSettings {
             spp,
             seed: a.seed,
@@ -152,7 +151,9 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         } else {
             let pb = obs.progress(0, &format!("{name}: ours, naive, fd"));
             let r = render_estimators(
-                &scene,
+                &accel,
+                LearnedSpec::new(&model, Default::default(), a.seed),
+                medium,
                 &view.camera,
                 &view.light,
                 &rs,
@@ -164,7 +165,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
             pb.finish_and_clear();
             write_estimators(&r, &dir, true)?;
             r.into_iter()
-                .map(|e| (e.method, e.images, e.seconds))
+                .map(|e| (e.estimator, e.images, e.seconds))
                 .collect()
         };
         let fd = &results.last().expect("fd is last").1;
@@ -186,10 +187,10 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
 
 /// The derivative images of a finished scene, read back (the value image is not kept, and the
 /// seconds are not known: NaN).
-fn reread(dir: &std::path::Path) -> Result<Vec<(DiffMethod, bssrdf::diff::DiffImages, f64)>> {
+fn reread(dir: &std::path::Path) -> Result<Vec<(Estimator, bssrdf::diff::DiffImages, f64)>> {
     METHODS
         .iter()
-        .chain([&DiffMethod::Fd])
+        .chain([&Estimator::Fd])
         .map(|&m| {
             let read = |what: &str| Image::read_exr(&dir.join(format!("{}_{what}.exr", m.name())));
             let d_sigma_t = read("d_sigma_t")?;
@@ -205,7 +206,7 @@ fn reread(dir: &std::path::Path) -> Result<Vec<(DiffMethod, bssrdf::diff::DiffIm
 
 /// The Markdown and CSV tables.
 fn tables(
-    rows: &[(String, DiffMethod, Agreement, f64)],
+    rows: &[(String, Estimator, Agreement, f64)],
     settings: &str,
     quick: bool,
 ) -> (String, String) {

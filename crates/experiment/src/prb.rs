@@ -9,6 +9,7 @@
 //! (`OUT/prb.png`, `.svg`), and per run the final errors, s/it, and the first iteration after
 //! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
 
+use inverse::forward::ModelKind;
 use inverse::recovery::Observer;
 use std::path::{Path, PathBuf};
 
@@ -61,10 +62,10 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();
-    for (name, model) in [("ours", None), ("volumetric", Some("volpath"))] {
+    for (name, model) in [("ours", None), ("volumetric", Some(ModelKind::Volpath))] {
         let dir = a.out.join("runs").join(name);
         let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
-        o.learned.model = model.map(PathBuf::from);
+        o.learned.model = model;
         o.budget = IterationArgs {
             iterations,
             spp,

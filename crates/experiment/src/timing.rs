@@ -13,9 +13,8 @@ use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
-use bssrdf::diff::DiffMethod;
 use clap::Args;
-use inverse::forward::ModelKind;
+use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::TargetView;
 use inverse::timing::{DEFAULTS, TimingRow, TimingSettings, all_pairs, measure, measure_defaults};
 use serde::{Deserialize, Serialize};
@@ -115,7 +114,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         iterations,
         spp,
         seed: a.seed,
-        volpath_max_depth: ds.render.max_depth.unwrap_or(32),
+        volpath_max_depth: ds.render.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH),
     };
     let path = a.out.join("timing.json");
     let mut record = match std::fs::read(&path) {
@@ -144,19 +143,19 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
     let base = ds.truth.context("the timing dataset has no medium")?;
     let nets = cmdline::LearnedArgs::shipped_model()?;
     // Every pair at the workload's spp, and the paper's method at twice that (its Table 1).
-    let runs = all_pairs().into_iter().map(|(m, e)| (m, e, spp)).chain([(
-        ModelKind::Learned,
-        DiffMethod::Ours,
-        2 * spp,
-    )]);
-    for (model, method, spp) in runs {
-        let done = |r: &TimingRow| r.model == model && r.method == method.name() && r.spp == spp;
+    let runs = all_pairs()
+        .into_iter()
+        .map(|c| (c, spp))
+        .chain([(ModelChoice::default(), 2 * spp)]);
+    for (choice, spp) in runs {
+        let (model, method) = (choice.kind(), choice.estimator_name());
+        let done = |r: &TimingRow| r.model == model && r.method == method && r.spp == spp;
         if record.rows.iter().any(done) {
             continue;
         }
         let label = format!("{model} × {method}, {spp} spp");
         let pb = obs.progress(0, &label);
-        let row = measure(&accel, &nets, base, &targets, model, method, spp, &settings)?;
+        let row = measure(&accel, &nets, base, &targets, choice, spp, &settings)?;
         pb.finish_and_clear();
         keep_row(&mut record, row, &label, &path, obs)?;
     }

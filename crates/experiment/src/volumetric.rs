@@ -9,6 +9,7 @@
 //! time (`OUT/volumetric.md`, `volumetric.csv`). Runs resume and are reused like `experiment
 //! accuracy`'s.
 
+use inverse::forward::ModelKind;
 use inverse::recovery::Observer;
 use std::path::PathBuf;
 
@@ -49,7 +50,7 @@ const TRUTH: Medium = Medium {
 /// One run: its name, model (`None`: learned), samples per pixel over the base count.
 struct Variant {
     name: &'static str,
-    model: Option<&'static str>,
+    model: Option<ModelKind>,
     spp_factor: u32,
 }
 
@@ -61,12 +62,12 @@ const VARIANTS: [Variant; 3] = [
     },
     Variant {
         name: "volumetric",
-        model: Some("volpath"),
+        model: Some(ModelKind::Volpath),
         spp_factor: 1,
     },
     Variant {
         name: "volumetric",
-        model: Some("volpath"),
+        model: Some(ModelKind::Volpath),
         spp_factor: 4,
     },
 ];
@@ -99,7 +100,7 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
         let label = format!("{}, {} spp", v.name, spp * v.spp_factor);
         let dir = a.out.join("runs").join(case(v));
         let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
-        o.learned.model = v.model.map(PathBuf::from);
+        o.learned.model = v.model;
         o.budget = IterationArgs {
             iterations,
             spp: spp * v.spp_factor,

@@ -28,7 +28,10 @@
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
-use volpath::{RenderSettings, VolpathScene, VolpathSettings, render_image, shadow_lists};
+use volpath::{RenderSettings, VolpathSettings};
+
+use crate::forward::ViewRenderer;
+use crate::optimize::InverseError;
 
 /// A channel's mean ratio may differ from 1 by at most this.
 pub const RATIO_TOLERANCE: f64 = 0.05;
@@ -76,35 +79,31 @@ pub struct CheckView<'a> {
 }
 
 impl CheckView<'_> {
-    /// Runs `f` with the volumetric path tracer's scene of this view at `medium` (its light,
-    /// with the shadow rays' lists), the tracer's settings at path depth `max_depth`, and a
-    /// maker of this view's render settings from (spp, seed).
+    /// Runs `f` with this view of the volumetric path tracer at `medium` (path depth
+    /// `max_depth`, estimator `ad`) and a maker of this view's render settings from (spp, seed).
     pub fn trace<R>(
         &self,
         accel: &Accel,
         medium: &Medium,
         max_depth: u32,
-        f: impl FnOnce(&VolpathScene, &VolpathSettings, &dyn Fn(u32, u64) -> RenderSettings) -> R,
-    ) -> R {
+        f: impl FnOnce(
+            &dyn ViewRenderer,
+            &dyn Fn(u32, u64) -> RenderSettings,
+        ) -> Result<R, InverseError>,
+    ) -> Result<R, InverseError> {
         let settings = VolpathSettings {
             max_depth,
             ..VolpathSettings::default()
         };
-        let mut scene = VolpathScene {
-            accel,
-            medium: *medium,
-            light: Some(*self.light),
-            environment: None,
-            light_bins: None,
-        };
-        let lists = shadow_lists(&scene, &settings);
-        scene.light_bins = lists.as_ref();
+        let model = crate::forward::ModelSpec::tracer(settings).build(accel);
+        let at = model.at(*medium)?;
+        let view = at.view(self.camera, self.light);
         let rs = |spp, seed| RenderSettings {
             spp,
             seed,
             view: self.index as u64,
         };
-        f(&scene, &settings, &rs)
+        f(&*view, &rs)
     }
 }
 
@@ -117,17 +116,17 @@ pub fn check(
     spp: u32,
     max_depth: u32,
     seed: u64,
-) -> Consistency {
+) -> Result<Consistency, InverseError> {
     let mut view_ratio = Vec::with_capacity(views.len());
     let (mut num, mut var_i, mut var_t) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
     let (mut sum_i, mut sum_t) = ([0.0f64; 3], [0.0f64; 3]);
     for v in views {
         let render = |s: u64| {
-            v.trace(accel, medium, max_depth, |scene, settings, rs| {
-                render_image(scene, settings, v.camera, &rs(spp, s), None)
+            v.trace(accel, medium, max_depth, |view, rs| {
+                view.value(&rs(spp, s), None)
             })
         };
-        let (a, b) = (render(seed), render(seed + 1));
+        let (a, b) = (render(seed)?, render(seed + 1)?);
         let sums = compare(&a, &b, v.target);
         view_ratio.push(std::array::from_fn(|c| sums.render[c] / sums.target[c]));
         for c in 0..3 {
@@ -138,14 +137,14 @@ pub fn check(
             var_t[c] += sums.var_target[c];
         }
     }
-    Consistency {
+    Ok(Consistency {
         mean_ratio: std::array::from_fn(|c| sum_i[c] / sum_t[c]),
         l2_over_noise: std::array::from_fn(|c| num[c] / (var_i[c] + var_t[c])),
         target_noise_ratio: std::array::from_fn(|c| var_t[c] / var_i[c]),
         view_ratio,
         views: views.iter().map(|v| v.index).collect(),
         spp,
-    }
+    })
 }
 
 /// One view's sums per channel (module docs), over the pixels where the render or the target is

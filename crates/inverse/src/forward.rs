@@ -7,26 +7,36 @@
 //! ([`crate::optimize`]), its intervals ([`crate::uncertainty`]) and its final renders use only
 //! this interface, so every model goes through the same loop, checkpoints and reports.
 //!
-//! | model ([`ModelKind`]) | file | estimators (`DiffMethod`) |
+//! | model ([`ModelKind`]) | file | estimators ([`ModelChoice`]) |
 //! |---|---|---|
-//! | `learned`: the learned shape-adaptive BSSRDF | [`learned`] | `ours`, `ours-alpha-offsets`, `naive`, `fd` ([`bssrdf::diff`]) |
-//! | `dipole`: the planar dipole baseline (DLW22) | [`dipole`] | `ad`: the profile differentiated at fixed sample positions ([`bssrdf::dipole`]); `fd` ([`fd`]) |
+//! | `learned`: the learned shape-adaptive BSSRDF | [`learned`] | `ours`, `ours-alpha-offsets`, `naive`, `fd` ([`bssrdf::diff::Estimator`], one file each) |
+//! | `dipole`: the planar dipole baseline (DLW22) | [`dipole`] | `ad`: the profile differentiated at fixed sample positions ([`::dipole`]); `fd` ([`fd`]) |
 //! | `volpath`: the volumetric path tracer | [`volpath`] | `ad`: each path differentiated analytically ([`::volpath::derivative`]); `fd` ([`fd`]) |
 //!
-//! Adding a model is a file implementing the three traits and an arm of [`ModelKind`] (with its
-//! valid estimators in [`ModelKind::estimators`]).
+//! A model builds itself from its typed description ([`ModelSpec::build`]); the tracer and the
+//! dipole need no learned network. Adding a model is a file implementing the three traits and an
+//! arm of [`ModelKind`], [`ModelChoice`] and [`ModelSpec`]; the optimiser also takes any
+//! [`ForwardModel`] directly ([`crate::optimize::Optimizer::with_forward`]).
 
+mod choice;
 pub mod dipole;
 pub mod fd;
 pub mod learned;
 pub mod volpath;
 
-use bssrdf::diff::{DiffImages, DiffMethod, Loss, LossGradient};
+pub use choice::{ModelChoice, TracerEstimator, UnknownEstimatorOf};
+
+use bssrdf::diff::{DiffImages, Loss, LossGradient};
 use bssrdf::render::RenderSettings;
+use geometry::Accel;
+use indicatif::ProgressBar;
 use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
 use crate::optimize::InverseError;
+
+/// The progress of a render: advanced by one per image row when given.
+pub type Progress<'a> = Option<&'a ProgressBar>;
 
 /// A forward model of the images.
 pub trait ForwardModel: Send + Sync {
@@ -45,10 +55,15 @@ pub trait MediumRenderer: Sync {
 
 /// One view of a forward model at one medium.
 pub trait ViewRenderer {
-    /// The image.
-    fn value(&self, rs: &RenderSettings) -> Result<Image, InverseError>;
-    /// The image and its derivatives with respect to σ_t and α.
-    fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError>;
+    /// The image; `progress` advances by one per row.
+    fn value(&self, rs: &RenderSettings, progress: Progress) -> Result<Image, InverseError>;
+    /// The image and its derivatives with respect to σ_t and α; `progress` advances by one per
+    /// row.
+    fn derivatives(
+        &self,
+        rs: &RenderSettings,
+        progress: Progress,
+    ) -> Result<DiffImages, InverseError>;
     /// One render's loss against `target` and its gradient, accumulated per pixel (the loss
     /// derivative and the image derivatives from the same samples; for L2 the product carries
     /// their covariance: the single-render estimator of `--single-render`, where the default
@@ -60,7 +75,7 @@ pub trait ViewRenderer {
         target: &Image,
         loss: Loss,
     ) -> Result<LossGradient, InverseError> {
-        let d = self.derivatives(rs)?;
+        let d = self.derivatives(rs, None)?;
         Ok(crate::optimize::decorrelated_gradient(
             &d.value, &d, target, loss,
         ))
@@ -94,27 +109,12 @@ impl ModelKind {
         }
     }
 
-    /// The estimators this model has; the first is its default.
-    pub fn estimators(self) -> &'static [DiffMethod] {
+    /// The names of this model's estimators; the first is its default.
+    pub fn estimators(self) -> &'static [&'static str] {
         match self {
-            ModelKind::Learned => &DiffMethod::LEARNED,
-            ModelKind::Volpath | ModelKind::Dipole => &[DiffMethod::Ad, DiffMethod::Fd],
+            ModelKind::Learned => &["ours", "ours-alpha-offsets", "naive", "fd"],
+            ModelKind::Volpath | ModelKind::Dipole => &["ad", "fd"],
         }
-    }
-
-    /// Checks that `method` is one of this model's estimators, naming the valid ones.
-    pub fn check_estimator(self, method: DiffMethod) -> Result<(), String> {
-        let valid = self.estimators();
-        if valid.contains(&method) {
-            return Ok(());
-        }
-        let names: Vec<&str> = valid.iter().map(|m| m.name()).collect();
-        Err(format!(
-            "the {} model has no estimator {:?}; its estimators: {}",
-            self.name(),
-            method.name(),
-            names.join(", ")
-        ))
     }
 
     /// Whether this model is the default (for files that leave it out).
@@ -139,5 +139,66 @@ impl std::str::FromStr for ModelKind {
                 let names: Vec<&str> = ModelKind::ALL.iter().map(|m| m.name()).collect();
                 format!("unknown model {s:?} (expected {})", names.join(", "))
             })
+    }
+}
+
+/// A forward model's typed description, from which it builds itself over a mesh.
+pub enum ModelSpec<'a> {
+    /// The learned BSSRDF with its networks, renderer settings and estimator.
+    Learned(learned::LearnedSpec<'a>),
+    /// The volumetric path tracer with its settings (the dataset's depth) and estimator.
+    Volpath {
+        settings: ::volpath::VolpathSettings,
+        estimator: fd::Differencing,
+    },
+    /// The planar dipole with its estimator.
+    Dipole { estimator: fd::Differencing },
+}
+
+impl<'a> ModelSpec<'a> {
+    /// The learned model of `networks` with `settings` and the paper's estimator, its vertex
+    /// polynomials fitted with `seed`.
+    pub fn learned(
+        networks: &'a bssrdf::nn::ShapeAdaptiveModel,
+        settings: bssrdf::render::LearnedSettings,
+        seed: u64,
+    ) -> Self {
+        ModelSpec::Learned(learned::LearnedSpec::new(networks, settings, seed))
+    }
+
+    /// The volumetric path tracer with `settings` and its analytic derivatives (`ad`).
+    pub fn tracer(settings: ::volpath::VolpathSettings) -> Self {
+        ModelSpec::Volpath {
+            settings,
+            estimator: fd::Differencing::default(),
+        }
+    }
+
+    /// The planar dipole with its analytic derivatives (`ad`).
+    pub fn dipole() -> Self {
+        ModelSpec::Dipole {
+            estimator: fd::Differencing::default(),
+        }
+    }
+
+    /// The model over `accel`, not yet prepared ([`ForwardModel::prepare`]).
+    pub fn build(self, accel: &'a Accel) -> Box<dyn ForwardModel + 'a> {
+        match self {
+            ModelSpec::Learned(spec) => Box::new(learned::Learned::new(accel, spec)),
+            ModelSpec::Volpath {
+                settings,
+                estimator,
+            } => Box::new(volpath::Volpath::new(accel, settings, estimator)),
+            ModelSpec::Dipole { estimator } => Box::new(dipole::Dipole::new(accel, estimator)),
+        }
+    }
+
+    /// Which model this is.
+    pub fn kind(&self) -> ModelKind {
+        match self {
+            ModelSpec::Learned(_) => ModelKind::Learned,
+            ModelSpec::Volpath { .. } => ModelKind::Volpath,
+            ModelSpec::Dipole { .. } => ModelKind::Dipole,
+        }
     }
 }

@@ -7,13 +7,18 @@
 
 use std::time::Instant;
 
-use bssrdf::diff::{DiffImages, DiffMethod, DiffSettings, Primal, render_diff};
-use bssrdf::render::{LearnedScene, RenderError, RenderSettings};
-use scene::{Camera, Image, PointLight};
+use bssrdf::diff::{DiffImages, DiffSettings, Estimator, Primal};
+use bssrdf::render::RenderSettings;
+use geometry::Accel;
+use scene::{Camera, Image, Medium, PointLight};
+
+use crate::forward::ModelSpec;
+use crate::forward::learned::LearnedSpec;
+use crate::optimize::InverseError;
 
 /// One estimator's derivative images and render time.
 pub struct EstimatorImages {
-    pub method: DiffMethod,
+    pub estimator: Estimator,
     pub images: DiffImages,
     pub seconds: f64,
 }
@@ -91,36 +96,43 @@ pub fn agreement(img: &DiffImages, fd: &DiffImages) -> Agreement {
 /// seed, more samples) measures its noise and bias.
 #[allow(clippy::too_many_arguments)]
 pub fn render_estimators(
-    scene: &LearnedScene,
+    accel: &Accel,
+    learned: LearnedSpec,
+    medium: Medium,
     camera: &Camera,
     light: &PointLight,
     rs: &RenderSettings,
     reference: &RenderSettings,
-    methods: &[DiffMethod],
+    estimators: &[Estimator],
     delta_rel: f32,
     primal: Primal,
-) -> Result<Vec<EstimatorImages>, RenderError> {
-    let mut methods: Vec<DiffMethod> = methods.to_vec();
-    methods.retain(|m| *m != DiffMethod::Fd);
-    methods.push(DiffMethod::Fd);
-    methods
+) -> Result<Vec<EstimatorImages>, InverseError> {
+    let mut estimators: Vec<Estimator> = estimators.to_vec();
+    estimators.retain(|m| *m != Estimator::Fd);
+    estimators.push(Estimator::Fd);
+    estimators
         .into_iter()
-        .map(|method| {
-            let t0 = Instant::now();
-            let ds = DiffSettings {
-                method,
+        .map(|estimator| {
+            let diff = DiffSettings {
+                estimator,
                 delta_rel,
                 primal,
                 ..DiffSettings::default()
             };
-            let rs = if method == DiffMethod::Fd {
+            let mut model = ModelSpec::Learned(LearnedSpec { diff, ..learned }).build(accel);
+            model.prepare(&medium)?;
+            let t0 = Instant::now();
+            let rs = if estimator == Estimator::Fd {
                 reference
             } else {
                 rs
             };
-            let images = render_diff(scene, camera, light, rs, &ds, None)?;
+            let images = model
+                .at(medium)?
+                .view(camera, light)
+                .derivatives(rs, None)?;
             Ok(EstimatorImages {
-                method,
+                estimator,
                 images,
                 seconds: t0.elapsed().as_secs_f64(),
             })
@@ -147,7 +159,7 @@ pub fn write_estimators(
             ("d_sigma_t", &r.images.d_sigma_t, r_t),
             ("d_albedo", &r.images.d_albedo, r_a),
         ] {
-            let stem = format!("{}_{what}", r.method.name());
+            let stem = format!("{}_{what}", r.estimator.name());
             d.write_exr(&out.join(format!("{stem}.exr")), overwrite)?;
             let (fc, _) = Image::false_colour_diff_with_range(d, &zero, Some(range))?;
             fc.write_png(&out.join(format!("{stem}.png")), 1.0, overwrite)?;

@@ -67,7 +67,7 @@ pub fn errors(est: &Params, truth: &Params) -> serde_json::Value {
     })
 }
 
-/// `result.json` (issue #5's fields and more).
+/// `result.json`: estimate, truth and errors, the run's settings and timings.
 pub fn result_json(
     config: &OptimizeConfig,
     history: &[IterationRecord],
@@ -87,7 +87,7 @@ pub fn result_json(
         "views_per_iteration": config.views_per_iter,
         "seconds_per_iteration": per_iter,
         "seconds_total": seconds_total,
-        "method": config.method.name(),
+        "method": config.model.estimator_name(),
         "seed": config.seed,
         "final_loss": history.last().map(|r| r.loss),
         "config": config,

@@ -30,6 +30,7 @@
 //! (docs/notes/uncertainty.md, item 5).
 
 use crate::consistency::CheckView;
+use crate::optimize::InverseError;
 use geometry::Accel;
 use scene::{Image, Medium};
 use serde::{Deserialize, Serialize};
@@ -83,7 +84,7 @@ pub fn measure(
     spp: u32,
     max_depth: u32,
     seed: u64,
-) -> Sensitivity {
+) -> Result<Sensitivity, InverseError> {
     assert_eq!(views.len(), breads.len(), "one bread per view");
     let slope: [f64; 3] = std::array::from_fn(|c| {
         let a = medium.albedo[c] as f64;
@@ -93,7 +94,8 @@ pub fn measure(
             0.0
         }
     });
-    let (volpath, volpath_se) = tracer_curvature(accel, medium, views, slope, spp, max_depth, seed);
+    let (volpath, volpath_se) =
+        tracer_curvature(accel, medium, views, slope, spp, max_depth, seed)?;
     let learned: [f64; 3] = std::array::from_fn(|c| {
         let s = slope[c];
         breads
@@ -104,7 +106,7 @@ pub fn measure(
             })
             .sum()
     });
-    Sensitivity {
+    Ok(Sensitivity {
         ratio: std::array::from_fn(|c| widening(learned[c], volpath[c], volpath_se[c])),
         slope,
         learned,
@@ -112,7 +114,7 @@ pub fn measure(
         volpath_se,
         views: views.iter().map(|v| v.index).collect(),
         spp,
-    }
+    })
 }
 
 /// The tracer's curvature k̂_V along the valleys of slope `slope` at `medium` from its
@@ -128,13 +130,13 @@ pub fn tracer_curvature(
     spp: u32,
     max_depth: u32,
     seed: u64,
-) -> ([f64; 3], [f64; 3]) {
+) -> Result<([f64; 3], [f64; 3]), InverseError> {
     let mut sums = ProductSums::default();
     for v in views {
         let along = |s: u64| {
-            let d = v.trace(accel, medium, max_depth, |scene, settings, rs| {
-                volpath::render_derivatives(scene, settings, v.camera, &rs(spp, s), None)
-            });
+            let d = v.trace(accel, medium, max_depth, |view, rs| {
+                view.derivatives(&rs(spp, s), None)
+            })?;
             let mut j = d.d_sigma_t;
             for (j, da) in j.data.iter_mut().zip(&d.d_albedo.data) {
                 for c in 0..3 {
@@ -142,11 +144,11 @@ pub fn tracer_curvature(
                         (medium.sigma_t[c] as f64 * j[c] as f64 + slope[c] * da[c] as f64) as f32;
                 }
             }
-            j
+            Ok::<_, InverseError>(j)
         };
-        sums.add(&along(seed), &along(seed + 1));
+        sums.add(&along(seed)?, &along(seed + 1)?);
     }
-    (sums.product, sums.square.map(f64::sqrt))
+    Ok((sums.product, sums.square.map(f64::sqrt)))
 }
 
 /// ρ from the learned curvature `learned` and the tracer's `volpath` ± `se` (module docs).

@@ -4,13 +4,12 @@
 //! iteration after the first (which also builds the per-view lists and warms the caches), with
 //! its standard error over the iterations.
 
-use bssrdf::diff::DiffMethod;
 use bssrdf::nn::ShapeAdaptiveModel;
 use geometry::Accel;
 use scene::Medium;
 use serde::{Deserialize, Serialize};
 
-use crate::forward::ModelKind;
+use crate::forward::{ModelChoice, ModelKind};
 use crate::optimize::{InverseError, OptimizeConfig, Optimizer, TargetView};
 use crate::params::Params;
 
@@ -69,10 +68,14 @@ impl TimingRow {
 }
 
 /// Every model × estimator pair, each model's default estimator first.
-pub fn all_pairs() -> Vec<(ModelKind, DiffMethod)> {
+pub fn all_pairs() -> Vec<ModelChoice> {
     ModelKind::ALL
         .iter()
-        .flat_map(|&m| m.estimators().iter().map(move |&e| (m, e)))
+        .flat_map(|&m| {
+            m.estimators()
+                .iter()
+                .map(move |e| ModelChoice::new(m, Some(e)).expect("the model's own estimator"))
+        })
         .collect()
 }
 
@@ -85,8 +88,7 @@ pub fn measure(
     nets: &ShapeAdaptiveModel,
     base: Medium,
     targets: &[TargetView],
-    model: ModelKind,
-    method: DiffMethod,
+    model: ModelChoice,
     spp: u32,
     settings: &TimingSettings,
 ) -> Result<TimingRow, InverseError> {
@@ -95,19 +97,18 @@ pub fn measure(
         albedo: [0.5; 3],
     });
     c.model = model;
-    c.method = method;
     c.spp = spp;
     c.iterations = settings.iterations;
     // One forward model's iterations: no refinement by another.
     c.refine_iterations = 0;
     c.seed = settings.seed;
-    if model == ModelKind::Volpath {
+    if model.kind() == ModelKind::Volpath {
         c.volpath_max_depth = Some(settings.volpath_max_depth);
     }
     let row = time_iterations(accel, nets, base, targets, c)?;
     Ok(TimingRow {
-        model,
-        method: method.name().to_string(),
+        model: model.kind(),
+        method: model.estimator_name().to_string(),
         ..row
     })
 }
@@ -147,7 +148,7 @@ fn time_iterations(
     targets: &[TargetView],
     c: OptimizeConfig,
 ) -> Result<TimingRow, InverseError> {
-    let (model, spp, iterations) = (c.model, c.spp, c.iterations);
+    let (model, spp, iterations) = (c.model.kind(), c.spp, c.iterations);
     let views = targets
         .iter()
         .map(|t| TargetView {
@@ -156,8 +157,8 @@ fn time_iterations(
             image: t.image,
         })
         .collect();
-    let method = c.method.name().to_string();
-    let mut opt = Optimizer::new(c, accel, nets, base, views)?;
+    let method = c.model.estimator_name().to_string();
+    let mut opt = Optimizer::new(c, accel, Some(nets), base, views)?;
     for _ in 0..iterations {
         opt.step()?;
     }
@@ -177,7 +178,7 @@ mod tests {
     fn pairs_and_statistics() {
         let pairs = all_pairs();
         assert_eq!(pairs.len(), 8);
-        assert_eq!(pairs[0], (ModelKind::Learned, DiffMethod::Ours));
+        assert_eq!(pairs[0], ModelChoice::default());
         let r = TimingRow {
             model: ModelKind::Dipole,
             method: "ad".into(),

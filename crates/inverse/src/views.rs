@@ -9,16 +9,14 @@
 use std::path::Path;
 use std::time::Instant;
 
-use geometry::{Accel, LightBins};
+use geometry::Accel;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
 use scene::{Dataset, Image, Medium};
-use volpath::{
-    Progressive, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings, render_image,
-    shadow_lists,
-};
+use volpath::{Lit, Progressive, RenderSettings, ShadowTransmittance, VolpathSettings};
 
+use crate::forward::{ForwardModel, ModelSpec};
 use crate::optimize::InverseError;
 
 /// The images of a list of views and the time each took.
@@ -76,95 +74,35 @@ pub fn total_rows(views: &[ViewDesc]) -> u64 {
     views.iter().map(|v| v.camera.height as u64).sum()
 }
 
-/// Every view by the volumetric path tracer, with each view's derivatives with respect to σ_t
-/// and α when `derivatives` ([`volpath::render_derivatives`]: the same images, plus the
-/// analytic derivative of each path). `pb` advances by one per row ([`total_rows`]).
-pub fn volpath(
-    job: &Job,
-    settings: &VolpathSettings,
-    derivatives: bool,
-    pb: &ProgressBar,
-) -> RenderReport {
-    // Shadow-ray lists, rebuilt only when the light moves (a fixed light is common).
-    let mut lists: Option<LightBins> = None;
-    job.each(|v, rs| {
-        let mut scene = VolpathScene {
-            accel: job.accel,
-            medium: *job.medium,
-            light: Some(v.light),
-            environment: None,
-            light_bins: None,
-        };
-        if lists.as_ref().is_none_or(|b| b.light() != v.light.position) {
-            lists = shadow_lists(&scene, settings);
-        }
-        scene.light_bins = lists.as_ref();
-        Ok(if derivatives {
-            let d = volpath::render_derivatives(&scene, settings, &v.camera, rs, Some(pb));
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
-        } else {
-            (
-                render_image(&scene, settings, &v.camera, rs, Some(pb)),
-                None,
-            )
-        })
-    })
-    .expect("the volumetric renders do not fail")
-}
-
-/// Every view by the planar dipole baseline ([`bssrdf::dipole`]), with each view's derivatives
-/// with respect to σ_t and α when `derivatives` (the profile's analytic derivatives at fixed
-/// sample positions). `pb` advances by one per view.
-pub fn dipole(
+/// Every view of `job` by the model `spec` describes, prepared at the job's medium, with each
+/// view's derivatives with respect to σ_t and α when `derivatives` (by the model's estimator).
+/// `pb` advances by one per image row ([`total_rows`]).
+pub fn render(
+    spec: ModelSpec,
     job: &Job,
     derivatives: bool,
     pb: &ProgressBar,
 ) -> Result<RenderReport, InverseError> {
-    let scene = bssrdf::dipole::DipoleScene::new(job.accel, *job.medium)
-        .map_err(|e| InverseError::Invalid(e.to_string()))?;
-    job.each(|v, rs| {
-        let view = bssrdf::dipole::DipoleView::new(job.accel, &v.camera, &v.light);
-        pb.inc(1);
-        Ok(if derivatives {
-            let d = bssrdf::dipole::render_derivatives(&scene, &view, rs);
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
-        } else {
-            (bssrdf::dipole::render_image(&scene, &view, rs), None)
-        })
-    })
+    let mut model = spec.build(job.accel);
+    model.prepare(job.medium)?;
+    render_with(&*model, job, derivatives, pb)
 }
 
-/// Every view by the learned BSSRDF (vertex features fitted once for `medium`), with each
-/// view's derivatives by the paper's estimator (`ours`: correlated σ_t offset samples, α by
-/// differentiating the absorption) when `derivatives`. `pb` advances by one per row.
-pub fn learned(
+/// Every view of `job` by the prepared `model` ([`render`]).
+pub fn render_with(
+    model: &dyn ForwardModel,
     job: &Job,
-    model: &bssrdf::nn::ShapeAdaptiveModel,
-    settings: bssrdf::render::LearnedSettings,
     derivatives: bool,
     pb: &ProgressBar,
 ) -> Result<RenderReport, InverseError> {
-    let t0 = Instant::now();
-    let features = bssrdf::render::VertexFeatures::fit(
-        job.accel,
-        job.medium,
-        model.info().c19_quirk,
-        job.seed,
-    )?;
-    tracing::info!(
-        "fitted vertex polynomials in {:.2} s",
-        t0.elapsed().as_secs_f64()
-    );
-    let scene =
-        bssrdf::render::LearnedScene::new(job.accel, model, &features, *job.medium, settings)?;
+    let at = model.at(*job.medium)?;
     job.each(|v, rs| {
+        let view = at.view(&v.camera, &v.light);
         Ok(if derivatives {
-            let ds = bssrdf::diff::DiffSettings::default();
-            let d = bssrdf::diff::render_diff(&scene, &v.camera, &v.light, rs, &ds, Some(pb))?;
+            let d = view.derivatives(rs, Some(pb))?;
             (d.value, Some([d.d_sigma_t, d.d_albedo]))
         } else {
-            let img = bssrdf::render::render_image(&scene, &v.camera, &v.light, rs, Some(pb))?;
-            (img, None)
+            (view.value(rs, Some(pb))?, None)
         })
     })
 }
@@ -253,7 +191,7 @@ pub fn render_dataset(
         spp,
         seed,
     };
-    let rep = volpath(&job, &settings, false, pb);
+    let rep = render(ModelSpec::tracer(settings), &job, false, pb)?;
     let mut ds = Dataset::from_scene(&desc);
     for (v, img) in ds.views.iter_mut().zip(rep.images) {
         v.image = Some(img);
@@ -347,31 +285,14 @@ pub fn volpath_equal_time(
     let t0 = Instant::now();
     let total = budget * views.len() as f64;
     pb.set_length((total * 1000.0).ceil() as u64);
-    let scene_of = |v: &ViewDesc| VolpathScene {
-        accel,
-        medium: *medium,
-        light: Some(v.light),
-        environment: None,
-        light_bins: None,
-    };
-    let mut lists: Vec<(glam::Vec3, Option<LightBins>)> = Vec::new();
-    for v in views {
-        if !lists.iter().any(|(p, _)| *p == v.light.position) {
-            lists.push((v.light.position, shadow_lists(&scene_of(v), settings)));
-        }
-    }
+    let lit = Lit::new(accel, *medium, *settings);
+    let lists: Vec<_> = views.iter().map(|v| lit.lists(&v.light)).collect();
     let mut renders: Vec<Progressive> = views
         .iter()
+        .zip(&lists)
         .enumerate()
-        .map(|(i, v)| {
-            let scene = VolpathScene {
-                light_bins: lists
-                    .iter()
-                    .find(|(p, _)| *p == v.light.position)
-                    .and_then(|(_, b)| b.as_ref()),
-                ..scene_of(v)
-            };
-            Progressive::new(&scene, settings, &v.camera, seed, i as u64)
+        .map(|(i, (v, l))| {
+            Progressive::new(&lit.scene(&v.light, l), settings, &v.camera, seed, i as u64)
         })
         .collect();
     let mut passes = PassBudget::new(total);

@@ -8,12 +8,11 @@ mod common;
 
 use std::path::Path;
 
-use bssrdf::diff::DiffMethod;
-use bssrdf::dipole::{DipoleScene, DipoleView};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::RenderSettings;
+use dipole::{DipoleScene, DipoleView};
 use geometry::Vec3;
-use inverse::forward::ModelKind;
+use inverse::forward::{ModelChoice, ModelKind, TracerEstimator};
 use inverse::optimize::{OptimizeConfig, Optimizer, TargetView};
 use inverse::params::Params;
 use scene::{Camera, Image, Medium, PointLight};
@@ -26,32 +25,40 @@ fn shipped() -> ShapeAdaptiveModel {
 
 #[test]
 fn each_model_accepts_only_its_own_estimators() {
-    let mut c = OptimizeConfig {
-        refine_iterations: 0,
-        ..OptimizeConfig::default()
-    };
-    for m in ModelKind::Learned.estimators() {
-        c.method = *m;
-        assert!(c.check().is_ok(), "learned × {}", m.name());
+    for model in ModelKind::ALL {
+        for name in model.estimators() {
+            let c = OptimizeConfig {
+                model: ModelChoice::new(model, Some(name)).unwrap(),
+                refine_iterations: 0,
+                ..OptimizeConfig::default()
+            };
+            assert!(c.check().is_ok(), "{model} × {name}");
+            // The pair reads back from the configuration's JSON.
+            let back: OptimizeConfig =
+                serde_json::from_value(serde_json::to_value(&c).unwrap()).unwrap();
+            assert_eq!(back.model, c.model);
+        }
     }
-    c.method = DiffMethod::Ad;
-    let e = c.check().unwrap_err();
+    let e = ModelChoice::new(ModelKind::Learned, Some("ad"))
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("learned") && e.contains("ours, ours-alpha-offsets, naive, fd"),
         "{e}"
     );
     for model in [ModelKind::Volpath, ModelKind::Dipole] {
-        c.model = model;
-        for m in [DiffMethod::Ad, DiffMethod::Fd] {
-            c.method = m;
-            assert!(c.check().is_ok(), "{model} × {}", m.name());
-        }
-        for m in [DiffMethod::Ours, DiffMethod::Naive] {
-            c.method = m;
-            let e = c.check().unwrap_err();
+        for m in ["ours", "naive"] {
+            let e = ModelChoice::new(model, Some(m)).unwrap_err().to_string();
             assert!(e.contains(model.name()) && e.contains("ad, fd"), "{e}");
         }
     }
+    // A configuration file pairing a model with another's estimator is refused on reading.
+    let mut json = serde_json::to_value(OptimizeConfig::default()).unwrap();
+    json["model"] = "volpath".into();
+    let e = serde_json::from_value::<OptimizeConfig>(json)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("volpath model has no estimator \"ours\""), "{e}");
     // Files written before the option read as the learned model, and the learned model's
     // settings serialise as before (no `model` key).
     let json = serde_json::to_value(OptimizeConfig::default()).unwrap();
@@ -101,7 +108,7 @@ fn setup(model: ModelKind) -> Setup {
             };
             if model == ModelKind::Dipole {
                 let scene = DipoleScene::new(&accel, truth).unwrap();
-                return bssrdf::dipole::render_image(&scene, &DipoleView::new(&accel, c, l), &rs);
+                return dipole::render_image(&scene, &DipoleView::new(&accel, c, l), &rs);
             }
             let scene = VolpathScene {
                 accel: &accel,
@@ -126,7 +133,8 @@ fn setup(model: ModelKind) -> Setup {
 /// it rendered is positive (negative) in every channel, by more than 4 standard errors of its
 /// mean over `iterations` iterations (each its own view and random numbers); and the loop's
 /// re-render is the model's plain image.
-fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, iterations: u32) {
+fn gradient_points_to_the_truth(choice: ModelChoice, iterations: u32) {
+    let model_kind = choice.kind();
     let s = setup(model_kind);
     let model = shipped();
     let targets: Vec<TargetView> = s
@@ -140,14 +148,13 @@ fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, itera
         })
         .collect();
     let config = OptimizeConfig {
-        model: model_kind,
-        method,
+        model: choice,
         spp: 16,
         refine_iterations: 0,
         ..OptimizeConfig::default()
     };
     let truth = Params::of(&s.truth);
-    let opt = Optimizer::new(config, &s.accel, &model, s.truth, targets).unwrap();
+    let opt = Optimizer::new(config, &s.accel, Some(&model), s.truth, targets).unwrap();
     for (factor, sign) in [(2.0, 1.0), (0.5, -1.0)] {
         let p = Params {
             sigma_t: truth.sigma_t.map(|v| v * factor),
@@ -163,7 +170,7 @@ fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, itera
             assert!(
                 sign * m > 4.0 * se,
                 "{model_kind} × {}: σ_t × {factor}: ∂ℓ/∂σ_t of channel {c} = {m} ± {se}",
-                method.name()
+                choice.estimator_name()
             );
         }
     }
@@ -177,7 +184,7 @@ fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, itera
     let img = opt.render(&truth, c, l, &rs).unwrap();
     let plain = if model_kind == ModelKind::Dipole {
         let scene = DipoleScene::new(&s.accel, s.truth).unwrap();
-        bssrdf::dipole::render_image(&scene, &DipoleView::new(&s.accel, c, l), &rs)
+        dipole::render_image(&scene, &DipoleView::new(&s.accel, c, l), &rs)
     } else {
         let scene = VolpathScene {
             accel: &s.accel,
@@ -193,21 +200,21 @@ fn gradient_points_to_the_truth(model_kind: ModelKind, method: DiffMethod, itera
 
 #[test]
 fn the_volumetric_model_s_gradient_points_to_the_truth() {
-    gradient_points_to_the_truth(ModelKind::Volpath, DiffMethod::Ad, 40);
+    gradient_points_to_the_truth(ModelChoice::Volpath(TracerEstimator::Ad), 40);
 }
 
 #[test]
 fn the_volumetric_model_s_differences_point_to_the_truth() {
-    gradient_points_to_the_truth(ModelKind::Volpath, DiffMethod::Fd, 40);
+    gradient_points_to_the_truth(ModelChoice::Volpath(TracerEstimator::Fd), 40);
 }
 
 #[test]
 fn the_dipole_s_gradient_points_to_the_truth() {
-    gradient_points_to_the_truth(ModelKind::Dipole, DiffMethod::Ad, 40);
+    gradient_points_to_the_truth(ModelChoice::Dipole(TracerEstimator::Ad), 40);
 }
 
 #[test]
 fn the_dipole_s_differences_point_to_the_truth() {
     // The differences move the probe positions with σ_t: noisier than `ad` per iteration.
-    gradient_points_to_the_truth(ModelKind::Dipole, DiffMethod::Fd, 120);
+    gradient_points_to_the_truth(ModelChoice::Dipole(TracerEstimator::Fd), 120);
 }

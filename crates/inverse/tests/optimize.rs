@@ -1,4 +1,4 @@
-//! A tiny end-to-end optimisation (issue #5 acceptance 4): targets rendered by the learned
+//! A tiny end-to-end optimisation: targets rendered by the learned
 //! renderer with the shipped model at known parameters, the inverse loop started far away must
 //! bring the error down substantially; a checkpointed run resumes bit-identically.
 
@@ -108,7 +108,8 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
             .map(|c| (p.albedo[c] - truth.albedo[c]).abs())
             .fold(0.0, f64::max)
     };
-    let mut full = Optimizer::new(config(40), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut full =
+        Optimizer::new(config(40), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     let start = err(&full.params());
     full.run(None, |_, _| {}).unwrap();
     let end = err(&full.params());
@@ -122,21 +123,21 @@ fn albedo_error_falls_and_resume_is_bit_identical() {
     // Interrupted at 20 by a checkpoint, resumed to 40: same parameters.
     let dir = tempfile::tempdir().unwrap();
     let ck = dir.path().join("checkpoint.json");
-    let mut part = Optimizer::new(config(20), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut part =
+        Optimizer::new(config(20), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     part.run(Some((&ck, 10)), |_, _| {}).unwrap();
     let mut resumed = Optimizer::resume(
         Checkpoint::read(&ck).unwrap(),
         Some((40, 0)),
         &s.accel,
-        &s.model,
+        Some(&s.model),
         s.truth,
         targets(&s),
     )
     .unwrap();
     resumed.run(None, |_, _| {}).unwrap();
     // The resumed run follows the uninterrupted one. (Two runs of the differentiable renderer
-    // in one process can differ in the last bits of the f64 gradient sums — an open finding, see
-    // the issue note — so this compares to 1e-9 instead of bit for bit.)
+    // in one process can differ in the last bits of the f64 gradient sums — an open finding — so this compares to 1e-9 instead of bit for bit.)
     let (a, b) = (resumed.params(), full.params());
     for c in 0..3 {
         assert!((a.albedo[c] - b.albedo[c]).abs() < 1e-9, "{a:?} vs {b:?}");
@@ -163,7 +164,7 @@ fn albedo_warmup_holds_sigma_t_then_releases_it() {
     c.params.fix_sigma_t = false;
     c.lr_sigma_t = 0.05;
     c.albedo_warmup = 5;
-    let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut o = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     o.run(None, |_, _| {}).unwrap();
     let h = o.history();
     let init = h[0].params.sigma_t;
@@ -188,7 +189,7 @@ fn crops_are_windows_and_still_recover_albedo() {
     let run = |crop: Option<u32>, iterations: u32| {
         let mut c = config(iterations);
         c.crop = crop;
-        let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        let mut o = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
         o.run(None, |_, _| {}).unwrap();
         o
     };
@@ -253,7 +254,7 @@ fn checkpoint_settings_are_checked_when_read() {
     let s = setup();
     let dir = tempfile::tempdir().unwrap();
     let ck = dir.path().join("checkpoint.json");
-    let mut o = Optimizer::new(config(1), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut o = Optimizer::new(config(1), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     o.run(Some((&ck, 1)), |_, _| {}).unwrap();
     let good: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&ck).unwrap()).unwrap();
@@ -338,9 +339,11 @@ fn normalized_views_scale_the_drawn_views_gradient() {
     let s = setup();
     let mut c = config(1);
     c.views_per_iter = 1;
-    let mut plain = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut plain =
+        Optimizer::new(c.clone(), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     c.normalize_views = true;
-    let mut weighted = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut weighted =
+        Optimizer::new(c.clone(), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     let (p, w) = (
         plain.step().unwrap().clone(),
         weighted.step().unwrap().clone(),
@@ -364,7 +367,7 @@ fn normalized_views_scale_the_drawn_views_gradient() {
     }
     // A floor outside (0, 1] is refused with its name.
     c.view_weight_floor = 0.0;
-    let err = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s))
+    let err = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets(&s))
         .err()
         .expect("a zero floor is refused");
     assert!(err.to_string().contains("view_weight_floor"), "{err}");
@@ -450,7 +453,7 @@ fn intervals_cover_the_truth_where_the_model_is_exact() {
         c.refine_iterations = 0;
         c.spp = 8;
         c.seed = seed;
-        let mut o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets).unwrap();
+        let mut o = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets).unwrap();
         o.run(None, |_, _| {}).unwrap();
         let u = o
             .uncertainty(&inverse::uncertainty::UncertaintySettings {
@@ -494,7 +497,7 @@ fn split_sample_gradient_has_the_two_render_expectation() {
         c.spp = 8;
         c.views_per_iter = 2;
         c.split_samples = split;
-        let o = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        let o = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
         (0..24)
             .map(|k| {
                 let g = o.gradient(k, &at).unwrap();
@@ -544,7 +547,7 @@ fn non_finite_gradient_names_iteration_and_view_and_keeps_the_last_good_state() 
     s.targets[1].data[7] = [f32::NAN, 0.0, 0.0];
     let mut c = config(20);
     c.views_per_iter = 1;
-    let mut opt = Optimizer::new(c, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut opt = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     let err = loop {
         match opt.step() {
             Ok(_) => continue,
@@ -598,11 +601,11 @@ fn refined_config() -> OptimizeConfig {
 /// are refused.
 #[test]
 fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
-    use inverse::forward::ModelKind;
+    use inverse::forward::{ModelChoice, ModelKind, TracerEstimator};
     let s = setup();
     let c = refined_config();
-    assert_eq!(c.model_at(3), ModelKind::Learned);
-    assert_eq!(c.model_at(4), ModelKind::Volpath);
+    assert_eq!(c.model_at(3).kind(), ModelKind::Learned);
+    assert_eq!(c.model_at(4), ModelChoice::Volpath(TracerEstimator::Ad));
     assert_eq!(c.final_model(), ModelKind::Volpath);
     assert_eq!(serde_json::to_value(&c).unwrap()["refine_iterations"], 2);
     assert!(
@@ -612,7 +615,8 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
             .is_none()
     );
 
-    let mut full = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut full =
+        Optimizer::new(c.clone(), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     full.run(None, |_, _| {}).unwrap();
     let p = full.params();
     let (camera, light) = &s.views[0];
@@ -623,9 +627,8 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     };
     let refined = full.render(&p, camera, light, &rs).unwrap();
     let mut tracer = c.clone();
-    (tracer.model, tracer.method, tracer.refine_iterations) =
-        (ModelKind::Volpath, bssrdf::diff::DiffMethod::Ad, 0);
-    let by_tracer = Optimizer::new(tracer, &s.accel, &s.model, s.truth, targets(&s))
+    (tracer.model, tracer.refine_iterations) = (ModelChoice::Volpath(TracerEstimator::Ad), 0);
+    let by_tracer = Optimizer::new(tracer, &s.accel, Some(&s.model), s.truth, targets(&s))
         .unwrap()
         .render(&p, camera, light, &rs)
         .unwrap();
@@ -635,7 +638,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     );
     let mut learned = c.clone();
     learned.refine_iterations = 0;
-    let by_model = Optimizer::new(learned, &s.accel, &s.model, s.truth, targets(&s))
+    let by_model = Optimizer::new(learned, &s.accel, Some(&s.model), s.truth, targets(&s))
         .unwrap()
         .render(&p, camera, light, &rs)
         .unwrap();
@@ -647,7 +650,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     let mut part = c.clone();
     part.iterations = 5;
     part.refine_iterations = 1;
-    let mut part = Optimizer::new(part, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+    let mut part = Optimizer::new(part, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     part.run(Some((&ck, 1)), |_, _| {}).unwrap();
     // The checkpoint of iteration 5 of the full run's settings (its first four iterations are
     // those of `full`, its fifth the first of the refinement).
@@ -658,7 +661,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
         longer(),
         Some((6, 1)),
         &s.accel,
-        &s.model,
+        Some(&s.model),
         s.truth,
         targets(&s),
     )
@@ -671,14 +674,14 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
             longer(),
             Some((6, 2)),
             &s.accel,
-            &s.model,
+            Some(&s.model),
             s.truth,
             targets(&s)
         )
         .is_ok()
     );
     let mut resumed =
-        Optimizer::resume(ckpt, None, &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        Optimizer::resume(ckpt, None, &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
     resumed.run(None, |_, _| {}).unwrap();
     let (a, b) = (resumed.params(), full.params());
     for ch in 0..3 {
@@ -689,7 +692,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     bad.refine_iterations = 7;
     assert!(bad.check().unwrap_err().contains("refine_iterations"));
     let mut bad = c;
-    (bad.model, bad.method) = (ModelKind::Volpath, bssrdf::diff::DiffMethod::Ad);
+    bad.model = ModelChoice::Volpath(TracerEstimator::Ad);
     assert!(bad.check().unwrap_err().contains("refine_iterations"));
 }
 
@@ -708,7 +711,8 @@ fn refine_spp_sets_the_samples_of_the_refinement_alone() {
             .is_none()
     );
     let history = |c: &OptimizeConfig| {
-        let mut o = Optimizer::new(c.clone(), &s.accel, &s.model, s.truth, targets(&s)).unwrap();
+        let mut o =
+            Optimizer::new(c.clone(), &s.accel, Some(&s.model), s.truth, targets(&s)).unwrap();
         o.run(None, |_, _| {}).unwrap();
         o.history()
             .iter()

@@ -1,7 +1,8 @@
 //! Property tests (proptest): every setting of a run survives its JSON form (the form
 //! `result.json` and the checkpoints record, and that a resumed run is compared against).
 
-use bssrdf::diff::{DiffMethod, Loss};
+use bssrdf::diff::{Estimator, Loss};
+use inverse::forward::ModelChoice;
 use inverse::optimize::OptimizeConfig;
 use inverse::params::{Parameterisation, Params};
 use proptest::prelude::*;
@@ -10,10 +11,10 @@ fn config() -> impl Strategy<Value = OptimizeConfig> {
     (
         (
             prop::sample::select(vec![
-                DiffMethod::Ours,
-                DiffMethod::OursAlphaOffsets,
-                DiffMethod::Naive,
-                DiffMethod::Fd,
+                Estimator::Ours,
+                Estimator::OursAlphaOffsets,
+                Estimator::Naive,
+                Estimator::Fd,
             ]),
             1u32..100_000,
             1u32..4096,
@@ -41,15 +42,11 @@ fn config() -> impl Strategy<Value = OptimizeConfig> {
         ),
     )
         .prop_map(|(a, b, c)| {
-            let mut o = OptimizeConfig::default();
-            (
-                o.method,
-                o.iterations,
-                o.spp,
-                o.views_per_iter,
-                o.crop,
-                o.loss,
-            ) = (a.0, a.1, a.2, a.3, a.4, a.5);
+            let mut o = OptimizeConfig {
+                model: ModelChoice::Learned(a.0),
+                ..OptimizeConfig::default()
+            };
+            (o.iterations, o.spp, o.views_per_iter, o.crop, o.loss) = (a.1, a.2, a.3, a.4, a.5);
             (
                 o.two_renders,
                 o.split_samples,

@@ -49,7 +49,7 @@ fn run(s: &Setup, light: &PointLight, m: &Medium, slope: f64, spp: u32, seed: u6
     }];
     // A learned curvature of 1 per view: ratio = 1 / (the tracer's lower end).
     let bread = [[[1.0, 0.0, 0.0]; 3]];
-    measure(&s.accel, m, &views, &bread, [slope; 3], spp, 32, seed)
+    measure(&s.accel, m, &views, &bread, [slope; 3], spp, 32, seed).unwrap()
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! A tiny end-to-end training run (issue #4 acceptance 1): data from our generator, a few hundred
+//! A tiny end-to-end training run: data from our generator, a few hundred
 //! steps, the loss decreases, and a run interrupted by a checkpoint and resumed ends bit for bit
 //! where the uninterrupted run ends.
 

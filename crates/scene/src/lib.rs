@@ -18,6 +18,7 @@ pub mod error;
 pub mod fsutil;
 pub mod image;
 pub mod light;
+pub mod loss;
 pub mod medium;
 pub mod rig;
 pub mod scene_file;

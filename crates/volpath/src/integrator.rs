@@ -107,10 +107,14 @@ pub struct VolpathSettings {
     pub spawn_offset: SpawnOffset,
 }
 
+/// The maximum depth of a render or dataset that states none (Mitsuba 3 `volpath`'s default
+/// would be unbounded; 32 keeps high-albedo paths finite at a bias below the noise).
+pub const DEFAULT_MAX_DEPTH: u32 = 32;
+
 impl Default for VolpathSettings {
     fn default() -> Self {
         VolpathSettings {
-            max_depth: 32,
+            max_depth: DEFAULT_MAX_DEPTH,
             rr_depth: 5,
             channel_sampling: ChannelSampling::SpectralMis,
             shadow: ShadowTransmittance::default(),

@@ -19,13 +19,15 @@ pub use base::{fresnel, phase, rng};
 pub mod integrator;
 pub mod manifold;
 pub mod render;
+pub mod setup;
 pub mod shadow;
 pub mod spectral;
 
 pub use derivative::{DerivativeImages, PathDerivatives};
 pub use integrator::{
-    CameraLine, ChannelSampling, SpawnOffset, Tally, VolpathScene, VolpathSettings, radiance,
-    radiance_primary, trace,
+    CameraLine, ChannelSampling, DEFAULT_MAX_DEPTH, SpawnOffset, Tally, VolpathScene,
+    VolpathSettings, radiance, radiance_primary, trace,
 };
 pub use render::{Progressive, RenderSettings, render_derivatives, render_image, shadow_lists};
+pub use setup::{Lit, SharedLists};
 pub use shadow::ShadowTransmittance;

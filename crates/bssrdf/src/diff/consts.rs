@@ -38,7 +38,7 @@ pub(super) struct Consts<'a> {
 impl<'a> Consts<'a> {
     pub(super) fn new(scene: &LearnedScene<'a>, ds: &DiffSettings) -> Result<Self, RenderError> {
         let m = &scene.medium;
-        if ds.method == DiffMethod::Naive && scene.settings.entry == EntrySampler::Walks {
+        if ds.estimator == Estimator::Naive && scene.settings.entry == EntrySampler::Walks {
             return Err(RenderError::Medium(
                 "the naive estimator differentiates the decoder's output and needs the decoder; \
                  use --entry-sampler decoder with --estimator naive"
@@ -86,7 +86,7 @@ impl<'a> Consts<'a> {
                     ReducedMedium::new(st, al - da, g).sigma_n() as f32,
                 ];
                 c.inv_2da[ch] = (0.5 / da) as f32;
-            } else if matches!(ds.method, DiffMethod::OursAlphaOffsets | DiffMethod::Fd) {
+            } else if matches!(ds.estimator, Estimator::OursAlphaOffsets | Estimator::Fd) {
                 return Err(RenderError::Medium(format!(
                     "α = {al} leaves no room for a central α step"
                 )));
@@ -113,7 +113,7 @@ impl<'a> Consts<'a> {
                 scene.settings,
             )
         };
-        if ds.method == DiffMethod::OursAlphaOffsets {
+        if ds.estimator == Estimator::OursAlphaOffsets {
             for ch in 0..3 {
                 let make = |sign: f64| {
                     let mut med = scene.medium;
@@ -129,7 +129,7 @@ impl<'a> Consts<'a> {
                 c.alpha.push(pair);
             }
         }
-        if ds.method == DiffMethod::Fd {
+        if ds.estimator == Estimator::Fd {
             for param in 0..6 {
                 let ch = param % 3;
                 let step = if param < 3 { steps_t[ch] } else { steps_a[ch] };

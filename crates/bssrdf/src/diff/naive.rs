@@ -1,20 +1,66 @@
-//! The `Naive` estimator's light derivative (Son et al. 2024 §4.1, the baseline that misses the
-//! boundary term; module docs of [`super`]): the projected point moved along the surface with
-//! visibility held fixed, and the smooth light term differentiated along that motion.
+//! `naive` (Son et al. 2024 §4.1, the baseline that misses the boundary term): σ_t by the
+//! derivative of the sample position with visibility held fixed (interior term only):
+//! dx̃/dσ_t = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t), moved along the surface at x_i with the detached
+//! projection direction d: dx_i = (I − d n_gᵀ/(n_g·d))·dx̃ (n_g the normal of the hit
+//! triangle), then
+//!
+//!   ∂C/∂σ_t = (1 − F)·V·(∂S_abs/∂σ_t·L̃ + S_abs·∇L̃(x_i)·dx_i)
+//!
+//! where L̃ = Sw(n·w_l)(n·w_l)/r² is the smooth light term (shading normal re-interpolated on the
+//! triangle, no visibility), differentiated by a central difference of step [`NAIVE_STEP`]
+//! along dx_i; ∂y/∂σ_t and ∂S_abs/∂σ_t (zero with a frozen descriptor) by central differences of
+//! the networks at the offset descriptors. α as [`super::ours`].
 
 use geometry::{Hit, Mesh};
 use glam::Vec3;
 use scene::PointLight;
 
 use super::NAIVE_STEP;
+use super::row::{Sample, SampleEstimator};
 use crate::nn::POSITION_DIM;
 use crate::render::{LearnedScene, Pending, projection_gradient};
+
+/// The `naive` estimator.
+pub(super) struct Naive;
+
+impl SampleEstimator for Naive {
+    const PAIR: bool = false;
+
+    fn offset_sets(moving: bool) -> usize {
+        if moving { 2 } else { 0 }
+    }
+
+    fn d_sigma_t(s: &Sample) -> f32 {
+        let (c, k) = (s.c, s.k);
+        match s.hit {
+            Some(hit) if s.v > 0.0 => {
+                let ((yp, sp), (ym, sm)) = (s.offsets[0], s.offsets[1]);
+                let dy: [f32; POSITION_DIM] =
+                    std::array::from_fn(|i| (yp[i] - ym[i]) * k.inv_2dt[c]);
+                let dl = naive_light_derivative(
+                    s.scene,
+                    s.view.light,
+                    s.p,
+                    (s.y, dy),
+                    (s.scene.sigma_n[c], k.dsn_dt[c]),
+                    &hit,
+                );
+                s.p.t_cam * ((sp - sm) * k.inv_2dt[c] * s.v + s.s_abs * dl)
+            }
+            _ => 0.0,
+        }
+    }
+
+    fn d_albedo(_: &Sample) -> Option<f32> {
+        None
+    }
+}
 
 /// ∇L̃(x_i)·dx_i/dσ_t of the Naive estimator (module docs): the surface motion of the projected
 /// point for dx̃ = R·(∂σ_n/∂σ_t·y + σ_n·∂y/∂σ_t) along the detached direction d, and the central
 /// difference of the smooth light term (no visibility) along it. `(y, dy)`: decoder output and
 /// its σ_t derivative; `(sigma_n, dsigma_n)`: σ_n and ∂σ_n/∂σ_t.
-pub(super) fn naive_light_derivative(
+fn naive_light_derivative(
     scene: &LearnedScene,
     light: &PointLight,
     p: &Pending,

@@ -1,18 +1,17 @@
-//! The settings and result types of the differentiable renderer ([`super`]): the estimator
-//! ([`DiffMethod`]), the source of the value image ([`Primal`]), the offsets ([`DiffSettings`]),
-//! the image loss ([`Loss`]) and what a render returns ([`DiffImages`], [`LossGradient`]).
+//! The settings of the differentiable renderer ([`super`]): the estimator ([`Estimator`]), the
+//! source of the value image ([`Primal`]) and the offsets ([`DiffSettings`]). The image loss and
+//! what a render returns ([`scene::loss`]) sit below every model that uses them.
 
 use std::str::FromStr;
 
-use scene::Image;
 /// Step (scene units) of the central difference of the smooth light term in
-/// [`DiffMethod::Naive`]; the light term varies on the scale of the light distance.
+/// [`Estimator::Naive`]; the light term varies on the scale of the light distance.
 pub const NAIVE_STEP: f32 = 1e-3;
 
-/// How the derivatives are estimated (module docs).
+/// The learned renderer's gradient estimator (module docs of [`super`]; one file each).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum DiffMethod {
+pub enum Estimator {
     /// Correlated offset samples for σ_t, S_abs derivative for α (the paper's method).
     #[default]
     Ours,
@@ -27,47 +26,34 @@ pub enum DiffMethod {
     Naive,
     /// Central differences of full renders (a reference, slow).
     Fd,
-    /// Analytic derivatives of each sample (the volumetric path tracer, the dipole).
-    ///
-    /// The volumetric path tracer's analytic derivative of each path (`volpath::derivative`):
-    /// not an estimator of the learned model, which refuses it.
-    Ad,
 }
 
-impl DiffMethod {
-    /// The learned model's estimators (all but [`DiffMethod::Ad`]).
-    pub const LEARNED: [DiffMethod; 4] = [
-        DiffMethod::Ours,
-        DiffMethod::OursAlphaOffsets,
-        DiffMethod::Naive,
-        DiffMethod::Fd,
-    ];
-
-    /// All methods, in the order of their names.
-    pub const ALL: [DiffMethod; 5] = [
-        DiffMethod::Ours,
-        DiffMethod::OursAlphaOffsets,
-        DiffMethod::Naive,
-        DiffMethod::Fd,
-        DiffMethod::Ad,
+impl Estimator {
+    /// All estimators, in the order of their names; the first is the default.
+    pub const ALL: [Estimator; 4] = [
+        Estimator::Ours,
+        Estimator::OursAlphaOffsets,
+        Estimator::Naive,
+        Estimator::Fd,
     ];
 
     /// The name accepted by [`FromStr`].
     pub fn name(self) -> &'static str {
         match self {
-            DiffMethod::Ours => "ours",
-            DiffMethod::OursAlphaOffsets => "ours-alpha-offsets",
-            DiffMethod::Naive => "naive",
-            DiffMethod::Fd => "fd",
-            DiffMethod::Ad => "ad",
+            Estimator::Ours => "ours",
+            Estimator::OursAlphaOffsets => "ours-alpha-offsets",
+            Estimator::Naive => "naive",
+            Estimator::Fd => "fd",
         }
     }
 }
 
-/// An unknown [`DiffMethod`] name.
+/// An unknown [`Estimator`] name.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown derivative method {0:?} (expected ours, ours-alpha-offsets, naive, fd or ad)")]
-pub struct UnknownMethod(pub String);
+#[error(
+    "unknown estimator {0:?} of the learned model (expected ours, ours-alpha-offsets, naive or fd)"
+)]
+pub struct UnknownEstimator(pub String);
 
 /// `FromStr` (the choice among `ALL` whose `name()` is the string, case-insensitive, `_` read
 /// as `-`; otherwise the error type) and `Display` (`name()`) for a named option enum.
@@ -92,12 +78,12 @@ macro_rules! named_option {
     };
 }
 
-named_option!(DiffMethod, UnknownMethod);
+named_option!(Estimator, UnknownEstimator);
 
 /// Settings of the differentiable renderer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffSettings {
-    pub method: DiffMethod,
+    pub estimator: Estimator,
     /// Relative σ_t offset: Δ = `delta_rel`·σ_t,c (docs/model.md A7; default 0.02). Used by the
     /// offset samples and by `Fd`.
     pub delta_rel: f32,
@@ -159,69 +145,11 @@ named_option!(Primal, UnknownPrimal);
 impl Default for DiffSettings {
     fn default() -> Self {
         DiffSettings {
-            method: DiffMethod::Ours,
+            estimator: Estimator::Ours,
             delta_rel: 0.02,
             delta_albedo: 0.01,
             fd_fixed_sigma_n: false,
             primal: Primal::OffsetMean,
         }
     }
-}
-
-/// The value image and the two derivative images (channel c: ∂I_c/∂σ_t,c and ∂I_c/∂α_c).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DiffImages {
-    pub value: Image,
-    pub d_sigma_t: Image,
-    pub d_albedo: Image,
-}
-
-/// Image loss, averaged over the 3·W·H pixel channels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Loss {
-    /// Mean squared difference (default).
-    ///
-    /// ℓ = (1/N) Σ (I − T)²; ∂ℓ/∂I = 2(I − T)/N.
-    #[default]
-    L2,
-    /// Mean absolute difference.
-    ///
-    /// ℓ = (1/N) Σ |I − T|; ∂ℓ/∂I = sign(I − T)/N (0 at I = T).
-    L1,
-}
-
-impl Loss {
-    /// Per pixel channel: (ℓ, ∂ℓ/∂I) before the 1/N normalisation.
-    #[inline]
-    pub fn element(self, value: f32, target: f32) -> (f64, f64) {
-        let r = value as f64 - target as f64;
-        match self {
-            Loss::L2 => (r * r, 2.0 * r),
-            Loss::L1 => (
-                r.abs(),
-                if r > 0.0 {
-                    1.0
-                } else if r < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                },
-            ),
-        }
-    }
-}
-
-/// The loss, its gradient with respect to (σ_t,R, σ_t,G, σ_t,B) and (α_R, α_G, α_B), and the
-/// images when asked for.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LossGradient {
-    /// ℓ, the sum of `loss_channels`.
-    pub loss: f64,
-    /// The loss's share of each colour channel (each averaged over all 3·W·H pixel channels,
-    /// like `loss`), for per-channel weights such as the optimiser's view normalisation.
-    pub loss_channels: [f64; 3],
-    pub d_sigma_t: [f64; 3],
-    pub d_albedo: [f64; 3],
-    pub images: Option<DiffImages>,
 }

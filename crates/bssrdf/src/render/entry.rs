@@ -14,9 +14,9 @@ use geometry::bvh::offset_origin;
 use glam::Vec3;
 
 use super::{LearnedScene, Pending, ViewRays};
-use crate::boundary::sw;
 use crate::nn::POSITION_DIM;
 use crate::projection::project;
+use base::boundary::sw;
 
 /// Whether the light's direction of incidence moves the light around its entry point
 /// ([`crate::incidence`]).

@@ -378,8 +378,8 @@ fn bad_scale_with_a_mesh_file() {
     assert_stderr_has(&r, &["--scale", "cube.ply", "built-in shapes"]);
 }
 
-/// `render --method` (the renderer's former option) is an error that names `--model`, so that
-/// `--method` means only the gradient estimator of `optimize`.
+/// `render --method` is an error that names `--model`, so that `--method` means only the
+/// gradient estimator of `optimize`.
 #[test]
 fn render_method_points_to_model() {
     let t = tmp();
@@ -397,4 +397,53 @@ fn render_method_points_to_model() {
         ],
     );
     assert_stderr_has(&r, &["--method learned", "--model"]);
+}
+
+/// `--model` takes a model kind: a file name or a typo is an error listing the kinds (a learned
+/// model's file goes to `--model-file`); a model file given to a model without networks is
+/// refused, naming both flags.
+#[test]
+fn model_is_a_kind_and_model_file_a_learned_model_s_weights() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    for bad in ["volpth", "models/translucent-v2.safetensors"] {
+        let r = fails(
+            t.path(),
+            &["-q", "render", "scene.toml", "--model", bad, "--out", "o"],
+        );
+        assert_stderr_has(&r, &["--model", bad, "learned, volpath, dipole"]);
+    }
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "scene.toml",
+            "--model",
+            "volpath",
+            "--model-file",
+            "m.safetensors",
+            "--out",
+            "o",
+        ],
+    );
+    assert_stderr_has(
+        &r,
+        &["--model-file m.safetensors", "--model volpath", "learned"],
+    );
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "scene.toml",
+            "--model",
+            "learned",
+            "--model-file",
+            "missing.safetensors",
+            "--out",
+            "o",
+        ],
+    );
+    assert_stderr_has(&r, &["missing.safetensors"]);
 }

@@ -1,4 +1,4 @@
-//! Inverse rendering (issue #5): optimize (with the bias correction), resume, gradcheck,
+//! Inverse rendering: optimize (with the bias correction), resume, gradcheck,
 //! experiment accuracy.
 
 use std::path::Path;
@@ -24,7 +24,7 @@ const TINY_OPTIMIZE: [&str; 11] = [
 ];
 
 // ---------------------------------------------------------------------------------------------
-// Inverse rendering (issue #5): optimize, resume, gradcheck.
+// Inverse rendering: optimize, resume, gradcheck.
 
 /// A temporary folder holding the dataset `ds` of [`TINY_OPTIMIZE`]: `views` views of 12² of
 /// a sphere at σ_t = 60, α = 0.9.

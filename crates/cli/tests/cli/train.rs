@@ -1,9 +1,9 @@
-//! Training (issue #4): data, fit, resume, the shipped model.
+//! Training: data, fit, resume, the shipped model.
 
 use super::helpers::*;
 
 // ---------------------------------------------------------------------------------------------
-// Training (issue #4): data, fit, resume, the shipped model.
+// Training: data, fit, resume, the shipped model.
 
 #[test]
 fn train_data_fit_resume_and_use_the_model() {

@@ -80,7 +80,7 @@ pub fn case(
         target,
         index: 0,
     };
-    let max_depth = ds.render.max_depth.unwrap_or(32);
+    let max_depth = ds.render.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH);
     let dir = out.join("rerenders");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let seed = seed ^ 0x5E_4E4D;
@@ -107,9 +107,9 @@ pub fn case(
             return Ok(img);
         }
         let pb = obs.progress(0, &format!("re-rendering {case}: {label} ({spp} spp)"));
-        let img = check.trace(&accel, &medium, max_depth, |scene, settings, rs| {
-            volpath::render_image(scene, settings, check.camera, &rs(spp, seed), None)
-        });
+        let img = check.trace(&accel, &medium, max_depth, |view, rs| {
+            view.value(&rs(spp, seed), None)
+        })?;
         pb.finish_and_clear();
         img.write_exr(&file, true)?;
         scene::fsutil::atomic_write(&made_file, &serde_json::to_vec_pretty(&made)?, true)?;

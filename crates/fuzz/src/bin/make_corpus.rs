@@ -499,7 +499,7 @@ fn optimize_checkpoints(work: &Path) -> Res {
         let mut run = Optimizer::new(
             config,
             &setup.accel,
-            &setup.model,
+            Some(&setup.model),
             setup.base,
             setup.targets(),
         )?;

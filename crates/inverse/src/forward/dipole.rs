@@ -1,17 +1,17 @@
 //! The planar dipole baseline (Deng et al. 2022) as a [`ForwardModel`]: the Jensen dipole
-//! between the camera point and entry points found by probe rays ([`bssrdf::dipole`]). Nothing
+//! between the camera point and entry points found by probe rays ([`::dipole`]). Nothing
 //! is kept across media; each view sets up its camera rays once. Estimators: `ad`, the analytic
 //! derivative of the dipole profile with the sample positions held fixed (DLW22), and `fd`,
 //! central differences of full renders ([`super::fd`]).
 
+use ::dipole::{DipoleScene, DipoleView, render_derivatives, render_image};
 use bssrdf::diff::DiffImages;
-use bssrdf::dipole::{DipoleScene, DipoleView, render_derivatives, render_image};
 use bssrdf::render::RenderSettings;
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 
 use super::fd::Differencing;
-use super::{ForwardModel, MediumRenderer, ViewRenderer};
+use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
 use crate::optimize::InverseError;
 
 /// The dipole over one mesh.
@@ -60,16 +60,31 @@ struct DipoleViewRenderer<'v> {
 }
 
 impl ViewRenderer for DipoleViewRenderer<'_> {
-    fn value(&self, rs: &RenderSettings) -> Result<Image, InverseError> {
-        Ok(render_image(&self.at.scene, &self.view, rs))
+    fn value(&self, rs: &RenderSettings, progress: Progress) -> Result<Image, InverseError> {
+        let image = render_image(&self.at.scene, &self.view, rs);
+        rows_done(progress, &image);
+        Ok(image)
     }
 
-    fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
+    fn derivatives(
+        &self,
+        rs: &RenderSettings,
+        progress: Progress,
+    ) -> Result<DiffImages, InverseError> {
         let accel = self.at.model.accel;
-        self.at.model.estimator.derivatives(
+        let d = self.at.model.estimator.derivatives(
             self.at.scene.medium,
             |m| Ok(render_image(&DipoleScene::new(accel, m)?, &self.view, rs)),
             || Ok(render_derivatives(&self.at.scene, &self.view, rs)),
-        )
+        )?;
+        rows_done(progress, &d.value);
+        Ok(d)
+    }
+}
+
+/// The dipole renders a view whole: its progress advances by all the rows at the end.
+fn rows_done(progress: Progress, image: &Image) {
+    if let Some(pb) = progress {
+        pb.inc(image.height as u64);
     }
 }

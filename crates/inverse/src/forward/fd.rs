@@ -10,16 +10,17 @@
 //! keep α ± Δα_c in [0, 1). The truncation error is O(Δ²); the estimate is a reference, not a
 //! fast estimator.
 
-use bssrdf::diff::{DiffImages, DiffMethod};
+use bssrdf::diff::{DiffImages, DiffSettings};
 use scene::{Image, Medium};
 
+use super::TracerEstimator;
 use crate::optimize::InverseError;
 
 /// The estimator of a model whose choices are `ad` (its own analytic derivatives) and `fd`,
 /// with the steps of the latter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Differencing {
-    pub method: DiffMethod,
+    pub estimator: TracerEstimator,
     /// Relative σ_t step of `fd`.
     pub delta_rel: f32,
     /// Albedo step of `fd`.
@@ -34,11 +35,23 @@ impl Differencing {
         render: impl Fn(Medium) -> Result<Image, InverseError>,
         ad: impl FnOnce() -> Result<DiffImages, InverseError>,
     ) -> Result<DiffImages, InverseError> {
-        match self.method {
-            DiffMethod::Fd => {
+        match self.estimator {
+            TracerEstimator::Fd => {
                 central_differences(render, medium, self.delta_rel, self.delta_albedo)
             }
-            _ => ad(),
+            TracerEstimator::Ad => ad(),
+        }
+    }
+}
+
+impl Default for Differencing {
+    /// `ad`, with the learned renderer's steps for `fd`.
+    fn default() -> Self {
+        let d = DiffSettings::default();
+        Differencing {
+            estimator: TracerEstimator::Ad,
+            delta_rel: d.delta_rel,
+            delta_albedo: d.delta_albedo,
         }
     }
 }

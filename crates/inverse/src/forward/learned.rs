@@ -17,38 +17,50 @@ use bssrdf::render::{
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 
-use super::{ForwardModel, MediumRenderer, ViewRenderer};
+use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
 use crate::optimize::InverseError;
+
+/// What the learned model is built from ([`super::ModelSpec::Learned`]).
+#[derive(Clone, Copy)]
+pub struct LearnedSpec<'a> {
+    /// The networks.
+    pub networks: &'a ShapeAdaptiveModel,
+    /// The renderer's settings (projection rule, descriptor handling, ablations).
+    pub settings: LearnedSettings,
+    /// The estimator and its offsets.
+    pub diff: DiffSettings,
+    /// Also fit dR/d ln σ_n ([`VertexFeatures::fit_with_derivative`]).
+    pub fit_derivative: bool,
+    /// The seed of the vertex polynomials' fit.
+    pub seed: u64,
+}
+
+impl<'a> LearnedSpec<'a> {
+    /// The paper's estimator and the default settings, fitted with `seed`.
+    pub fn new(networks: &'a ShapeAdaptiveModel, settings: LearnedSettings, seed: u64) -> Self {
+        LearnedSpec {
+            networks,
+            settings,
+            diff: DiffSettings::default(),
+            fit_derivative: false,
+            seed,
+        }
+    }
+}
 
 /// The learned model with its fitted vertex polynomials.
 pub struct Learned<'a> {
     accel: &'a Accel,
-    model: &'a ShapeAdaptiveModel,
-    settings: LearnedSettings,
-    diff: DiffSettings,
-    /// Also fit dR/d ln σ_n ([`VertexFeatures::fit_with_derivative`]).
-    fit_derivative: bool,
-    seed: u64,
+    spec: LearnedSpec<'a>,
     features: Option<VertexFeatures>,
 }
 
 impl<'a> Learned<'a> {
     /// The model over `accel`, not yet prepared.
-    pub fn new(
-        accel: &'a Accel,
-        model: &'a ShapeAdaptiveModel,
-        settings: LearnedSettings,
-        diff: DiffSettings,
-        fit_derivative: bool,
-        seed: u64,
-    ) -> Self {
+    pub fn new(accel: &'a Accel, spec: LearnedSpec<'a>) -> Self {
         Learned {
             accel,
-            model,
-            settings,
-            diff,
-            fit_derivative,
-            seed,
+            spec,
             features: None,
         }
     }
@@ -56,12 +68,18 @@ impl<'a> Learned<'a> {
 
 impl ForwardModel for Learned<'_> {
     fn prepare(&mut self, medium: &Medium) -> Result<(), InverseError> {
-        let quirk = self.model.info().c19_quirk;
-        self.features = Some(if self.fit_derivative {
-            VertexFeatures::fit_with_derivative(self.accel, medium, quirk, self.seed)?
+        let s = &self.spec;
+        let quirk = s.networks.info().c19_quirk;
+        let t0 = std::time::Instant::now();
+        self.features = Some(if s.fit_derivative {
+            VertexFeatures::fit_with_derivative(self.accel, medium, quirk, s.seed)?
         } else {
-            VertexFeatures::fit(self.accel, medium, quirk, self.seed)?
+            VertexFeatures::fit(self.accel, medium, quirk, s.seed)?
         });
+        tracing::debug!(
+            "fitted vertex polynomials in {:.2} s",
+            t0.elapsed().as_secs_f64()
+        );
         Ok(())
     }
 
@@ -70,10 +88,11 @@ impl ForwardModel for Learned<'_> {
             .features
             .as_ref()
             .ok_or_else(|| InverseError::Invalid("the learned model was not prepared".into()))?;
-        let scene = LearnedScene::new(self.accel, self.model, features, medium, self.settings)?;
+        let s = &self.spec;
+        let scene = LearnedScene::new(self.accel, s.networks, features, medium, s.settings)?;
         Ok(Box::new(LearnedAt {
             scene,
-            diff: self.diff,
+            diff: s.diff,
         }))
     }
 }
@@ -109,17 +128,26 @@ impl<'v> LearnedView<'v> {
 }
 
 impl ViewRenderer for LearnedView<'_> {
-    fn value(&self, rs: &RenderSettings) -> Result<Image, InverseError> {
-        Ok(render_image_view(&self.at.scene, self.rays(), rs, None)?)
+    fn value(&self, rs: &RenderSettings, progress: Progress) -> Result<Image, InverseError> {
+        Ok(render_image_view(
+            &self.at.scene,
+            self.rays(),
+            rs,
+            progress,
+        )?)
     }
 
-    fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
+    fn derivatives(
+        &self,
+        rs: &RenderSettings,
+        progress: Progress,
+    ) -> Result<DiffImages, InverseError> {
         Ok(render_diff_view(
             &self.at.scene,
             self.rays(),
             rs,
             &self.at.diff,
-            None,
+            progress,
         )?)
     }
 

@@ -2,17 +2,18 @@
 //! differentiated per path ([`volpath::derivative`]: a path's throughput depends on the medium
 //! only through (α σ_t)^k e^{−σ_t ℓ}). Its derivative images are the derivatives of exactly
 //! the images it renders, with the same paths, so a recovery with it has no model error
-//! against targets it rendered; each view keeps its shadow-ray triangle lists. Estimators: `ad`
-//! (those per-path derivatives) and `fd` (central differences of full renders, [`super::fd`]).
+//! against targets it rendered. Each medium keeps the shadow-ray lists of every light position
+//! it has rendered from ([`volpath::Lit`]). Estimators: `ad` (those per-path derivatives) and
+//! `fd` (central differences of full renders, [`super::fd`]).
 
 use bssrdf::diff::DiffImages;
 use bssrdf::render::RenderSettings;
-use geometry::{Accel, LightBins};
+use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
-use volpath::{VolpathScene, VolpathSettings};
+use volpath::{Lit, SharedLists, VolpathScene, VolpathSettings};
 
 use super::fd::Differencing;
-use super::{ForwardModel, MediumRenderer, ViewRenderer};
+use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
 use crate::optimize::InverseError;
 
 /// The volumetric path tracer over one mesh.
@@ -44,46 +45,25 @@ impl ForwardModel for Volpath<'_> {
             .validate("medium")
             .map_err(|e| InverseError::Invalid(e.to_string()))?;
         Ok(Box::new(VolpathAt {
-            model: self,
-            accel: self.accel,
-            settings: self.settings,
-            medium,
+            estimator: self.estimator,
+            lit: Lit::new(self.accel, medium, self.settings),
         }))
     }
 }
 
 struct VolpathAt<'s> {
-    model: &'s Volpath<'s>,
-    accel: &'s Accel,
-    settings: VolpathSettings,
-    medium: Medium,
+    estimator: Differencing,
+    lit: Lit<'s>,
 }
 
 impl MediumRenderer for VolpathAt<'_> {
     fn view<'v>(&'v self, camera: &'v Camera, light: &'v PointLight) -> Box<dyn ViewRenderer + 'v> {
-        let scene = self.scene(light, None);
-        let bins = volpath::shadow_lists(&scene, &self.settings);
         Box::new(VolpathView {
             at: self,
             camera,
             light,
-            bins,
+            lists: self.lit.lists(light),
         })
-    }
-}
-
-impl<'s> VolpathAt<'s> {
-    fn scene<'b>(&self, light: &PointLight, bins: Option<&'b LightBins>) -> VolpathScene<'b>
-    where
-        's: 'b,
-    {
-        VolpathScene {
-            accel: self.accel,
-            medium: self.medium,
-            light: Some(*light),
-            environment: None,
-            light_bins: bins,
-        }
     }
 }
 
@@ -91,25 +71,35 @@ struct VolpathView<'v> {
     at: &'v VolpathAt<'v>,
     camera: &'v Camera,
     light: &'v PointLight,
-    bins: Option<LightBins>,
+    lists: SharedLists,
+}
+
+impl VolpathView<'_> {
+    fn scene(&self) -> VolpathScene<'_> {
+        self.at.lit.scene(self.light, &self.lists)
+    }
 }
 
 impl ViewRenderer for VolpathView<'_> {
-    fn value(&self, rs: &RenderSettings) -> Result<Image, InverseError> {
-        let scene = self.at.scene(self.light, self.bins.as_ref());
+    fn value(&self, rs: &RenderSettings, progress: Progress) -> Result<Image, InverseError> {
+        let settings = &self.at.lit.settings;
         Ok(volpath::render_image(
-            &scene,
-            &self.at.settings,
+            &self.scene(),
+            settings,
             self.camera,
             rs,
-            None,
+            progress,
         ))
     }
 
-    fn derivatives(&self, rs: &RenderSettings) -> Result<DiffImages, InverseError> {
-        let scene = self.at.scene(self.light, self.bins.as_ref());
-        let settings = &self.at.settings;
-        self.at.model.estimator.derivatives(
+    fn derivatives(
+        &self,
+        rs: &RenderSettings,
+        progress: Progress,
+    ) -> Result<DiffImages, InverseError> {
+        let scene = self.scene();
+        let settings = &self.at.lit.settings;
+        self.at.estimator.derivatives(
             scene.medium,
             |medium| {
                 let scene = VolpathScene { medium, ..scene };
@@ -122,7 +112,7 @@ impl ViewRenderer for VolpathView<'_> {
                 ))
             },
             || {
-                let d = volpath::render_derivatives(&scene, settings, self.camera, rs, None);
+                let d = volpath::render_derivatives(&scene, settings, self.camera, rs, progress);
                 Ok(DiffImages {
                     value: d.value,
                     d_sigma_t: d.d_sigma_t,

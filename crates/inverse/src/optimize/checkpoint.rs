@@ -132,7 +132,7 @@ impl<'a> Optimizer<'a> {
         checkpoint: Checkpoint,
         budget: Option<(u32, u32)>,
         accel: &'a Accel,
-        model: &'a ShapeAdaptiveModel,
+        model: Option<&'a ShapeAdaptiveModel>,
         base: Medium,
         targets: Vec<TargetView<'a>>,
     ) -> Result<Self, InverseError> {
@@ -176,7 +176,7 @@ impl<'a> Optimizer<'a> {
             config.init
         };
         let forward_kind = config.model_at(k);
-        let mut forward = super::forward_model(&config, forward_kind, accel, model);
+        let mut forward = super::model_spec(&config, forward_kind, model)?.build(accel);
         // In the refinement the tracer needs no fit; it is prepared at the current parameters.
         let prepare_at = if forward_kind == config.model {
             fit_at

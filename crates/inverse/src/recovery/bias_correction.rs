@@ -88,7 +88,7 @@ pub fn correct(
     let opts = RenderOpts {
         spp: cfg.bias_correction.spp.or(ds.render.spp).unwrap_or(64),
         seed: ds.render.seed.unwrap_or(cfg.optimize.seed),
-        max_depth: ds.render.max_depth.unwrap_or(32),
+        max_depth: ds.render.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH),
         shadow: Default::default(),
     };
     let root = cfg.out.join("bootstrap");

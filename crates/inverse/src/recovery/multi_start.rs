@@ -53,7 +53,7 @@ fn start_config(cfg: &RecoveryConfig, i: usize, init: [f32; 3], iterations: u32)
     o.optimize.iterations = iterations;
     o.optimize.refine_iterations = 0;
     o.refine_given = true;
-    if o.optimize.model != ModelKind::Volpath {
+    if o.optimize.model.kind() != ModelKind::Volpath {
         // Without a refinement the tracer's depth is not part of the run.
         o.optimize.volpath_max_depth = None;
     }

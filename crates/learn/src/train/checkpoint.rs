@@ -6,7 +6,7 @@ use bssrdf::model::ModelInfo;
 use bssrdf::nn::Normalisation;
 use serde::{Deserialize, Serialize};
 
-use super::{HistoryRow, Prepared, TrainConfig, TrainError, Trainer, fingerprint};
+use super::{HistoryRow, Prepared, TrainConfig, TrainError, Trainer};
 use crate::cvae::{self as vae, Gradients};
 use crate::optim::{Adam, AdamState};
 
@@ -192,4 +192,14 @@ impl Trainer {
             since_row: h.since_row,
         })
     }
+}
+
+/// Fingerprint of a prepared data set (mix64 over the bits of every value), stored in
+/// checkpoints so that a resume on other data is refused.
+pub fn fingerprint(p: &Prepared) -> u64 {
+    let mut h = base::rng::hash_key(&[p.len() as u64]);
+    for v in p.inputs.iter().chain(&p.targets).chain(&p.absorption) {
+        h = base::rng::mix64(h ^ v.to_bits() as u64);
+    }
+    h
 }

@@ -1,10 +1,10 @@
-//! The planar dipole baseline ([`bssrdf::dipole`]): its probe sampler against its density (χ²
+//! The planar dipole baseline ([`dipole`]): its probe sampler against its density (χ²
 //! and the closed-form total reflectance of a half-space) and its derivative images against
 //! central differences of its renders.
 
+use base::pixel::RenderSettings;
 use base::rng::Sampler;
-use bssrdf::dipole::{DipoleScene, DipoleView, ProbeSampler, render_derivatives, render_image};
-use bssrdf::render::RenderSettings;
+use dipole::{DipoleScene, DipoleView, ProbeSampler, render_derivatives, render_image};
 use geometry::{Accel, Frame, Shape};
 use glam::Vec3;
 use scene::{Camera, Image, Medium, PointLight};

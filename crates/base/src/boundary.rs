@@ -6,7 +6,7 @@
 //! squared-instead-of-square-root helper of the released code). For η = 1 both Fresnel terms
 //! vanish and Sw = 1/(π(1 − 2·FM1(1))) ≈ 0.3197.
 
-use base::fresnel::fresnel_dielectric;
+use crate::fresnel::fresnel_dielectric;
 
 /// First Fresnel moment polynomial FM1(e) (docs/model.md §1).
 pub fn fresnel_moment1(e: f32) -> f32 {

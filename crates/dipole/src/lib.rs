@@ -1,3 +1,5 @@
+//! # translucent-dipole
+//!
 //! The planar dipole baseline of Deng et al. 2022 (DLW22; docs/model.md §9): the classical dipole
 //! of Jensen et al. 2001 evaluated between the camera point and entry points found by probe rays,
 //! differentiated with the sample positions held fixed.
@@ -38,9 +40,17 @@ use geometry::{Accel, Frame, Hit, PixelBins};
 use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
 
-use crate::boundary::{sw, transmittance};
-use crate::diff::DiffImages;
-use crate::render::{RenderError, RenderSettings};
+use base::boundary::{sw, transmittance};
+use base::pixel::RenderSettings;
+use scene::loss::DiffImages;
+
+/// Why the dipole cannot render.
+#[derive(Debug, thiserror::Error)]
+pub enum DipoleError {
+    /// The medium is not one (σ_t, α or η out of range).
+    #[error("medium: {0}")]
+    Medium(String),
+}
 
 /// Purpose key of the probe's random stream.
 const PROBE_STREAM: u64 = 0xD1_9013;
@@ -55,10 +65,10 @@ pub struct DipoleScene<'a> {
 
 impl<'a> DipoleScene<'a> {
     /// The dipole of `medium` (validated) over `accel`.
-    pub fn new(accel: &'a Accel, medium: Medium) -> Result<Self, RenderError> {
+    pub fn new(accel: &'a Accel, medium: Medium) -> Result<Self, DipoleError> {
         medium
             .validate("medium")
-            .map_err(|e| RenderError::Medium(e.to_string()))?;
+            .map_err(|e| DipoleError::Medium(e.to_string()))?;
         let profiles = std::array::from_fn(|c| {
             DipoleProfile::new(
                 medium.sigma_t[c] as f64,

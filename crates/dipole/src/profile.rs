@@ -27,7 +27,7 @@
 
 use std::f64::consts::PI;
 
-use crate::boundary::fresnel_moment1;
+use base::boundary::fresnel_moment1;
 
 /// R_d below this fraction of its peak is cut off: the probe radius r_max = −ln(10⁻⁶)/μ_tr
 /// (DLW22).

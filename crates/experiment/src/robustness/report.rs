@@ -1,0 +1,298 @@
+//! The robustness suite's table and summary (`OUT/robustness.md`, `OUT/robustness.csv`): per
+//! case and channel the errors, the intervals' hold, whether σ_t is determined, consistency and
+//! status; the calibration and the accuracy where σ_t is determined.
+
+use std::fmt::Write as _;
+
+use inverse::optimize::OptimizeConfig;
+
+use super::{Outcome, RobustnessArgs, Targets};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The Markdown table with its summary, and the CSV.
+pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
+    let mut md = String::new();
+    let (views, res, spp) = if a.quick {
+        (6, 24, 8)
+    } else {
+        (a.views, a.res, a.target_spp)
+    };
+    let _ = writeln!(
+        md,
+        "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({}{} iterations × {} spp from σ_t = 50, α = 0.5{}), {} repetition(s), seed {}{}\n",
+        renderers_named(outcomes),
+        match a.model {
+            inverse::forward::ModelKind::Learned => String::new(),
+            m => format!("the {m} model, "),
+        },
+        if a.quick { 12 } else { a.budget.iterations },
+        if a.quick { 4 } else { a.budget.spp },
+        {
+            let iterations = if a.quick { 12 } else { a.budget.iterations };
+            let default = OptimizeConfig::default_refinement(a.model, iterations);
+            match a.refine.unwrap_or(default) {
+                0 if a.model == inverse::forward::ModelKind::Learned => {
+                    ", bias correction".to_string()
+                }
+                0 => String::new(),
+                r => format!(
+                    ", the last {r} by the volumetric path tracer{}",
+                    a.refine_spp
+                        .map_or(String::new(), |s| format!(" at {s} spp"))
+                ),
+            }
+        },
+        a.seeds,
+        a.seed,
+        if a.quick {
+            " — QUICK: a smoke test, not a measurement"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        md,
+        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut csv = String::from(
+        "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration\n",
+    );
+    let f3 = |v: [f64; 3], s: f64, p: usize| {
+        format!(
+            "{:+.p$}, {:+.p$}, {:+.p$}",
+            s * v[0],
+            s * v[1],
+            s * v[2],
+            p = p
+        )
+    };
+    let yn = |v: [bool; 3]| v.map(|b| if b { "y" } else { "n" }).join("");
+    for o in outcomes {
+        let cov = o.covered();
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} |",
+            o.case.name,
+            o.targets.name(),
+            o.rep,
+            o.case.medium.sigma_t[0],
+            o.case.medium.sigma_t[1],
+            o.case.medium.sigma_t[2],
+            f3(o.sigma_t_error(true), 100.0, 1),
+            f3(o.sigma_t_error(false), 100.0, 1),
+            yn(cov[0]),
+            yn(cov[1]),
+            yn(o.determined_sigma_t),
+            f3(o.albedo_error(), 1.0, 4),
+            o.consistency_ratio[0],
+            o.consistency_ratio[1],
+            o.consistency_ratio[2],
+            o.consistency_l2[0],
+            o.consistency_l2[1],
+            o.consistency_l2[2],
+            o.valley_curvature[0],
+            o.valley_curvature[1],
+            o.valley_curvature[2],
+            o.model_ratio[0],
+            o.model_ratio[1],
+            o.model_ratio[2],
+            o.status,
+            o.seconds_per_iteration
+        );
+        for c in 0..3 {
+            let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
+            let _ = writeln!(
+                csv,
+                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4}",
+                o.case.name,
+                o.case.capture.name(),
+                o.case.mfp,
+                o.case.shape,
+                o.targets.name(),
+                o.rep,
+                ["R", "G", "B"][c],
+                o.case.medium.sigma_t[c],
+                o.estimate[0][c],
+                o.sigma_t_error(true)[c],
+                o.sigma_t_error(false)[c],
+                i(o.interval_sigma_t[c], 0),
+                i(o.interval_sigma_t[c], 1),
+                cov[0][c],
+                o.determined_sigma_t[c],
+                o.case.medium.albedo[c],
+                o.estimate[1][c],
+                o.albedo_error()[c],
+                i(o.interval_albedo[c], 0),
+                i(o.interval_albedo[c], 1),
+                cov[1][c],
+                o.consistency_ratio[c],
+                o.consistency_l2[c],
+                o.valley_curvature[c],
+                o.model_ratio[c],
+                o.status,
+                o.seconds_per_iteration
+            );
+        }
+    }
+    let _ = writeln!(md);
+    let mut names: Vec<Targets> = outcomes.iter().map(|o| o.targets).collect();
+    names.dedup();
+    if names.len() > 1 {
+        summary(&mut md, "all targets", outcomes);
+        for t in names {
+            let only: Vec<Outcome> = outcomes
+                .iter()
+                .filter(|o| o.targets == t)
+                .cloned()
+                .collect();
+            summary(&mut md, &format!("{} targets", t.name()), &only);
+        }
+    } else {
+        summary(&mut md, "", outcomes);
+    }
+    (md, csv)
+}
+
+/// The summary lines of `outcomes` (under the heading `label`, when given).
+fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
+    let (head, ind) = if label.is_empty() {
+        (String::new(), "")
+    } else {
+        (format!("- {label}:\n  "), "  ")
+    };
+    let pairs = outcomes.len() * 3;
+    let covered_t: usize = outcomes
+        .iter()
+        .map(|o| o.covered()[0].iter().filter(|&&b| b).count())
+        .sum();
+    let covered_a: usize = outcomes
+        .iter()
+        .map(|o| o.covered()[1].iter().filter(|&&b| b).count())
+        .sum();
+    let det: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| {
+            let e = o.sigma_t_error(true);
+            (0..3)
+                .filter(move |&c| o.determined_sigma_t[c])
+                .map(move |c| e[c].abs())
+        })
+        .collect();
+    let all_t: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| o.sigma_t_error(true).map(f64::abs))
+        .collect();
+    let all_t_unc: Vec<f64> = outcomes
+        .iter()
+        .flat_map(|o| o.sigma_t_error(false).map(f64::abs))
+        .collect();
+    let max_a = outcomes
+        .iter()
+        .flat_map(|o| o.albedo_error().map(f64::abs))
+        .fold(0.0, f64::max);
+    let failed = outcomes.iter().filter(|o| o.status != "ok").count();
+    let unbounded = outcomes
+        .iter()
+        .flat_map(|o| o.interval_sigma_t)
+        .filter(|i| i.is_some_and(|[_, hi]| hi.is_infinite()))
+        .count();
+    let _ = writeln!(
+        md,
+        "{head}- calibration: the truth inside the 95 % interval for σ_t in {covered_t} of {pairs} (case, channel) pairs ({:.0} %), for α in {covered_a} of {pairs} ({:.0} %); together {:.0} % (goal ≥ 90 %){}",
+        100.0 * covered_t as f64 / pairs.max(1) as f64,
+        100.0 * covered_a as f64 / pairs.max(1) as f64,
+        100.0 * (covered_t + covered_a) as f64 / (2 * pairs).max(1) as f64,
+        match unbounded {
+            0 => String::new(),
+            k => format!(
+                "; σ_t in {k} of them has no finite interval (the images bound neither σ_t nor \
+                 α there), counted as holding the truth"
+            ),
+        }
+    );
+    if det.is_empty() {
+        let _ = writeln!(md, "{ind}- σ_t determined in none of the {pairs} pairs");
+    } else {
+        let _ = writeln!(
+            md,
+            "{ind}- σ_t determined in {} of {pairs} pairs: median |error| {:.1} %, largest {:.1} % (goal: median ≤ 3 %, every channel ≤ 10 %)",
+            det.len(),
+            100.0 * median(det.clone()),
+            100.0 * det.iter().copied().fold(0.0, f64::max)
+        );
+    }
+    let _ = writeln!(
+        md,
+        "{ind}- all pairs: median |σ_t error| {:.1} % (uncorrected {:.1} %); largest |α error| {:.4} (goal ≤ 0.01)",
+        100.0 * median(all_t),
+        100.0 * median(all_t_unc),
+        max_a
+    );
+    let _ = writeln!(
+        md,
+        "{ind}- runs whose status is not ok: {failed} of {}",
+        outcomes.len()
+    );
+    // Where the model itself is off at the truth, and the calibration of the runs that
+    // did not report a failure (a failed run's interval is not meant to be trusted).
+    let off = |o: &Outcome| {
+        o.model_ratio
+            .iter()
+            .any(|r| r.is_finite() && (r - 1.0).abs() > MODEL_RATIO_OFF)
+    };
+    let model_off: Vec<&Outcome> = outcomes.iter().filter(|o| off(o)).collect();
+    let big_alpha = |o: &Outcome| o.albedo_error().iter().any(|e| e.abs() > 0.01);
+    let _ = writeln!(
+        md,
+        "{ind}- the model renders the truth more than {:.0} % off the targets (a channel) in {} of {} runs; of the {} runs with an α error above 0.01, {} are among them",
+        100.0 * MODEL_RATIO_OFF,
+        model_off.len(),
+        outcomes.len(),
+        outcomes.iter().filter(|o| big_alpha(o)).count(),
+        model_off.iter().filter(|o| big_alpha(o)).count()
+    );
+    let ok: Vec<&Outcome> = outcomes.iter().filter(|o| o.status == "ok").collect();
+    let covered_ok: usize = ok
+        .iter()
+        .map(|o| o.covered().iter().flatten().filter(|&&b| b).count())
+        .sum();
+    let _ = writeln!(
+        md,
+        "{ind}- calibration of the {} runs whose status is ok: {covered_ok} of {} (parameter, channel) pairs ({:.0} %)",
+        ok.len(),
+        6 * ok.len(),
+        100.0 * covered_ok as f64 / (6 * ok.len()).max(1) as f64
+    );
+}
+
+/// A channel whose learned render of the truth differs from the targets by more than this
+/// (relative) counts as the model's own error in the summary.
+const MODEL_RATIO_OFF: f64 = 0.05;
+
+/// "our volumetric path tracer", "Mitsuba 3's volpath" or both.
+fn renderers_named(outcomes: &[Outcome]) -> String {
+    let mut names: Vec<&str> = Vec::new();
+    for o in outcomes {
+        let n = match o.targets {
+            Targets::Volpath => "our volumetric path tracer",
+            Targets::Mitsuba => "Mitsuba 3's volpath",
+        };
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    names.join(" and ")
+}

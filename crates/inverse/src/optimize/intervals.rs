@@ -1,0 +1,80 @@
+//! The run's 95 % intervals at its current parameters ([`Optimizer::uncertainty`]): two
+//! independent derivative renders of evenly spread views through the run's forward model, and
+//! the spread and drift of the last iterates ([`crate::uncertainty`]).
+
+use base::rng::hash_key;
+use bssrdf::render::RenderSettings;
+
+use super::{InverseError, Optimizer};
+use crate::uncertainty::{
+    Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
+    iterate_covariance, iterate_drift,
+};
+
+impl Optimizer<'_> {
+    /// The uncertainty of the current parameters from the target images
+    /// ([`crate::uncertainty`]): two independent derivative renders of `s.views` views spread
+    /// evenly over the targets, at `s.spp`, plus the spread and drift of the last iterates. Parameters the
+    /// run keeps fixed get no interval.
+    pub fn uncertainty(&self, s: &UncertaintySettings) -> Result<Uncertainty, InverseError> {
+        let c = &self.config;
+        let p = self.params();
+        let at = self.forward.at(p.medium(&self.base))?;
+        let n = self.targets.len();
+        let k = s.views.clamp(1, n);
+        let mut acc = Accumulator::default();
+        for i in 0..k {
+            let v = i * n / k;
+            let t = &self.targets[v];
+            let view = at.view(t.camera, t.light);
+            let render = |stream: u64| {
+                let rs = RenderSettings {
+                    spp: s.spp.max(1),
+                    seed: hash_key(&[c.seed, 0x5A4D_0000, stream]),
+                    view: v as u64,
+                };
+                view.derivatives(&rs, None)
+            };
+            let (a, b) = (render(1)?, render(2)?);
+            acc.add_view(
+                &ViewRenders {
+                    value: [&a.value, &b.value],
+                    d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
+                    d_albedo: [&a.d_albedo, &b.d_albedo],
+                    target: t.image,
+                },
+                p.sigma_t,
+            );
+        }
+        let tail = ((self.history.len() as f64 * s.tail_fraction).ceil() as usize)
+            .clamp(2.min(self.history.len()), self.history.len());
+        let iterates: Vec<([f64; 3], [f64; 3])> = self.history[self.history.len() - tail..]
+            .iter()
+            .map(|r| (r.params.sigma_t, r.params.albedo))
+            .chain(std::iter::once((p.sigma_t, p.albedo)))
+            .collect();
+        let (walk, drift) = (iterate_covariance(&iterates), iterate_drift(&iterates));
+        let spread: [[f64; 3]; 3] =
+            std::array::from_fn(|c| std::array::from_fn(|k| walk[c][k] + drift[c][k]));
+        let fixed = [c.params.fix_sigma_t, c.params.fix_albedo];
+        let cov = add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread);
+        let images = add_covariances(acc.covariance_fixed(0.0, fixed), spread);
+        let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
+        u.view_bread = (0..k)
+            .map(|i| i * n / k)
+            .zip(acc.view_breads().iter().copied())
+            .collect();
+        u.fixed = fixed;
+        if c.params.fix_sigma_t {
+            u.sigma_t = [None; 3];
+            u.sd_ln_sigma_t = [None; 3];
+            u.determined_sigma_t = [false; 3];
+        }
+        if c.params.fix_albedo {
+            u.albedo = [None; 3];
+            u.sd_albedo = [None; 3];
+            u.determined_albedo = [false; 3];
+        }
+        Ok(u)
+    }
+}

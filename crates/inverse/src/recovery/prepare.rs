@@ -1,0 +1,175 @@
+//! The recovery's first stage: the dataset (and its view subset), the mesh's BVH, the learned
+//! model's networks where the model has them, the checkpoint of a resumed run, the output
+//! folder's lock, and the optimiser started or resumed on them.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use geometry::Accel;
+use scene::{Dataset, Medium};
+
+use super::{RecoveryConfig, RecoveryError, check_resume_settings, resume_budget, select_views};
+use crate::forward::ModelKind;
+use crate::optimize::{Checkpoint, Optimizer, TargetView};
+use crate::params::Params;
+use crate::views::build_accel;
+
+/// What a run works on, loaded and checked.
+pub(super) struct Prepared {
+    /// The dataset, reduced to the run's views.
+    pub(super) ds: Dataset,
+    pub(super) accel: Accel,
+    /// The learned model's networks, when the run renders with it.
+    pub(super) networks: Option<bssrdf::nn::ShapeAdaptiveModel>,
+    /// g and η of the medium (the parameters come from the configuration).
+    pub(super) base: Medium,
+    /// The dataset's truth, for the report only.
+    pub(super) truth: Option<Params>,
+    /// The run's checkpoint file.
+    pub(super) ckpt: PathBuf,
+    /// One run per output folder; released when the run ends (or the process dies).
+    _lock: scene::fsutil::FolderLock,
+}
+
+/// Loads and checks what `cfg` runs on (module docs), with the checkpoint to resume from.
+pub(super) fn prepare(
+    cfg: &RecoveryConfig,
+) -> Result<(Prepared, Option<Checkpoint>), RecoveryError> {
+    let mut ds = Dataset::load(&cfg.dataset)?;
+    let lock = scene::fsutil::lock_folder(&cfg.out)?;
+    let ckpt = cfg.out.join("checkpoint.json");
+    let checkpoint = if cfg.resume {
+        let c = Checkpoint::read(&ckpt)?;
+        check_resume_settings(&cfg.optimize, &c.config, &ckpt)?;
+        Some(c)
+    } else {
+        None
+    };
+    // A resumed run fits the views it started with.
+    let subset = match &checkpoint {
+        Some(c) => {
+            let given = &cfg.optimize.view_subset;
+            if given.is_some() && *given != c.config.view_subset {
+                return Err(RecoveryError::Invalid(format!(
+                    "--view-subset {:?} differs from the views of the run in {} ({:?}); resume \
+                     without --view-subset or start a new run",
+                    given.as_deref().unwrap_or_default(),
+                    cfg.out.display(),
+                    c.config
+                        .view_subset
+                        .as_deref()
+                        .map_or("all".into(), |v| format!("{v:?}"))
+                )));
+            }
+            c.config.view_subset.clone()
+        }
+        None => cfg.optimize.view_subset.clone(),
+    };
+    if let Some(s) = &subset {
+        select_views(&mut ds, s, &cfg.dataset)?;
+    }
+    let (mesh, warnings) = ds.load_mesh()?;
+    let accel = build_accel(mesh, &warnings, &cfg.dataset.display().to_string());
+    // Every iteration's light term asks for them; decide them once, in parallel, before the
+    // first iteration rather than lazily in the first iterations.
+    let t0 = Instant::now();
+    let supporting = accel.decide_all_supporting();
+    tracing::debug!(
+        "supporting planes: {supporting} of {} triangles in {:.0} ms",
+        accel.mesh().triangle_count(),
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    if cfg.optimize.model.kind() == ModelKind::Volpath {
+        let depth = cfg.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH);
+        if let Some(d) = ds
+            .render
+            .max_depth
+            .filter(|d| cfg.max_depth.is_some() && *d != depth)
+        {
+            tracing::warn!(
+                "the dataset was rendered with maximum depth {d}, the model traces to \
+                 --max-depth {depth}"
+            );
+        }
+    }
+    let networks = load_networks(cfg)?;
+    let base = ds.truth.unwrap_or(Medium {
+        sigma_t: [50.0; 3],
+        albedo: [0.5; 3],
+        g: 0.0,
+        eta: 1.0,
+    });
+    let truth = ds.truth.as_ref().map(Params::of);
+    std::fs::create_dir_all(&cfg.out).map_err(|source| RecoveryError::CreateDir {
+        path: cfg.out.clone(),
+        source,
+    })?;
+    let prepared = Prepared {
+        ds,
+        accel,
+        networks,
+        base,
+        truth,
+        ckpt,
+        _lock: lock,
+    };
+    Ok((prepared, checkpoint))
+}
+
+/// The learned model's networks when `cfg` renders with it (the shipped ones unless a file is
+/// named); the volumetric and dipole models have none.
+fn load_networks(
+    cfg: &RecoveryConfig,
+) -> Result<Option<bssrdf::nn::ShapeAdaptiveModel>, RecoveryError> {
+    if cfg.optimize.model.kind() != ModelKind::Learned {
+        return Ok(None);
+    }
+    Ok(Some(match &cfg.model_file {
+        Some(path) => bssrdf::model::load(path)?,
+        None => bssrdf::model::shipped()?,
+    }))
+}
+
+impl Prepared {
+    /// The optimiser on the prepared targets: resumed from the checkpoint, or new (refused over
+    /// another run's checkpoint unless overwriting, whose bootstrap folders it then removes).
+    pub(super) fn start<'p>(
+        &'p self,
+        cfg: &RecoveryConfig,
+        checkpoint: Option<Checkpoint>,
+    ) -> Result<Optimizer<'p>, RecoveryError> {
+        let targets = TargetView::of_dataset(&self.ds, &cfg.dataset.display().to_string())?;
+        let networks = self.networks.as_ref();
+        if let Some(c) = checkpoint {
+            let budget = resume_budget(cfg, &c);
+            return Ok(Optimizer::resume(
+                c,
+                Some(budget),
+                &self.accel,
+                networks,
+                self.base,
+                targets,
+            )?);
+        }
+        if self.ckpt.exists() && !cfg.overwrite {
+            return Err(RecoveryError::Invalid(format!(
+                "{} already holds an optimisation run; pass --resume to continue it or \
+                 --overwrite to start again",
+                cfg.out.display()
+            )));
+        }
+        // The bootstrap folders belong to the run being replaced.
+        let boot = cfg.out.join("bootstrap");
+        if cfg.overwrite && boot.is_dir() {
+            std::fs::remove_dir_all(&boot)
+                .map_err(|source| RecoveryError::RemoveDir { path: boot, source })?;
+        }
+        Ok(Optimizer::new(
+            cfg.optimize.clone(),
+            &self.accel,
+            networks,
+            self.base,
+            targets,
+        )?)
+    }
+}

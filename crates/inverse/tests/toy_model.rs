@@ -1,0 +1,156 @@
+//! A model added from outside the library goes through `optimize`'s loop: a forward model is a
+//! type implementing the three traits of [`inverse::forward`], handed to
+//! [`Optimizer::with_forward`]. The stand-in here is a Lambertian slab of constant albedo seen
+//! through an absorbing layer whose optical depth grows across the image,
+//!
+//!   I_c(x) = α_c · s(x) · (1 − e^{−σ_t,c·d(x)}),  s(x) = 1/2 + y/(2H),  d(x) = 0.01 + 0.03·x/W,
+//!
+//! with its exact derivatives; the loop recovers α and σ_t from its own images.
+
+mod common;
+
+use bssrdf::diff::DiffImages;
+use bssrdf::render::RenderSettings;
+use geometry::Vec3;
+use inverse::forward::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
+use inverse::optimize::{InverseError, OptimizeConfig, Optimizer, TargetView};
+use inverse::params::Params;
+use scene::{Camera, Image, Medium, PointLight};
+
+/// The stand-in model: nothing to prepare, every view alike.
+struct Lambertian;
+
+struct At(Medium);
+
+struct View<'v> {
+    medium: &'v Medium,
+    camera: &'v Camera,
+}
+
+impl ForwardModel for Lambertian {
+    fn prepare(&mut self, _medium: &Medium) -> Result<(), InverseError> {
+        Ok(())
+    }
+
+    fn at<'s>(&'s self, medium: Medium) -> Result<Box<dyn MediumRenderer + 's>, InverseError> {
+        Ok(Box::new(At(medium)))
+    }
+}
+
+impl MediumRenderer for At {
+    fn view<'v>(
+        &'v self,
+        camera: &'v Camera,
+        _light: &'v PointLight,
+    ) -> Box<dyn ViewRenderer + 'v> {
+        Box::new(View {
+            medium: &self.0,
+            camera,
+        })
+    }
+}
+
+impl View<'_> {
+    /// Per pixel and channel: (I, ∂I/∂σ_t, ∂I/∂α).
+    fn pixels(&self) -> [Image; 3] {
+        let (w, h) = (self.camera.width, self.camera.height);
+        let mut out = [Image::new(w, h), Image::new(w, h), Image::new(w, h)];
+        for y in 0..h {
+            for x in 0..w {
+                let s = 0.5 + y as f32 / (2.0 * h as f32);
+                let d = 0.01 + 0.03 * x as f32 / w as f32;
+                let i = (y * w + x) as usize;
+                for c in 0..3 {
+                    let (a, st) = (self.medium.albedo[c], self.medium.sigma_t[c]);
+                    let e = (-st * d).exp();
+                    out[0].data[i][c] = a * s * (1.0 - e);
+                    out[1].data[i][c] = a * s * d * e;
+                    out[2].data[i][c] = s * (1.0 - e);
+                }
+            }
+        }
+        out
+    }
+}
+
+impl ViewRenderer for View<'_> {
+    fn value(&self, _rs: &RenderSettings, _progress: Progress) -> Result<Image, InverseError> {
+        let [value, _, _] = self.pixels();
+        Ok(value)
+    }
+
+    fn derivatives(
+        &self,
+        _rs: &RenderSettings,
+        _progress: Progress,
+    ) -> Result<DiffImages, InverseError> {
+        let [value, d_sigma_t, d_albedo] = self.pixels();
+        Ok(DiffImages {
+            value,
+            d_sigma_t,
+            d_albedo,
+        })
+    }
+}
+
+#[test]
+fn a_model_from_outside_the_library_runs_through_the_loop() {
+    let accel = common::sphere(0.5);
+    let truth = Medium {
+        sigma_t: [40.0, 70.0, 100.0],
+        albedo: [0.7, 0.8, 0.9],
+        g: 0.0,
+        eta: 1.0,
+    };
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
+    let light = PointLight {
+        position: Vec3::new(0.0, 2.0, 2.0),
+        intensity: [1.0; 3],
+    };
+    let rs = RenderSettings {
+        spp: 1,
+        seed: 0,
+        view: 0,
+    };
+    let target = Lambertian
+        .at(truth)
+        .unwrap()
+        .view(&camera, &light)
+        .value(&rs, None)
+        .unwrap();
+    let config = OptimizeConfig {
+        iterations: 400,
+        refine_iterations: 0,
+        albedo_warmup: 0,
+        lr_sigma_t: 0.03,
+        lr_albedo: 0.02,
+        ..OptimizeConfig::default()
+    };
+    let targets = vec![TargetView {
+        camera: &camera,
+        light: &light,
+        image: &target,
+    }];
+    let mut opt =
+        Optimizer::with_forward(config, &accel, Box::new(Lambertian), None, truth, targets)
+            .unwrap();
+    opt.run(None, |_, _| {}).unwrap();
+    let p = opt.params();
+    for c in 0..3 {
+        let (st, a) = (truth.sigma_t[c] as f64, truth.albedo[c] as f64);
+        assert!(
+            (p.sigma_t[c] / st - 1.0).abs() < 0.02 && (p.albedo[c] - a).abs() < 0.01,
+            "channel {c}: σ_t {} (truth {st}), α {} (truth {a})",
+            p.sigma_t[c],
+            p.albedo[c]
+        );
+    }
+    // The history starts at the configuration's initial parameters, 50 and 0.5 (σ_t through
+    // its logarithm, to rounding).
+    let Params { sigma_t, albedo } = opt.history()[0].params;
+    assert!(
+        sigma_t.iter().all(|s| (s / 50.0 - 1.0).abs() < 1e-6),
+        "{sigma_t:?}"
+    );
+    assert_eq!(albedo, [0.5; 3]);
+}
