@@ -10,13 +10,12 @@ use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
-use geometry::{LightBins, Shape};
+use geometry::Shape;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
-use scene::{Dataset, Medium, PointLight};
+use scene::{Dataset, Medium};
 use volpath::{
-    ChannelSampling, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings,
-    render_image, shadow_lists,
+    ChannelSampling, Lit, RenderSettings, ShadowTransmittance, VolpathSettings, render_image,
 };
 
 use inverse::views::build_accel;
@@ -169,23 +168,14 @@ pub fn run(a: &VolpathBenchArgs) -> Result<()> {
             let mut best = f64::INFINITY;
             for _ in 0..a.repeat {
                 let t0 = Instant::now();
-                // As `render` does: the shadow-ray lists are rebuilt only when the light moves.
-                let mut lists: Option<LightBins> = None;
+                // As `render` does: each light position's shadow-ray lists built once.
+                let lit = Lit::new(&accel, medium, settings);
                 for (i, (cam, light)) in views.iter().enumerate() {
                     let mut cam = cam.clone();
                     cam.width = res;
                     cam.height = res;
-                    let mut scene = VolpathScene {
-                        accel: &accel,
-                        medium,
-                        light: Some(PointLight { ..*light }),
-                        environment: None,
-                        light_bins: None,
-                    };
-                    if lists.as_ref().is_none_or(|b| b.light() != light.position) {
-                        lists = shadow_lists(&scene, &settings);
-                    }
-                    scene.light_bins = lists.as_ref();
+                    let lists = lit.lists(light);
+                    let scene = lit.scene(light, &lists);
                     let rs = RenderSettings {
                         spp: a.spp,
                         seed: a.seed,

@@ -184,14 +184,7 @@ pub(super) fn offset_row<E: SampleEstimator>(
             _ => s_abs * p.t_cam * v,
         };
         if v > 0.0 && base.is_finite() {
-            let sum = &mut row.sums[p.pixel as usize];
-            if scene.grey {
-                for (ch, acc) in sum.iter_mut().enumerate() {
-                    *acc += (base * light.intensity[ch]) as f64;
-                }
-            } else {
-                sum[c] += (p.weight * base * light.intensity[c]) as f64;
-            }
+            add(&mut row.sums[p.pixel as usize], scene.grey, p, light, base);
         }
 
         let sample = Sample {
@@ -216,20 +209,21 @@ pub(super) fn offset_row<E: SampleEstimator>(
             }
             p.t_cam * dv_law
         });
-        let (d_t, d_a) = (finite_or_zero(d_t), finite_or_zero(d_a));
-        let (acc_t, acc_a) = (
-            &mut buf.dsum_t[p.pixel as usize],
-            &mut buf.dsum_a[p.pixel as usize],
+        let px = p.pixel as usize;
+        add(
+            &mut buf.dsum_t[px],
+            scene.grey,
+            p,
+            light,
+            finite_or_zero(d_t),
         );
-        if scene.grey {
-            for ch in 0..3 {
-                acc_t[ch] += (d_t * light.intensity[ch]) as f64;
-                acc_a[ch] += (d_a * light.intensity[ch]) as f64;
-            }
-        } else {
-            acc_t[c] += (p.weight * d_t * light.intensity[c]) as f64;
-            acc_a[c] += (p.weight * d_a * light.intensity[c]) as f64;
-        }
+        add(
+            &mut buf.dsum_a[px],
+            scene.grey,
+            p,
+            light,
+            finite_or_zero(d_a),
+        );
     }
     absorb_term(scene, view, k, buf)?;
     for d in buf.dsum_t.iter_mut().chain(buf.dsum_a.iter_mut()) {
@@ -319,16 +313,24 @@ fn absorb_term(
         let p = &buf.row.pending[s as usize];
         let c = p.channel as usize;
         let d_a = finite_or_zero(-da * k.din_da[c] * tv);
-        let acc_a = &mut buf.dsum_a[p.pixel as usize];
-        if scene.grey {
-            for ch in 0..3 {
-                acc_a[ch] += (d_a * light.intensity[ch]) as f64;
-            }
-        } else {
-            acc_a[c] += (p.weight * d_a * light.intensity[c]) as f64;
-        }
+        add(&mut buf.dsum_a[p.pixel as usize], scene.grey, p, light, d_a);
     }
     Ok(())
+}
+
+/// Adds a sample's contribution `x` (without the channel weight and the light's intensity) to
+/// its pixel's sums: to every channel for a grey medium (one sample serves all three), else to
+/// the sample's channel with its weight.
+#[inline]
+fn add(sum: &mut [f64; 3], grey: bool, p: &Pending, light: &scene::PointLight, x: f32) {
+    if grey {
+        for (ch, acc) in sum.iter_mut().enumerate() {
+            *acc += (x * light.intensity[ch]) as f64;
+        }
+    } else {
+        let c = p.channel as usize;
+        sum[c] += (p.weight * x * light.intensity[c]) as f64;
+    }
 }
 
 #[inline]

@@ -123,8 +123,41 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         &format!("{name}: shape.mesh_file"),
     )?);
 
-    // Medium.
-    if let Some(t) = d.get(&doc, "medium.type") {
+    let truth = medium_of(&d, &doc, &name)?;
+    let (intensity, default_light) = light_of(&d, &doc, &name)?;
+    let (fov_x, width, height) = camera_of(&d, &doc, &name)?;
+    let views_v = d
+        .req(&doc, "views", "views")?
+        .as_array()
+        .ok_or_else(|| d.err("views", "expected an array of views"))?;
+    if views_v.is_empty() {
+        return Err(d.err("views", "no views; fix: add at least one view"));
+    }
+    let mut views = Vec::with_capacity(views_v.len());
+    let mut warnings = Vec::new();
+    for (i, v) in views_v.iter().enumerate() {
+        let lights = (intensity, default_light);
+        let (view, warning) = view_of(&d, v, i, dir, lights, (fov_x, width, height))?;
+        views.push(view);
+        warnings.extend(warning);
+    }
+    let (render, metadata) = render_of(&d, &doc, &name)?;
+    Ok(Dataset {
+        views,
+        mesh,
+        truth: Some(truth),
+        render,
+        metadata,
+        root: dir.to_path_buf(),
+        kind: DatasetKind::MitsubaReference,
+        warnings,
+    })
+}
+
+/// The medium of `scene.json`: `medium.*` (homogeneous; σ_t, α, the phase function's g) and the
+/// index of refraction from `boundary.*`.
+fn medium_of(d: &Doc, doc: &Value, name: &str) -> Result<Medium, SceneError> {
+    if let Some(t) = d.get(doc, "medium.type") {
         let t = d.str(t, "medium.type")?;
         if t != "homogeneous" {
             return Err(d.err(
@@ -134,16 +167,16 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         }
     }
     let sigma_t = d.f3(
-        d.req(&doc, "medium.sigma_t", "medium.sigma_t")?,
+        d.req(doc, "medium.sigma_t", "medium.sigma_t")?,
         "medium.sigma_t",
     )?;
     let albedo = d.f3(
-        d.req(&doc, "medium.albedo", "medium.albedo")?,
+        d.req(doc, "medium.albedo", "medium.albedo")?,
         "medium.albedo",
     )?;
-    let g = match d.get(&doc, "medium.phase.g") {
+    let g = match d.get(doc, "medium.phase.g") {
         Some(v) => d.num(v, "medium.phase.g")? as f32,
-        None => match d.get(&doc, "medium.phase.type").and_then(Value::as_str) {
+        None => match d.get(doc, "medium.phase.type").and_then(Value::as_str) {
             None | Some("isotropic") => 0.0,
             Some(other) => {
                 return Err(d.err(
@@ -163,10 +196,10 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         None | Some("null") => 1.0,
         Some("dielectric") | Some("roughdielectric") => {
             let int = d.num(
-                d.req(&doc, "boundary.int_ior", "boundary.int_ior")?,
+                d.req(doc, "boundary.int_ior", "boundary.int_ior")?,
                 "boundary.int_ior",
             )?;
-            let ext = match d.get(&doc, "boundary.ext_ior") {
+            let ext = match d.get(doc, "boundary.ext_ior") {
                 Some(v) => d.num(v, "boundary.ext_ior")?,
                 None => 1.000_277,
             };
@@ -186,11 +219,14 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         eta,
     };
     truth.validate(&format!("{name}: medium"))?;
+    Ok(truth)
+}
 
-    // Light.
+/// The light of `scene.json`: its intensity per channel and its default position.
+fn light_of(d: &Doc, doc: &Value, name: &str) -> Result<([f32; 3], Option<[f32; 3]>), SceneError> {
     let intensity = match (
-        d.get(&doc, "light.intensity_rgb"),
-        d.get(&doc, "light.intensity"),
+        d.get(doc, "light.intensity_rgb"),
+        d.get(doc, "light.intensity"),
     ) {
         (Some(v), _) => d.f3(v, "light.intensity_rgb")?,
         (None, Some(v)) => d.f3(v, "light.intensity")?,
@@ -202,7 +238,7 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         }
     };
     check_intensity(&intensity, &format!("{name}: light.intensity_rgb"))?;
-    if let Some(t) = d.get(&doc, "light.type") {
+    if let Some(t) = d.get(doc, "light.type") {
         let t = d.str(t, "light.type")?;
         if t != "point" {
             return Err(d.err(
@@ -215,18 +251,22 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         .get(&doc, "light.position")
         .map(|v| d.f3(v, "light.position"))
         .transpose()?;
+    Ok((intensity, default_light))
+}
 
-    // Camera intrinsics.
+/// The camera intrinsics of `scene.json`: the horizontal field of view (converted from
+/// `camera.fov_axis`), width and height.
+fn camera_of(d: &Doc, doc: &Value, name: &str) -> Result<(f32, u32, u32), SceneError> {
     let fov = d.num(
-        d.req(&doc, "camera.fov_deg", "camera.fov_deg")?,
+        d.req(doc, "camera.fov_deg", "camera.fov_deg")?,
         "camera.fov_deg",
     )?;
-    let width = d.uint(d.req(&doc, "camera.width", "camera.width")?, "camera.width")?;
+    let width = d.uint(d.req(doc, "camera.width", "camera.width")?, "camera.width")?;
     let height = d.uint(
-        d.req(&doc, "camera.height", "camera.height")?,
+        d.req(doc, "camera.height", "camera.height")?,
         "camera.height",
     )?;
-    let axis = match d.get(&doc, "camera.fov_axis") {
+    let axis = match d.get(doc, "camera.fov_axis") {
         Some(v) => d.str(v, "camera.fov_axis")?,
         None => "x",
     };
@@ -263,84 +303,94 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         crop: None,
     };
     probe.validate_named(&format!("{name}: camera"), "fov_deg")?;
+    Ok((fov_x, width, height))
+}
 
-    // Views.
-    let views_v = d
-        .req(&doc, "views", "views")?
-        .as_array()
-        .ok_or_else(|| d.err("views", "expected an array of views"))?;
-    if views_v.is_empty() {
-        return Err(d.err("views", "no views; fix: add at least one view"));
-    }
-    let mut views = Vec::with_capacity(views_v.len());
-    let mut warnings = Vec::new();
-    for (i, v) in views_v.iter().enumerate() {
-        let p = format!("views[{i}]");
-        let ctx = format!("{name}: {p}");
-        let camera = if let Some(m) = d.get(v, "to_world") {
-            let m = d.mat4(m, &format!("{p}.to_world"))?;
-            camera_from_matrix(&m, fov_x, width, height, &ctx)?
-        } else {
-            let o = d.f3(
-                d.req(v, "origin", &format!("{p}.origin"))?,
-                &format!("{p}.origin"),
-            )?;
-            let tg = d.f3(
-                d.req(v, "target", &format!("{p}.target"))?,
-                &format!("{p}.target"),
-            )?;
-            let up = match d.get(v, "up") {
-                Some(u) => d.f3(u, &format!("{p}.up"))?,
-                None => [0.0, 1.0, 0.0],
-            };
-            look_at_checked(&ctx, o, tg, up, fov_x, "fov_deg", width, height)?
-        };
-        let light_pos = match d.get(v, "light_position") {
-            Some(lp) => d.f3(lp, &format!("{p}.light_position"))?,
-            None => default_light.ok_or_else(|| {
-                d.err(
-                    &format!("{p}.light_position"),
-                    "missing, and there is no light.position to fall back on; fix: add it",
-                )
-            })?,
-        };
-        let position = check_finite3(light_pos, &format!("{ctx}.light_position"))?;
-        let exr = d.str(
-            d.req(v, "file_exr", &format!("{p}.file_exr"))?,
-            &format!("{p}.file_exr"),
+/// View `i` of `scene.json` (`v`): its camera, its light (`lights`: the intensity and the
+/// default position), its image; a warning when the image's mean differs from `mean_rgb`.
+fn view_of(
+    d: &Doc,
+    v: &Value,
+    i: usize,
+    dir: &Path,
+    (intensity, default_light): ([f32; 3], Option<[f32; 3]>),
+    (fov_x, width, height): (f32, u32, u32),
+) -> Result<(View, Option<String>), SceneError> {
+    let name = d.file;
+    let mut warning = None;
+    let p = format!("views[{i}]");
+    let ctx = format!("{name}: {p}");
+    let camera = if let Some(m) = d.get(v, "to_world") {
+        let m = d.mat4(m, &format!("{p}.to_world"))?;
+        camera_from_matrix(&m, fov_x, width, height, &ctx)?
+    } else {
+        let o = d.f3(
+            d.req(v, "origin", &format!("{p}.origin"))?,
+            &format!("{p}.origin"),
         )?;
-        let (image, image_path) = load_view_image(dir, exr, &format!("{ctx}.file_exr"), &camera)?;
-        let expected_mean = match d.get(v, "mean_rgb") {
-            Some(m) => Some(d.arr::<3>(m, &format!("{p}.mean_rgb"))?),
-            None => None,
+        let tg = d.f3(
+            d.req(v, "target", &format!("{p}.target"))?,
+            &format!("{p}.target"),
+        )?;
+        let up = match d.get(v, "up") {
+            Some(u) => d.f3(u, &format!("{p}.up"))?,
+            None => [0.0, 1.0, 0.0],
         };
-        if let Some(e) = expected_mean {
-            let got = image.mean();
-            let off = (0..3).any(|c| (got[c] - e[c]).abs() > 1e-4 * e[c].abs().max(1e-3));
-            if off {
-                let msg = format!(
-                    "{ctx}: image mean {got:?} differs from mean_rgb {e:?} recorded in scene.json \
-                     (the image may not be the one described)"
-                );
-                tracing::warn!("{msg}");
-                warnings.push(msg);
-            }
+        look_at_checked(&ctx, o, tg, up, fov_x, "fov_deg", width, height)?
+    };
+    let light_pos = match d.get(v, "light_position") {
+        Some(lp) => d.f3(lp, &format!("{p}.light_position"))?,
+        None => default_light.ok_or_else(|| {
+            d.err(
+                &format!("{p}.light_position"),
+                "missing, and there is no light.position to fall back on; fix: add it",
+            )
+        })?,
+    };
+    let position = check_finite3(light_pos, &format!("{ctx}.light_position"))?;
+    let exr = d.str(
+        d.req(v, "file_exr", &format!("{p}.file_exr"))?,
+        &format!("{p}.file_exr"),
+    )?;
+    let (image, image_path) = load_view_image(dir, exr, &format!("{ctx}.file_exr"), &camera)?;
+    let expected_mean = match d.get(v, "mean_rgb") {
+        Some(m) => Some(d.arr::<3>(m, &format!("{p}.mean_rgb"))?),
+        None => None,
+    };
+    if let Some(e) = expected_mean {
+        let got = image.mean();
+        let off = (0..3).any(|c| (got[c] - e[c]).abs() > 1e-4 * e[c].abs().max(1e-3));
+        if off {
+            let msg = format!(
+                "{ctx}: image mean {got:?} differs from mean_rgb {e:?} recorded in scene.json \
+                 (the image may not be the one described)"
+            );
+            tracing::warn!("{msg}");
+            warning = Some(msg);
         }
-        views.push(View {
-            camera,
-            light: PointLight {
-                position,
-                intensity,
-            },
-            image: Some(image),
-            image_path: Some(image_path),
-            expected_mean,
-        });
     }
+    let view = View {
+        camera,
+        light: PointLight {
+            position,
+            intensity,
+        },
+        image: Some(image),
+        image_path: Some(image_path),
+        expected_mean,
+    };
+    Ok((view, warning))
+}
 
-    // Render settings and metadata (informational).
+/// The render settings (`integrator.max_depth`, `render.spp`, `render.seed`, the renderer) and
+/// the metadata of `scene.json` (informational).
+fn render_of(
+    d: &Doc,
+    doc: &Value,
+    name: &str,
+) -> Result<(RenderInfo, DatasetMetadata), SceneError> {
     let opt_u = |path: &str| -> Result<Option<u64>, SceneError> {
-        d.get(&doc, path)
+        d.get(doc, path)
             .map(|v| {
                 v.as_u64()
                     .ok_or_else(|| d.err(path, format!("= {v}: expected a non-negative integer")))
@@ -368,25 +418,12 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
         renderer,
     };
     render.validate(&format!("{name}: integrator"))?;
-    let text_of = |path: &str| {
-        d.get(&doc, path)
-            .and_then(Value::as_str)
-            .map(str::to_string)
-    };
+    let text_of = |path: &str| d.get(doc, path).and_then(Value::as_str).map(str::to_string);
     let metadata = DatasetMetadata {
         units: text_of("units"),
         conventions: text_of("coordinate_system"),
         generator: text_of("generator"),
-        notes: d.get(&doc, "command").cloned(),
+        notes: d.get(doc, "command").cloned(),
     };
-    Ok(Dataset {
-        views,
-        mesh,
-        truth: Some(truth),
-        render,
-        metadata,
-        root: dir.to_path_buf(),
-        kind: DatasetKind::MitsubaReference,
-        warnings,
-    })
+    Ok((render, metadata))
 }
