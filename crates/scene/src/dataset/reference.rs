@@ -189,7 +189,7 @@ fn medium_of(d: &Doc, doc: &Value, name: &str) -> Result<Medium, SceneError> {
         },
     };
     let eta = match d
-        .get(&doc, "boundary.bsdf")
+        .get(doc, "boundary.bsdf")
         .map(|v| d.str(v, "boundary.bsdf"))
         .transpose()?
     {
@@ -248,7 +248,7 @@ fn light_of(d: &Doc, doc: &Value, name: &str) -> Result<([f32; 3], Option<[f32; 
         }
     }
     let default_light = d
-        .get(&doc, "light.position")
+        .get(doc, "light.position")
         .map(|v| d.f3(v, "light.position"))
         .transpose()?;
     Ok((intensity, default_light))
@@ -401,10 +401,10 @@ fn render_of(
     let spp = opt_u("render.spp")?.map(|v| v.min(u32::MAX as u64) as u32);
     let seed = opt_u("render.seed")?;
     let version = d
-        .get(&doc, "software.mitsuba_version")
+        .get(doc, "software.mitsuba_version")
         .and_then(Value::as_str);
     let integrator = d
-        .get(&doc, "integrator.type")
+        .get(doc, "integrator.type")
         .and_then(Value::as_str)
         .unwrap_or("volpath");
     let renderer = Some(match version {
