@@ -194,7 +194,21 @@ fn medium_of(d: &Doc, doc: &Value, name: &str) -> Result<Medium, SceneError> {
         .transpose()?
     {
         None | Some("null") => 1.0,
-        Some("dielectric") | Some("roughdielectric") => {
+        Some(bsdf @ ("dielectric" | "roughdielectric")) => {
+            // Mitsuba's roughdielectric defaults to α = 0.1: rough unless told otherwise.
+            let alpha = match d.get(doc, "boundary.alpha") {
+                Some(v) => d.num(v, "boundary.alpha")?,
+                None if bsdf == "roughdielectric" => 0.1,
+                None => 0.0,
+            };
+            if alpha != 0.0 {
+                return Err(d.err(
+                    &format!("boundary.bsdf = \"{bsdf}\" with alpha = {alpha}"),
+                    "a rough boundary is not modelled, and read as a smooth one it would change \
+                     how light enters and leaves; fix: a smooth \"dielectric\" (alpha 0) or a \
+                     \"null\" boundary",
+                ));
+            }
             let int = d.num(
                 d.req(doc, "boundary.int_ior", "boundary.int_ior")?,
                 "boundary.int_ior",

@@ -449,6 +449,23 @@ fn mitsuba_reference_errors_name_the_field() {
             &["boundary.bsdf = \"diffuse\""],
         ),
         (
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4,
+                    "distribution": "ggx", "alpha": 0.3})
+            }),
+            &[
+                "boundary.bsdf = \"roughdielectric\" with alpha = 0.3",
+                "not modelled",
+            ],
+        ),
+        (
+            // Mitsuba's default roughness.
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4})
+            }),
+            &["alpha = 0.1"],
+        ),
+        (
             Box::new(|v| v["camera"]["width"] = 0.into()),
             &["camera.width"],
         ),
