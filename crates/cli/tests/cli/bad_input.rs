@@ -406,44 +406,19 @@ fn render_method_points_to_model() {
 fn model_is_a_kind_and_model_file_a_learned_model_s_weights() {
     let t = tmp();
     write(&t.path().join("scene.toml"), good_scene());
+    let render = |model: &[&str]| {
+        let base = ["-q", "render", "scene.toml", "--out", "o"];
+        fails(t.path(), &[&base[..], model].concat())
+    };
     for bad in ["volpth", "models/translucent-v2.safetensors"] {
-        let r = fails(
-            t.path(),
-            &["-q", "render", "scene.toml", "--model", bad, "--out", "o"],
-        );
+        let r = render(&["--model", bad]);
         assert_stderr_has(&r, &["--model", bad, "learned, volpath, dipole"]);
     }
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--model",
-            "volpath",
-            "--model-file",
-            "m.safetensors",
-            "--out",
-            "o",
-        ],
-    );
+    let r = render(&["--model", "volpath", "--model-file", "m.safetensors"]);
     assert_stderr_has(
         &r,
         &["--model-file m.safetensors", "--model volpath", "learned"],
     );
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--model",
-            "learned",
-            "--model-file",
-            "missing.safetensors",
-            "--out",
-            "o",
-        ],
-    );
+    let r = render(&["--model", "learned", "--model-file", "missing.safetensors"]);
     assert_stderr_has(&r, &["missing.safetensors"]);
 }

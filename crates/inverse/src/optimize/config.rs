@@ -45,7 +45,7 @@ pub struct OptimizeConfig {
     /// Samples per pixel per iteration.
     pub spp: u32,
     /// Samples per pixel of the refinement's iterations ([`OptimizeConfig::spp_at`]); `None`:
-    /// `spp`. The tracer's iteration costs about twice the learned model's at high albedo
+    /// `spp`. The tracer's iteration costs about 2.5× the learned model's at high albedo
     /// (its paths run to the depth limit), so fewer samples there trade gradient noise for
     /// time. (Left out of the JSON when `None`, so runs written before the option compare
     /// equal.)
