@@ -6,6 +6,8 @@
 //! * [`rng`]: reproducible random streams keyed by (seed, view, pixel, purpose).
 //! * [`pixel`]: per-render settings and the pixel samples (Owen-scrambled Sobol jitter).
 //! * [`fresnel`]: exact dielectric Fresnel, reflection, refraction.
+//! * [`microfacet`]: the rough dielectric boundary (GGX, Walter et al. 2007), its sampling of
+//!   visible normals (Heitz 2018) and evaluation.
 //! * [`boundary`]: the boundary factors of the BSSRDF estimators: Fresnel transmittance, FM1 and
 //!   the light-side factor Sw.
 //! * [`phase`]: Henyey–Greenstein sampling and evaluation.
@@ -13,6 +15,7 @@
 
 pub mod boundary;
 pub mod fresnel;
+pub mod microfacet;
 pub mod optim;
 pub mod phase;
 pub mod pixel;

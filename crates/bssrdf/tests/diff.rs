@@ -96,6 +96,7 @@ fn rgb_medium() -> Medium {
         albedo: [0.8, 0.9, 0.95],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     }
 }
 
@@ -423,7 +424,10 @@ fn walk_sampler_offsets_equal_finite_differences() {
     )
     .expect_err("naive with walks must be refused")
     .to_string();
-    assert!(err.contains("--entry-sampler decoder"), "{err}");
+    assert!(
+        err.contains("use entry_sampler decoder with estimator naive"),
+        "{err}"
+    );
 }
 
 /// FD through S_abs and the light side only: σ_n held fixed, Δα small enough for the tangent.
@@ -611,6 +615,7 @@ fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
                 albedo: [0.9; 3],
                 g: 0.0,
                 eta: 1.3,
+                roughness: 0.0,
             }
         } else {
             Medium {

@@ -521,6 +521,7 @@ fn fit_derivative_predicts_a_refit() {
         albedo: [0.9; 3],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let plain = VertexFeatures::fit(&accel, &m, true, 5).unwrap();
     let with = VertexFeatures::fit_with_derivative(&accel, &m, true, 5).unwrap();

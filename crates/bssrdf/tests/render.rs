@@ -68,6 +68,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
                 albedo: [0.8; 3],
                 g: 0.0,
                 eta,
+                roughness: 0.0,
             }
         } else {
             Medium {
@@ -75,6 +76,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
                 albedo: [0.5, 0.8, 0.95],
                 g: 0.0,
                 eta,
+                roughness: 0.0,
             }
         };
         let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
@@ -157,6 +159,7 @@ fn images_do_not_depend_on_the_thread_count_with_either_entry_sampler() {
         albedo: [0.9; 3],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let features = VertexFeatures::fit(&accel, &medium, true, 0).unwrap();
     let cam = Camera::look_at(Vec3::new(0.5, 1.5, 1.0), Vec3::ZERO, Vec3::Y, 40.0, 16, 16);
@@ -214,6 +217,7 @@ fn rgb_render_matches_three_grey_renders() {
         albedo: [0.95, 0.85, 0.6],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let cam = Camera::look_at(Vec3::new(0.5, 1.5, 1.0), Vec3::ZERO, Vec3::Y, 40.0, 12, 12);
     let light = PointLight {

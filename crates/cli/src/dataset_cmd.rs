@@ -138,22 +138,30 @@ pub struct MediumArgs {
     /// Relative index of refraction (1 = index-matched boundary, the paper's data).
     #[arg(long, default_value_t = 1.0)]
     pub eta: f32,
-    /// Draw σ_t ~ U[30, 100] and α ~ U[0.8, 0.98] per channel from --seed instead.
+    /// Roughness of the boundary as GGX α (Mitsuba's roughdielectric alpha), in [0, 1]; 0 = a
+    /// smooth surface. Needs --eta > 1.
+    #[arg(long, default_value_t = 0.0)]
+    pub roughness: f32,
+    /// Draw σ_t ~ U[30, 100] and α ~ U[0.8, 0.98] per channel from --seed instead (the
+    /// boundary and g as given).
     #[arg(long)]
     pub random_medium: bool,
 }
 
 impl MediumArgs {
     pub fn medium(&self, seed: u64) -> Result<Medium> {
-        let m = if self.random_medium {
-            random_medium(seed)
+        let (sigma_t, albedo) = if self.random_medium {
+            let r = random_medium(seed);
+            (r.sigma_t, r.albedo)
         } else {
-            Medium {
-                sigma_t: self.sigma_t,
-                albedo: self.albedo,
-                g: self.g,
-                eta: self.eta,
-            }
+            (self.sigma_t, self.albedo)
+        };
+        let m = Medium {
+            sigma_t,
+            albedo,
+            g: self.g,
+            eta: self.eta,
+            roughness: self.roughness,
         };
         m.validate("command line: medium")?;
         Ok(m)

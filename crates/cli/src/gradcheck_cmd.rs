@@ -9,7 +9,7 @@ use bssrdf::diff::{Estimator, Primal};
 use bssrdf::render::RenderSettings;
 use clap::Args;
 use inverse::forward::learned::LearnedSpec;
-use scene::{Dataset, Medium};
+use scene::Dataset;
 use std::path::PathBuf;
 
 use inverse::gradcheck::{agreement, render_estimators};
@@ -73,18 +73,19 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         );
     };
     let truth = ds.truth;
-    let medium = Medium {
-        sigma_t: a
-            .sigma_t
-            .or(truth.map(|t| t.sigma_t))
-            .context("the dataset has no truth medium: pass --sigma-t and --albedo")?,
-        albedo: a
-            .albedo
-            .or(truth.map(|t| t.albedo))
-            .context("the dataset has no truth medium: pass --sigma-t and --albedo")?,
-        g: truth.map(|t| t.g).unwrap_or(0.0),
-        eta: truth.map(|t| t.eta).unwrap_or(1.0),
-    };
+    let sigma_t = a
+        .sigma_t
+        .or(truth.map(|t| t.sigma_t))
+        .context("the dataset has no truth medium: pass --sigma-t and --albedo")?;
+    let albedo = a
+        .albedo
+        .or(truth.map(|t| t.albedo))
+        .context("the dataset has no truth medium: pass --sigma-t and --albedo")?;
+    // The boundary and phase function are what the dataset states, as for a recovery.
+    let medium = ds
+        .object
+        .unwrap_or(scene::Object::INDEX_MATCHED_ISOTROPIC)
+        .medium(sigma_t, albedo);
     medium.validate("gradcheck medium")?;
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());

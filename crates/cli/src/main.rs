@@ -108,6 +108,7 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    scene::setting::name_settings(cmdline::flag_of);
     let cli = parse_args();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");

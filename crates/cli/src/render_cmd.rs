@@ -127,6 +127,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         seed,
     };
     let kind = a.learned.renderer(&a.method, ModelKind::Volpath)?;
+    for gap in kind.physics_gaps(&scene::Object::of(&desc.medium)) {
+        tracing::warn!("{gap}");
+    }
     let networks = match kind {
         ModelKind::Learned => Some(a.learned.load_model()?),
         _ => None,

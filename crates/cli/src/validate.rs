@@ -162,7 +162,11 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let t0 = Instant::now();
     let mut spp = a.spp.or(ds.render.spp).unwrap_or(1024);
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
-    let learned = match a.learned.renderer(&a.method, ModelKind::Volpath)? {
+    let kind = a.learned.renderer(&a.method, ModelKind::Volpath)?;
+    for gap in kind.physics_gaps(&scene::Object::of(&medium)) {
+        tracing::warn!("{gap}");
+    }
+    let learned = match kind {
         ModelKind::Volpath => false,
         ModelKind::Learned => true,
         ModelKind::Dipole => bail!(

@@ -417,3 +417,32 @@ pub fn load_model_arg(path: &std::path::Path) -> Result<bssrdf::nn::ShapeAdaptiv
         _ => Ok(bssrdf::model::load(path)?),
     }
 }
+
+/// The flag that sets a library [`scene::setting::Setting`]: the binaries register it with
+/// [`scene::setting::name_settings`], so that library errors name the flags.
+pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
+    use scene::setting::Setting;
+    match setting {
+        Setting::Overwrite => "--overwrite",
+        Setting::Resume => "--resume",
+        Setting::Out => "--out",
+        Setting::ViewSubset => "--view-subset",
+        Setting::Spp => "--spp",
+        Setting::MaxDepth => "--max-depth",
+        Setting::Starts => "--starts",
+        Setting::Iterations => "--iterations",
+        Setting::Refine => "--refine",
+        Setting::BiasCorrectionSteps => "--bias-correction-steps",
+        Setting::InitSigmaT => "--init-sigma-t",
+        Setting::InitAlbedo => "--init-albedo",
+        Setting::EntrySampler => "--entry-sampler",
+        Setting::Estimator => "--estimator",
+        Setting::Widths => "--widths",
+        Setting::Init => "--init",
+        Setting::PositionWeight => "--position-weight",
+        Setting::Lr => "--lr",
+        Setting::Clip => "--clip",
+        Setting::NoC19Quirk => "--no-c19-quirk",
+        Setting::MakeTrainingData => "translucent train data --out",
+    }
+}

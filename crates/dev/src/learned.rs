@@ -138,6 +138,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     albedo: [al; 3],
                     g: 0.0,
                     eta: 1.0,
+                    roughness: 0.0,
                 };
                 medium.validate("bench medium")?;
                 let case = format!("{shape_name}_s{st}_a{al}");

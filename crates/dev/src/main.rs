@@ -50,6 +50,7 @@ enum Command {
 }
 
 fn main() {
+    scene::setting::name_settings(cmdline::flag_of);
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {e:#}");

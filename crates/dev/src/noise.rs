@@ -102,6 +102,7 @@ fn cases(a: &NoiseBenchArgs) -> Vec<Case> {
         albedo: a.albedo,
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let grey = Medium {
         sigma_t: [a.sigma_t[1]; 3],

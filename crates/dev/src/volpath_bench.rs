@@ -98,6 +98,7 @@ pub fn run(a: &VolpathBenchArgs) -> Result<()> {
                 albedo: [0.95, 0.9, 0.85],
                 g: 0.0,
                 eta: 1.0,
+                roughness: 0.0,
             };
             let light = Vec3::new(0.267_261_24, 0.400_891_86, 0.133_630_62);
             let rig = Rig {

@@ -64,6 +64,7 @@ fn sphere_dataset(dir: &Path, name: &str) -> (SceneDesc, PathBuf) {
             albedo: [0.9; 3],
             g: 0.0,
             eta: 1.0,
+            roughness: 0.0,
         },
         views: rig.build(),
         render: RenderInfo::default(),

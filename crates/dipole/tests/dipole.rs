@@ -25,6 +25,7 @@ fn half_space_estimate_is_the_total_diffuse_reflectance() {
         albedo: [0.9, 0.6, 0.99],
         g: 0.2,
         eta: 1.3,
+        roughness: 0.0,
     };
     let accel = Accel::new(
         Shape::RoundedBox {
@@ -95,6 +96,7 @@ fn probe_sampler_passes_chi2_on_a_sphere() {
         albedo: [0.95, 0.9, 0.8],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let scene = DipoleScene::new(&accel, m).unwrap();
     let sampler: &ProbeSampler = scene.sampler();
@@ -252,6 +254,7 @@ fn derivative_images_match_central_differences() {
         albedo: [0.95, 0.85, 0.7],
         g: 0.0,
         eta: 1.3,
+        roughness: 0.0,
     };
     let view = DipoleView::new(&accel, &camera, &light);
     let pilot = render_derivatives(
@@ -360,6 +363,7 @@ fn renders_are_reproducible() {
         albedo: [0.95, 0.85, 0.7],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let scene = DipoleScene::new(&accel, m).unwrap();
     let view = DipoleView::new(&accel, &camera, &light);
@@ -389,6 +393,7 @@ fn invalid_media_are_errors() {
         albedo: [0.95, 0.85, 0.7],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let e = DipoleScene::new(&accel, m).err().expect("an error");
     assert!(e.to_string().contains("sigma_t[1]"), "{e}");

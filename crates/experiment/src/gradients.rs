@@ -59,6 +59,7 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
         albedo: [0.95, 0.9, 0.85],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     Ok([
         ("cone", Shape::from_name("cone")?, medium),

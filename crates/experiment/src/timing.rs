@@ -140,7 +140,11 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
     let accel = inverse::views::build_accel(mesh, &warnings, "the timing dataset's mesh");
     accel.decide_all_supporting();
     let targets = TargetView::of_dataset(&ds, "the timing dataset")?;
-    let base = ds.truth.context("the timing dataset has no medium")?;
+    // The boundary and phase function the dataset states (the parameters come from the runs).
+    let base = ds
+        .object
+        .context("the timing dataset states no object (boundary, phase function)")?
+        .medium([50.0; 3], [0.5; 3]);
     let nets = cmdline::LearnedArgs::shipped_model()?;
     // Every pair at the workload's spp, and the paper's method at twice that (its Table 1).
     let runs = all_pairs()

@@ -45,6 +45,7 @@ const TRUTH: Medium = Medium {
     albedo: [0.9; 3],
     g: 0.0,
     eta: 1.0,
+    roughness: 0.0,
 };
 
 /// One run: its name, model (`None`: learned), samples per pixel over the base count.

@@ -121,6 +121,30 @@ impl ModelKind {
     pub fn is_default(&self) -> bool {
         *self == ModelKind::default()
     }
+
+    /// What this model does not render of `object` as the object is: each a sentence for the
+    /// log and `result.json`. The tracer renders every boundary and phase function; the learned
+    /// model was trained at g = 0, η = 1 with a smooth boundary; the dipole has no rough
+    /// boundary.
+    pub fn physics_gaps(self, object: &scene::Object) -> Vec<String> {
+        let mut gaps = Vec::new();
+        if self == ModelKind::Learned && (object.g != 0.0 || object.eta != 1.0) {
+            gaps.push(format!(
+                "the learned model was trained at g = 0, η = 1: at g {}, η {} its images are \
+                 extrapolated",
+                object.g, object.eta
+            ));
+        }
+        if self != ModelKind::Volpath && object.roughness > 0.0 {
+            gaps.push(format!(
+                "the {} model renders the boundary as a smooth one: its roughness (GGX α {}) is \
+                 not modelled",
+                self.name(),
+                object.roughness
+            ));
+        }
+        gaps
+    }
 }
 
 impl std::fmt::Display for ModelKind {

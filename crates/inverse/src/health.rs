@@ -21,6 +21,7 @@
 //!
 //! Each check returns a [`Problem`] with a sentence for the user.
 
+use scene::setting::Setting;
 use serde::{Deserialize, Serialize};
 
 use crate::consistency::Consistency;
@@ -83,8 +84,10 @@ impl Problem {
                 "{parameter} {} ended at its bound ({value}): the optimiser ran into the edge of \
                  the parameter range, so the value is not a minimum of the loss; check the \
                  dataset's units (σ_t is per scene unit) and exposure, or start elsewhere \
-                 (--init-sigma-t, --init-albedo)",
-                CH[*channel]
+                 ({init_s}, {init_a})",
+                CH[*channel],
+                init_s = Setting::InitSigmaT,
+                init_a = Setting::InitAlbedo,
             ),
             Problem::LossRising {
                 rise,
@@ -119,8 +122,8 @@ impl Problem {
                  path tracer (brightness ratio {:.3?}, L2 {:.2?}× the noise floor): the \
                  recovery stopped at a medium that does not explain the images. With the learned \
                  model alone, its error can move the estimate: refine with the volumetric path \
-                 tracer (--refine, on by default) or run more correction steps \
-                 (--bias-correction-steps). With any model, views that determine σ_t and more \
+                 tracer ({refine}, on by default) or run more correction steps \
+                 ({steps}). With any model, views that determine σ_t and more \
                  iterations help",
                 channels
                     .iter()
@@ -128,7 +131,9 @@ impl Problem {
                     .collect::<Vec<_>>()
                     .join(", "),
                 mean_ratio,
-                l2_over_noise
+                l2_over_noise,
+                refine = Setting::Refine,
+                steps = Setting::BiasCorrectionSteps,
             ),
         }
     }

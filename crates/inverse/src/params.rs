@@ -82,6 +82,7 @@ impl Params {
             albedo: self.albedo.map(|v| v as f32),
             g: base.g,
             eta: base.eta,
+            roughness: base.roughness,
         }
     }
 }

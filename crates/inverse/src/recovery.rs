@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 
 use indicatif::ProgressBar;
 use scene::Dataset;
+use scene::setting::Setting;
 use serde_json::json;
 
 use crate::optimize::{Checkpoint, InverseError, OptimizeConfig};
@@ -158,8 +159,9 @@ pub enum RecoveryError {
     /// the outputs stay as they were, the last checkpoint included.
     #[error(
         "the optimisation stopped in iteration {iteration}; {} holds the last checkpoint \
-         written before (resume from it with --resume)",
-        .checkpoint.display()
+         written before (resume from it with {})",
+        .checkpoint.display(),
+        Setting::Resume
     )]
     Stopped {
         iteration: usize,
@@ -250,10 +252,13 @@ fn check_resume_settings(
         .collect();
     if !diffs.is_empty() {
         return Err(RecoveryError::Invalid(format!(
-            "--resume: the settings differ from those of the run in {} ({}); repeat the run's \
-             own options (only --iterations may change), or start a new run with --overwrite",
+            "{}: the settings differ from those of the run in {} ({}); repeat the run's \
+             own options (only {} may change), or start a new run with {}",
+            Setting::Resume,
             ckpt.display(),
-            diffs.join("; ")
+            diffs.join("; "),
+            Setting::Iterations,
+            Setting::Overwrite
         )));
     }
     Ok(())
@@ -264,21 +269,24 @@ fn check_resume_settings(
 pub fn select_views(ds: &mut Dataset, subset: &[usize], what: &Path) -> Result<(), RecoveryError> {
     let n = ds.views.len();
     if subset.is_empty() {
-        return Err(RecoveryError::Invalid(
-            "--view-subset: give at least one view index".into(),
-        ));
+        return Err(RecoveryError::Invalid(format!(
+            "{}: give at least one view index",
+            Setting::ViewSubset
+        )));
     }
     for (k, &i) in subset.iter().enumerate() {
         if i >= n {
             return Err(RecoveryError::Invalid(format!(
-                "--view-subset: {} has {n} views (0 … {}); there is no view {i}",
+                "{}: {} has {n} views (0 … {}); there is no view {i}",
+                Setting::ViewSubset,
                 what.display(),
                 n.saturating_sub(1)
             )));
         }
         if subset[..k].contains(&i) {
             return Err(RecoveryError::Invalid(format!(
-                "--view-subset: view {i} is named twice"
+                "{}: view {i} is named twice",
+                Setting::ViewSubset
             )));
         }
     }

@@ -13,6 +13,7 @@ use geometry::Accel;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
+use scene::setting::Setting;
 use scene::{Dataset, Image, Medium};
 use volpath::{Lit, Progressive, RenderSettings, ShadowTransmittance, VolpathSettings};
 
@@ -148,17 +149,22 @@ pub fn render_dataset(
         shadow,
     } = opts;
     if spp == 0 {
-        return Err(InverseError::Invalid("--spp must be at least 1".into()));
+        return Err(InverseError::Invalid(format!(
+            "{} must be at least 1",
+            Setting::Spp
+        )));
     }
     if max_depth == 0 {
-        return Err(InverseError::Invalid(
-            "--max-depth must be at least 1".into(),
-        ));
+        return Err(InverseError::Invalid(format!(
+            "{} must be at least 1",
+            Setting::MaxDepth
+        )));
     }
     if !overwrite && out.join("dataset.json").exists() {
         return Err(InverseError::Invalid(format!(
-            "{} already holds a dataset; pass --overwrite to replace it",
-            out.display()
+            "{} already holds a dataset; pass {} to replace it",
+            out.display(),
+            Setting::Overwrite
         )));
     }
     desc.render = RenderInfo {
@@ -215,6 +221,7 @@ pub fn random_medium(seed: u64) -> Medium {
         albedo,
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     }
 }
 

@@ -83,6 +83,7 @@ fn setup(model: ModelKind) -> Setup {
         albedo: [0.9, 0.85, 0.8],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let views: Vec<(Camera, PointLight)> = [Vec3::new(0.0, 0.3, 2.0), Vec3::new(1.5, 0.5, -1.2)]
         .into_iter()

@@ -34,6 +34,7 @@ fn setup() -> Setup {
         albedo: [0.9, 0.85, 0.8],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let views: Vec<(Camera, PointLight)> = [Vec3::new(0.0, 0.3, 2.0), Vec3::new(1.5, 0.5, -1.2)]
         .into_iter()
@@ -667,7 +668,7 @@ fn refinement_switches_to_the_volumetric_tracer_for_the_last_iterations() {
     )
     .err()
     .expect("extending a refined run with the same refinement would move it");
-    assert!(e.to_string().contains("--refine 2"), "{e}");
+    assert!(e.to_string().contains("(refine 2)"), "{e}");
     // The same length with the refinement kept where it began is the full run.
     assert!(
         Optimizer::resume(

@@ -32,6 +32,7 @@ fn tiny_dataset(dir: &std::path::Path) {
             albedo: [0.9, 0.85, 0.8],
             g: 0.0,
             eta: 1.0,
+            roughness: 0.0,
         },
         views,
         render: RenderInfo::default(),

@@ -37,6 +37,7 @@ fn medium(albedo: f32) -> Medium {
         albedo: [albedo; 3],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     }
 }
 

@@ -101,6 +101,7 @@ fn a_model_from_outside_the_library_runs_through_the_loop() {
         albedo: [0.7, 0.8, 0.9],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
     let light = PointLight {

@@ -29,6 +29,7 @@ use bssrdf::model::{ModelError, ModelInfo};
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{Dense, Encoder, INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM};
 use rayon::prelude::*;
+use scene::setting::Setting;
 use serde::{Deserialize, Serialize};
 
 use crate::mlp_grad::MlpTape;
@@ -526,14 +527,14 @@ impl std::str::FromStr for Widths {
         for part in s.split(';').filter(|p| !p.trim().is_empty()) {
             let (k, v) = part
                 .split_once('=')
-                .ok_or_else(|| format!("--widths: '{part}' is not KEY=w1,w2,…"))?;
+                .ok_or_else(|| format!("{}: '{part}' is not KEY=w1,w2,…", Setting::Widths))?;
             let list: Vec<usize> = v
                 .split(',')
                 .map(|x| x.trim().parse::<usize>())
                 .collect::<Result<_, _>>()
-                .map_err(|_| format!("--widths: '{v}' is not a list of integers"))?;
+                .map_err(|_| format!("{}: '{v}' is not a list of integers", Setting::Widths))?;
             if list.contains(&0) {
-                return Err("--widths: widths must be ≥ 1".into());
+                return Err(format!("{}: widths must be ≥ 1", Setting::Widths));
             }
             match k.trim() {
                 "F" => w.feature = list,
@@ -542,13 +543,14 @@ impl std::str::FromStr for Widths {
                 "E" => w.encoder_hidden = list,
                 other => {
                     return Err(format!(
-                        "--widths: unknown block '{other}' (use F, A, D, E)"
+                        "{}: unknown block '{other}' (use F, A, D, E)",
+                        Setting::Widths
                     ));
                 }
             }
         }
         if w.feature.is_empty() {
-            return Err("--widths: F needs at least one layer".into());
+            return Err(format!("{}: F needs at least one layer", Setting::Widths));
         }
         Ok(w)
     }

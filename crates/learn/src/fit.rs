@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use bssrdf::nn::ShapeAdaptiveModel;
 use indicatif::ProgressBar;
+use scene::setting::Setting;
 
 use crate::samplefile::{SampleFileError, SampleFileHeader, read_samples};
 use crate::train::{Prepared, TrainConfig, TrainError, Trainer, normalisation_of, prepare};
@@ -69,8 +70,9 @@ pub struct FitOutcome {
 fn load_set(path: &Path) -> Result<(SampleFileHeader, Vec<crate::sample::Sample>), FitError> {
     if !path.exists() {
         return Err(FitError::Invalid(format!(
-            "{} does not exist; create the data with `translucent train data --out {}`",
+            "{} does not exist; create the data with `{} {}`",
             path.display(),
+            Setting::MakeTrainingData,
             path.parent().unwrap_or(Path::new(".")).display()
         )));
     }
@@ -96,13 +98,13 @@ pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
     let _lock = scene::fsutil::lock_folder(&run.out)?;
     let ckpt = run.out.join("checkpoint.bin");
     let model_path = run.out.join("model.safetensors");
-    let init = match &run.init {
-        Some(p) => Some(
-            ShapeAdaptiveModel::load(p)
-                .map_err(|e| FitError::Invalid(format!("--init {}: {e}", p.display())))?,
-        ),
-        None => None,
-    };
+    let init =
+        match &run.init {
+            Some(p) => Some(ShapeAdaptiveModel::load(p).map_err(|e| {
+                FitError::Invalid(format!("{} {}: {e}", Setting::Init, p.display()))
+            })?),
+            None => None,
+        };
     let norm = match &init {
         Some(m) => m.normalisation().clone(),
         None => normalisation_of(&train)?,
@@ -122,15 +124,20 @@ pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
     };
     let mut trainer = if run.resume {
         if !ckpt.exists() {
-            return invalid(format!("--resume: {} does not exist", ckpt.display()));
+            return invalid(format!(
+                "{}: {} does not exist",
+                Setting::Resume,
+                ckpt.display()
+            ));
         }
         Trainer::resume(&ckpt, Some(run.config.steps), train_p, val_p)?
     } else {
         if (ckpt.exists() || model_path.exists()) && !run.overwrite {
             return invalid(format!(
-                "{} already holds a training run; pass --resume to continue it or --overwrite to \
-                 start again",
-                run.out.display()
+                "{} already holds a training run; pass {} to continue it or {} to start again",
+                run.out.display(),
+                Setting::Resume,
+                Setting::Overwrite
             ));
         }
         let info = bssrdf::model::ModelInfo {
@@ -141,23 +148,26 @@ pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
         let w = run.config.weights.position;
         if !(w.is_finite() && w > 0.0) {
             return invalid(format!(
-                "--position-weight must be a positive number, got {w}"
+                "{} must be a positive number, got {w}",
+                Setting::PositionWeight
             ));
         }
         let config = run.config.clone();
         match init {
             Some(model) => {
-                let path = run.init.as_ref().expect("init is loaded from --init");
+                let path = run.init.as_ref().expect("the model of run.init is loaded");
                 if model.info().c19_quirk != quirk {
                     let with = |b: bool| if b { "with" } else { "without" };
                     return invalid(format!(
-                        "--init {}: the model was fitted {} VKJ19's c_19 = 0 quirk and the data \
-                         in {} {} it; fine-tune on data made with the same setting (`train data \
-                         --no-c19-quirk`)",
+                        "{} {}: the model was fitted {} VKJ19's c_19 = 0 quirk and the data \
+                         in {} {} it; fine-tune on data made with the same setting ({} when \
+                         making the data)",
+                        Setting::Init,
                         path.display(),
                         with(model.info().c19_quirk),
                         run.data.display(),
                         with(quirk),
+                        Setting::NoC19Quirk,
                     ));
                 }
                 Trainer::from_model(config, model, train_p, val_p)?

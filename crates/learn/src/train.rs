@@ -27,6 +27,7 @@ use bssrdf::medium::{ReducedMedium, StatSample};
 use bssrdf::model::ModelInfo;
 use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::nn::{INPUT_DIM, LATENT_DIM, Normalisation, POSITION_DIM};
+use scene::setting::Setting;
 use serde::{Deserialize, Serialize};
 
 use crate::cvae::{self as vae, Batch, Gradients, LossParts, LossWeights, Widths};
@@ -50,8 +51,10 @@ pub enum TrainError {
     },
     /// The loss became NaN or infinite.
     #[error(
-        "the training loss became non-finite at step {step}; lower the learning rate (--lr) or \
-         the gradient clipping threshold (--clip)"
+        "the training loss became non-finite at step {step}; lower the learning rate ({}) or \
+         the gradient clipping threshold ({})",
+        Setting::Lr,
+        Setting::Clip
     )]
     Diverged {
         /// Step at which it happened.

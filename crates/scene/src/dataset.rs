@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 use crate::scene_file::{RenderInfo, ViewDesc, base_dir};
-use crate::{Camera, Image, Medium, MeshSource, PointLight, SceneDesc, SceneError};
+use crate::{Camera, Image, Medium, MeshSource, Object, PointLight, SceneDesc, SceneError};
 
 mod json;
 mod reference;
@@ -98,7 +98,11 @@ pub struct Dataset {
     pub views: Vec<View>,
     /// Mesh file (resolved path) or built-in shape.
     pub mesh: MeshSource,
-    /// The medium the images were rendered with, when known.
+    /// What the dataset states about the object besides σ_t and α (boundary, phase function):
+    /// what a recovery renders with. `None`: the dataset states nothing.
+    pub object: Option<Object>,
+    /// The medium the images were rendered with, when known: a report, never read for
+    /// rendering a recovery.
     pub truth: Option<Medium>,
     /// How the images were rendered (informational; `max_depth` matters for comparisons).
     pub render: RenderInfo,
@@ -127,6 +131,7 @@ impl Dataset {
                 })
                 .collect(),
             mesh: scene.mesh.clone(),
+            object: Some(Object::of(&scene.medium)),
             truth: Some(scene.medium),
             render: scene.render.clone(),
             metadata: DatasetMetadata {

@@ -17,7 +17,10 @@ pub enum SceneError {
     #[error("{path}: {reason}")]
     Parse { path: PathBuf, reason: String },
     /// Refused to overwrite a file the user made.
-    #[error("{path} already exists; pass --overwrite to replace it")]
+    #[error(
+        "{path} already exists; pass {} to replace it",
+        crate::setting::Setting::Overwrite
+    )]
     Exists { path: PathBuf },
     /// Another run holds the output folder ([`crate::fsutil::lock_folder`]).
     #[error(

@@ -6,9 +6,12 @@
 //! * [`light`]: point lights of radiant intensity I (irradiance I/r², no 1/4π), and a constant
 //!   environment emitter (used by energy tests).
 //! * [`medium`]: the homogeneous medium (σ_t, α per RGB channel, HG g, relative IOR η).
+//! * [`object`]: what a capture states about the object besides σ_t and α: the boundary (η,
+//!   roughness) and the phase function (g).
 //! * [`image`]: RGB float images with EXR (linear f32) and PNG (tone-mapped sRGB) I/O.
 //! * [`scene_file`]: the scene file format (TOML or JSON), validated with precise errors.
 //! * [`rig`]: multi-view rigs (N views on a Fibonacci sphere, light fixed or attached).
+//! * [`setting`]: the settings library errors ask the user to change, spelled by the front end.
 //! * [`dataset`]: dataset folders (`dataset.json` + EXRs, DATASET.md) and the Mitsuba
 //!   reference-render folder format (`scene.json` + mesh + `view_XXX.exr`).
 
@@ -20,8 +23,10 @@ pub mod image;
 pub mod light;
 pub mod loss;
 pub mod medium;
+pub mod object;
 pub mod rig;
 pub mod scene_file;
+pub mod setting;
 
 pub use camera::{Camera, Crop, RayGen};
 pub use dataset::{Dataset, DatasetKind, DatasetMetadata, View, load_reference_folder};
@@ -29,5 +34,6 @@ pub use error::SceneError;
 pub use image::Image;
 pub use light::{Environment, PointLight};
 pub use medium::Medium;
+pub use object::Object;
 pub use rig::{Rig, RigLight, fibonacci_sphere};
 pub use scene_file::{MediumSpec, MeshSource, RenderInfo, Rgb, SceneDesc, ShapeSpec, ViewDesc};

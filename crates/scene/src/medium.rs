@@ -1,5 +1,7 @@
 //! The homogeneous medium (CONVENTIONS.md): per RGB channel extinction σ_t [1/unit] and
-//! single-scattering albedo α (σ_s = α σ_t), Henyey–Greenstein g, relative IOR η = n_in/n_out.
+//! single-scattering albedo α (σ_s = α σ_t), Henyey–Greenstein g, and the boundary that holds
+//! it: relative IOR η = n_in/n_out and the surface's roughness as a GGX α (Walter et al. 2007;
+//! Mitsuba 3 `roughdielectric`'s `alpha`; 0 = smooth).
 
 use serde::{Deserialize, Serialize};
 
@@ -16,6 +18,16 @@ pub struct Medium {
     /// Relative index of refraction η ≥ 1; 1 = index-matched (null) boundary (the paper's data).
     #[serde(default = "one")]
     pub eta: f32,
+    /// Roughness of the boundary as the GGX α of its microfacets (Walter et al. 2007, the
+    /// `alpha` of Mitsuba 3's `roughdielectric`), [0, 1]; 0 = a smooth surface. Only a
+    /// refractive boundary (η > 1) can be rough.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub roughness: f32,
+}
+
+/// Serde: a smooth boundary's roughness is not written.
+pub(crate) fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 /// Serde default of η (index-matched boundary), shared with the file specs.
@@ -24,8 +36,9 @@ pub(crate) fn one() -> f32 {
 }
 
 impl Medium {
-    /// Check ranges: σ_t > 0 and finite, α ∈ [0, 1), g ∈ (−1, 1), η ≥ 1. `context` (file and
-    /// field path, e.g. "scene.toml: medium") goes into the error.
+    /// Check ranges: σ_t > 0 and finite, α ∈ [0, 1), g ∈ (−1, 1), η ≥ 1, roughness ∈ [0, 1]
+    /// and 0 unless η > 1. `context` (file and field path, e.g. "scene.toml: medium") goes into
+    /// the error.
     pub fn validate(&self, context: &str) -> Result<(), SceneError> {
         let bad = |field: String, value: f32, reason: &str| SceneError::Invalid {
             location: format!("{context}.{field} = {value}"),
@@ -69,6 +82,22 @@ impl Medium {
                  use 1 for the index-matched (null) boundary, or e.g. 1.5 for glass-like media",
             ));
         }
+        if !(self.roughness.is_finite() && (0.0..=1.0).contains(&self.roughness)) {
+            return Err(bad(
+                "roughness".into(),
+                self.roughness,
+                "the boundary's roughness is the GGX α of its microfacets, in [0, 1]; fix: use 0 \
+                 for a smooth surface, 0.05–0.3 for the usual polished to matte objects",
+            ));
+        }
+        if self.roughness > 0.0 && self.eta == 1.0 {
+            return Err(bad(
+                "roughness".into(),
+                self.roughness,
+                "an index-matched boundary (eta = 1) has no surface to be rough; fix: give the \
+                 object's index of refraction as eta (e.g. 1.5), or roughness 0",
+            ));
+        }
         Ok(())
     }
     /// σ_s per channel.
@@ -88,6 +117,7 @@ mod tests {
             albedo: [0.95, 0.9, 0.85],
             g: 0.0,
             eta: 1.0,
+            roughness: 0.0,
         }
     }
 
@@ -145,6 +175,29 @@ mod tests {
             (Medium { g: 1.0, ..ok() }, "medium.g = 1"),
             (Medium { g: -1.5, ..ok() }, "medium.g = -1.5"),
             (Medium { eta: 0.9, ..ok() }, "medium.eta = 0.9"),
+            (
+                Medium {
+                    eta: 1.5,
+                    roughness: -0.1,
+                    ..ok()
+                },
+                "medium.roughness = -0.1",
+            ),
+            (
+                Medium {
+                    eta: 1.5,
+                    roughness: 1.5,
+                    ..ok()
+                },
+                "medium.roughness = 1.5",
+            ),
+            (
+                Medium {
+                    roughness: 0.2,
+                    ..ok()
+                },
+                "medium.roughness = 0.2: an index-matched boundary",
+            ),
             (
                 Medium {
                     eta: f32::NAN,

@@ -51,6 +51,7 @@ fn medium() -> impl Strategy<Value = Medium> {
             albedo,
             g,
             eta,
+            roughness: 0.0,
         })
 }
 

@@ -5,7 +5,8 @@
 //! |---|---|
 //! | σ_t, α (RGB) | extinction [1/unit], single-scattering albedo; σ_s = α σ_t |
 //! | g | Henyey–Greenstein anisotropy |
-//! | η | boundary: 1 = index-matched `null` interface (the paper's data); > 1 = smooth dielectric |
+//! | η | boundary: 1 = index-matched `null` interface (the paper's data); > 1 = dielectric |
+//! | roughness | the dielectric's GGX α; 0 = smooth, > 0 = rough ([`crate::rough`]) |
 //! | max_depth | Mitsuba 3 `volpath` semantics: depth counts real scatterings; NEE at scattering vertex k only if k < max_depth |
 //! | rr_depth | Russian roulette once depth > rr_depth, survival q = min(max_k β_k, 1) |
 //!
@@ -13,13 +14,16 @@
 //! MIS, [`crate::spectral`]), phase-function sampling, and NEE at every scattering vertex with
 //! an unbiased estimate of the transmittance exp(−σ_t · ℓ) of the total length ℓ of the shadow
 //! segment inside the mesh (re-entries included; [`crate::shadow`]). Boundary crossings do not
-//! count as depth.
+//! count as depth, except at a rough boundary, where each interaction does (Mitsuba 3's `volpath`
+//! with `roughdielectric`).
 //!
 //! With η > 1 the camera side is exact (Fresnel reflection/refraction chosen with probability F,
 //! total internal reflection, radiance scaled by 1/η_rel² across the interface). A point light
 //! behind a smooth dielectric cannot be reached by a shadow ray (Mitsuba 3's `volpath` renders
 //! such scenes black); we connect through the refraction by manifold NEE ([`crate::manifold`]),
-//! which is exact for convex objects (see its limitations). Environment light works for every η.
+//! which is exact for convex objects (see its limitations). A rough boundary is crossed by
+//! sampling its BSDF and reaches the point light by next-event estimation at its own vertices
+//! ([`crate::rough`]), as Mitsuba 3 does. Environment light works for every boundary.
 //!
 //! Queries. Free flights ask [`Accel::closest`] (which skips the BVH when the clearance grid
 //! rules out a hit); the shadow rays read the light's lists ([`LightBins`]); a camera ray and
@@ -36,6 +40,7 @@ use crate::fresnel::{fresnel_dielectric, reflect, refract};
 use crate::manifold;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
+use crate::rough;
 use crate::shadow::ShadowTransmittance;
 use crate::spectral::SpectralWeight;
 
@@ -272,8 +277,14 @@ pub fn trace<T: Tally>(
     let mut o = origin;
     let mut d = dir;
     let mut inside = false;
+    // Real scatterings (what the path's throughput depends on the medium by) and the depth
+    // (the scatterings, and the rough boundary's interactions, as Mitsuba 3's `volpath`
+    // counts them).
+    let mut k = 0u32;
     let mut depth = 0u32;
     let mut interface_events = 0u32;
+    let rough = (m.eta != 1.0 && m.roughness > 0.0)
+        .then(|| base::microfacet::RoughDielectric::new(m.eta, m.roughness));
     // The path left the medium through a triangle whose plane has the whole mesh behind it
     // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
     // so the query for a re-entry is skipped (the BVH would answer "no hit").
@@ -304,6 +315,7 @@ pub fn trace<T: Tally>(
                 on_line = false;
                 w.scatter(&m.sigma_t, &m.albedo, t);
                 len += t;
+                k += 1;
                 depth += 1;
                 if depth >= settings.max_depth {
                     break;
@@ -311,11 +323,14 @@ pub fn trace<T: Tally>(
                 if let Some(light) = &scene.light {
                     let nee = if m.eta == 1.0 {
                         next_event(scene, settings.shadow, &phase, light, o, d, &w, s)
-                    } else {
+                    } else if rough.is_none() {
                         next_event_refracted(scene, &phase, light, o, d, &w)
+                    } else {
+                        // Behind a rough boundary the light is reached from its vertices.
+                        None
                     };
                     if let Some((c, shadow_len)) = nee {
-                        l.record(c, depth, len + shadow_len, &m.sigma_t, &m.albedo);
+                        l.record(c, k, len + shadow_len, &m.sigma_t, &m.albedo);
                     }
                 }
                 if depth > settings.rr_depth {
@@ -348,8 +363,8 @@ pub fn trace<T: Tally>(
             };
             let Some(hit) = hit else {
                 if let Some(env) = &scene.environment {
-                    let c = std::array::from_fn(|k| w.beta[k] * env.radiance[k]);
-                    l.record(c, depth, len, &m.sigma_t, &m.albedo);
+                    let c = std::array::from_fn(|c| w.beta[c] * env.radiance[c]);
+                    l.record(c, k, len, &m.sigma_t, &m.albedo);
                 }
                 break;
             };
@@ -357,9 +372,23 @@ pub fn trace<T: Tally>(
         };
         interface_events += 1;
         let spawn = settings.spawn_offset;
-        if interface_events > MAX_INTERFACE_EVENTS
-            || !cross_interface(m.eta, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s)
-        {
+        if interface_events > MAX_INTERFACE_EVENTS {
+            break;
+        }
+        if let Some(bsdf) = &rough {
+            depth += 1;
+            if depth >= settings.max_depth {
+                break;
+            }
+            if let Some(light) = &scene.light
+                && let Some(c) = rough::next_event(scene, bsdf, spawn, light, &hit, d, &w)
+            {
+                l.record(c, k, len, &m.sigma_t, &m.albedo);
+            }
+            if !rough::cross(bsdf, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
+                break;
+            }
+        } else if !cross_interface(m.eta, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
             break;
         }
         escaped = !inside && d.dot(hit.ng) > 0.0 && scene.accel.exit_is_final(hit.tri);

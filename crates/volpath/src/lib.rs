@@ -9,6 +9,7 @@
 //! * [`spectral`]: hero-channel spectral MIS for RGB extinction.
 //! * [`phase`], [`fresnel`], [`rng`]: from the `base` crate.
 //! * [`manifold`]: next-event estimation through one refraction (η > 1 with point lights).
+//! * [`rough`]: the rough dielectric boundary (GGX): its sampling and its vertices' NEE.
 //! * [`render`]: parallel, reproducible image rendering.
 //! * [`shadow`]: transmittance of the shadow rays (exact or tracked).
 
@@ -19,6 +20,7 @@ pub use base::{fresnel, phase, rng};
 pub mod integrator;
 pub mod manifold;
 pub mod render;
+pub mod rough;
 pub mod setup;
 pub mod shadow;
 pub mod spectral;

@@ -10,8 +10,9 @@
 //! The test: |mean Y − mean D| ≤ 4.5·√(se_Y² + se_D²) + the truncation error of the central
 //! difference, estimated by Richardson from the difference at 2h: |D̄_2h − D̄_h|/3, itself
 //! with its standard error. Three set-ups: an index-matched boundary with exact shadow
-//! transmittance, the same with the tracked (Mitsuba) shadow estimator, and a dielectric
-//! boundary (η = 1.5, manifold next-event estimation) under a point light and an environment.
+//! transmittance, the same with the tracked (Mitsuba) shadow estimator, a smooth dielectric
+//! boundary (η = 1.5, manifold next-event estimation) and a rough one (η = 1.5, GGX α 0.3,
+//! next-event estimation at the boundary's vertices), under a point light and an environment.
 
 use geometry::{Accel, Shape};
 use glam::Vec3;
@@ -45,6 +46,7 @@ fn medium(eta: f32) -> Medium {
         albedo: [0.7, 0.9, 0.95],
         g: 0.3,
         eta,
+        roughness: 0.0,
     }
 }
 
@@ -220,6 +222,22 @@ fn derivatives_match_finite_differences_dielectric() {
     };
     let scene = scene(&accel, 1.5, Some(environment));
     compare("dielectric", &accel, &scene, &VolpathSettings::default());
+}
+
+#[test]
+fn derivatives_match_finite_differences_rough_dielectric() {
+    let accel = sphere();
+    let environment = Environment {
+        radiance: [0.3, 0.5, 0.7],
+    };
+    let mut scene = scene(&accel, 1.5, Some(environment));
+    scene.medium.roughness = 0.3;
+    compare(
+        "rough dielectric",
+        &accel,
+        &scene,
+        &VolpathSettings::default(),
+    );
 }
 
 /// The value image of a render with derivatives is the plain render, bit for bit.

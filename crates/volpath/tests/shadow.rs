@@ -49,6 +49,7 @@ fn lit_scene(
             albedo,
             g,
             eta: 1.0,
+            roughness: 0.0,
         },
         light: Some(scene::PointLight {
             position: light,

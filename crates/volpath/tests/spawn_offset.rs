@@ -61,6 +61,7 @@ fn mitsuba_offset_darkens_single_scattering_by_the_skipped_sliver() {
             albedo: [0.9, 0.8, 0.7],
             g: 0.0,
             eta: 1.0,
+            roughness: 0.0,
         },
         light: Some(PointLight {
             position: Vec3::new(0.0, 0.0, 10.0),

@@ -4,6 +4,8 @@
 //! ∂σ_n/∂σ_t and the albedo input's derivative for `naive`, and the two perturbed scenes per
 //! parameter for `fd`.
 
+use scene::setting::Setting;
+
 use super::*;
 
 /// Per-render constants of the estimators.
@@ -39,11 +41,12 @@ impl<'a> Consts<'a> {
     pub(super) fn new(scene: &LearnedScene<'a>, ds: &DiffSettings) -> Result<Self, RenderError> {
         let m = &scene.medium;
         if ds.estimator == Estimator::Naive && scene.settings.entry == EntrySampler::Walks {
-            return Err(RenderError::Medium(
+            return Err(RenderError::Medium(format!(
                 "the naive estimator differentiates the decoder's output and needs the decoder; \
-                 use --entry-sampler decoder with --estimator naive"
-                    .into(),
-            ));
+                 use {} decoder with {} naive",
+                Setting::EntrySampler,
+                Setting::Estimator
+            )));
         }
         let g = m.g as f64;
         let norm = scene.model.normalisation();

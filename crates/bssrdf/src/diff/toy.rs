@@ -48,6 +48,7 @@ fn a_new_estimator_is_one_file_over_the_shared_row() {
         albedo: [0.9, 0.8, 0.95],
         g: 0.0,
         eta: 1.0,
+        roughness: 0.0,
     };
     let features = VertexFeatures::fit(&accel, &medium, model.info().c19_quirk, 0).unwrap();
     let settings = LearnedSettings::default();

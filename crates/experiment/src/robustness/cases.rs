@@ -122,6 +122,7 @@ pub fn cases(seed: u64) -> Vec<Case> {
                     albedo,
                     g: 0.0,
                     eta: 1.0,
+                    roughness: 0.0,
                 },
                 // Every shape is made 0.5 in radius, then the scene is scaled by this.
                 scale: mfp / (0.5 * mean),

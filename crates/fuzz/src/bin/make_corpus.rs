@@ -286,6 +286,15 @@ seed = 0
         corpus(Reader::Dataset, "mesh-lookat.json"),
         serde_json::to_string_pretty(&doc)?,
     )?;
+    // A user's capture of a rough, forward-scattering object: an object block, no truth.
+    doc["object"] = serde_json::json!({
+        "boundary": { "type": "dielectric", "eta": 1.4, "roughness": 0.2 },
+        "phase": { "type": "hg", "g": 0.7 }
+    });
+    std::fs::write(
+        corpus(Reader::Dataset, "object-rough.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
 
     // A Mitsuba reference folder as render_reference.py writes it (DATASET.md).
     let img0 = pattern(8, 6, 0.0);
@@ -332,6 +341,14 @@ seed = 0
     });
     std::fs::write(
         corpus(Reader::Reference, "dielectric-fov-y.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
+    let mut doc = doc;
+    doc["boundary"] = serde_json::json!({ "bsdf": "roughdielectric", "int_ior": 1.4,
+        "ext_ior": 1.0, "distribution": "ggx", "alpha": 0.3 });
+    doc["medium"]["phase"] = serde_json::json!({ "type": "hg", "g": 0.6 });
+    std::fs::write(
+        corpus(Reader::Reference, "rough-hg.json"),
         serde_json::to_string_pretty(&doc)?,
     )?;
     Ok(())
@@ -458,6 +475,7 @@ impl OptimizeSetup {
                 albedo: [0.9; 3],
                 g: 0.0,
                 eta: 1.0,
+                roughness: 0.0,
             },
         })
     }

@@ -128,6 +128,7 @@ mod tests {
             albedo: [0.5, 0.9, 0.995],
             g: 0.0,
             eta: 1.0,
+            roughness: 0.0,
         };
         let d = central_differences(render, m, 0.02, 0.01).unwrap();
         for k in 0..2 {

@@ -7,6 +7,7 @@ use base::optim::{Adam, AdamState};
 use bssrdf::nn::ShapeAdaptiveModel;
 use geometry::Accel;
 use scene::Medium;
+use scene::setting::Setting;
 use serde::{Deserialize, Serialize};
 
 use super::{
@@ -154,9 +155,10 @@ impl<'a> Optimizer<'a> {
                     "the run has done {k} iterations and refines with the tracer {}; {n} \
                      iterations with a refinement of {r} would refine {}, which changes \
                      iterations already done; fix: resume with the run's own refinement \
-                     (--refine {}) or start a new run",
+                     ({} {}) or start a new run",
                     at(was),
                     at(will),
+                    Setting::Refine,
                     n.saturating_sub(was.min(n)),
                 )));
             }

@@ -94,6 +94,18 @@ pub(super) fn intervals(
     // Not final until the correction and the checks are in: an interrupted command is resumed
     // rather than reused (`run_or_reuse`).
     result["complete"] = json!(false);
+    result["status"] = json!("incomplete");
+    let (object, stated) = p.object;
+    result["object"] = json!({
+        "boundary": if object.eta == 1.0 {
+            json!({ "type": "null" })
+        } else {
+            json!({ "type": "dielectric", "eta": object.eta, "roughness": object.roughness })
+        },
+        "phase": json!({ "type": "hg", "g": object.g }),
+        "source": if stated { "dataset" } else { "assumed: the dataset states none" },
+        "not_modelled": p.gaps,
+    });
     write_result(&cfg.out, &result)?;
     report::write_plots(
         opt.history(),

@@ -13,6 +13,8 @@
 //! do not decide between them, which the run's intervals then say too.
 
 use super::reuse::{read_json, run_or_reuse};
+use scene::setting::Setting;
+
 use super::{BiasCorrection, Observer, RecoveryConfig, RecoveryError};
 use crate::forward::ModelKind;
 use crate::params::Params;
@@ -103,7 +105,7 @@ pub fn run_starts(
     }
     let best = (0..starts.len())
         .min_by(|&i, &j| starts[i].loss.total_cmp(&starts[j].loss))
-        .ok_or_else(|| RecoveryError::Invalid("--starts: no start".into()))?;
+        .ok_or_else(|| RecoveryError::Invalid(format!("{}: no start", Setting::Starts)))?;
     let json = serde_json::json!({
         "starts": starts,
         "chosen": best,

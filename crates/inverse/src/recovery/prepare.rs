@@ -6,7 +6,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use geometry::Accel;
-use scene::{Dataset, Medium};
+use scene::setting::Setting;
+use scene::{Dataset, Medium, Object};
 
 use super::{RecoveryConfig, RecoveryError, check_resume_settings, resume_budget, select_views};
 use crate::forward::ModelKind;
@@ -21,8 +22,13 @@ pub(super) struct Prepared {
     pub(super) accel: Accel,
     /// The learned model's networks, when the run renders with it.
     pub(super) networks: Option<bssrdf::nn::ShapeAdaptiveModel>,
-    /// g and η of the medium (the parameters come from the configuration).
+    /// The object's boundary and phase function in a medium (the parameters come from the
+    /// configuration).
     pub(super) base: Medium,
+    /// The object as the run renders it, and whether the dataset stated it (or it is assumed).
+    pub(super) object: (Object, bool),
+    /// What the run's models do not render of the object ([`ModelKind::physics_gaps`]).
+    pub(super) gaps: Vec<String>,
     /// The dataset's truth, for the report only.
     pub(super) truth: Option<Params>,
     /// The run's checkpoint file.
@@ -51,14 +57,15 @@ pub(super) fn prepare(
             let given = &cfg.optimize.view_subset;
             if given.is_some() && *given != c.config.view_subset {
                 return Err(RecoveryError::Invalid(format!(
-                    "--view-subset {:?} differs from the views of the run in {} ({:?}); resume \
-                     without --view-subset or start a new run",
+                    "{vs} {:?} differs from the views of the run in {} ({:?}); resume \
+                     without {vs} or start a new run",
                     given.as_deref().unwrap_or_default(),
                     cfg.out.display(),
                     c.config
                         .view_subset
                         .as_deref()
-                        .map_or("all".into(), |v| format!("{v:?}"))
+                        .map_or("all".into(), |v| format!("{v:?}")),
+                    vs = Setting::ViewSubset
                 )));
             }
             c.config.view_subset.clone()
@@ -88,17 +95,35 @@ pub(super) fn prepare(
         {
             tracing::warn!(
                 "the dataset was rendered with maximum depth {d}, the model traces to \
-                 --max-depth {depth}"
+                 {} {depth}",
+                Setting::MaxDepth
             );
         }
     }
     let networks = load_networks(cfg)?;
-    let base = ds.truth.unwrap_or(Medium {
-        sigma_t: [50.0; 3],
-        albedo: [0.5; 3],
-        g: 0.0,
-        eta: 1.0,
-    });
+    let (object, stated) = match ds.object {
+        Some(o) => (o, true),
+        None => (Object::INDEX_MATCHED_ISOTROPIC, false),
+    };
+    if stated {
+        tracing::info!("the object: {}", object.describe());
+    } else {
+        tracing::warn!(
+            "{} states no boundary or phase function (object); assumed: {}",
+            cfg.dataset.display(),
+            object.describe()
+        );
+    }
+    let mut gaps = Vec::new();
+    for kind in [cfg.optimize.model.kind(), cfg.optimize.final_model()] {
+        for gap in kind.physics_gaps(&object) {
+            if !gaps.contains(&gap) {
+                tracing::warn!("{gap}");
+                gaps.push(gap);
+            }
+        }
+    }
+    let base = object.medium([50.0; 3], [0.5; 3]);
     let truth = ds.truth.as_ref().map(Params::of);
     std::fs::create_dir_all(&cfg.out).map_err(|source| RecoveryError::CreateDir {
         path: cfg.out.clone(),
@@ -109,6 +134,8 @@ pub(super) fn prepare(
         accel,
         networks,
         base,
+        object: (object, stated),
+        gaps,
         truth,
         ckpt,
         _lock: lock,
@@ -153,9 +180,11 @@ impl Prepared {
         }
         if self.ckpt.exists() && !cfg.overwrite {
             return Err(RecoveryError::Invalid(format!(
-                "{} already holds an optimisation run; pass --resume to continue it or \
-                 --overwrite to start again",
-                cfg.out.display()
+                "{} already holds an optimisation run; pass {} to continue it or \
+                 {} to start again",
+                cfg.out.display(),
+                Setting::Resume,
+                Setting::Overwrite
             )));
         }
         // The bootstrap folders belong to the run being replaced.

@@ -4,6 +4,8 @@
 
 use std::path::Path;
 
+use scene::setting::Setting;
+
 use super::{Observer, RecoveryConfig, RecoveryError};
 use crate::params::Params;
 
@@ -39,9 +41,10 @@ pub fn run_or_reuse(
             if !keys.is_empty() {
                 return Err(RecoveryError::Invalid(format!(
                     "{} holds a run made with other settings than this command's (differing: \
-                     {}); use another --out or remove that folder",
+                     {}); use another {} or remove that folder",
                     run_dir.display(),
-                    keys.join(", ")
+                    keys.join(", "),
+                    Setting::Out
                 )));
             }
         }

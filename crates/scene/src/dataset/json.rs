@@ -11,12 +11,13 @@ use super::{
     DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View,
     camera_from_matrix, load_view_image,
 };
+use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{
     MediumSpec, RenderInfo, Rgb, ShapeSpec, base_dir, check_finite3, look_at_checked,
     resolve_mesh_path,
 };
-use crate::{Camera, MeshSource, PointLight, SceneError};
+use crate::{Camera, Medium, MeshSource, Object, PointLight, SceneError};
 
 impl Dataset {
     /// Load a translucent dataset from its `dataset.json` file (images next to it).
@@ -114,6 +115,11 @@ impl Dataset {
             Some(t) => Some(t.to_medium(&format!("{name}: truth"))?),
             None => None,
         };
+        let object = match raw.object {
+            Some(o) => Some(o.to_object(&format!("{name}: object"))?),
+            None => None,
+        };
+        check_truth_agrees(object.as_ref(), truth.as_ref(), &name)?;
         let render = raw.render.unwrap_or_default();
         render.validate(&format!("{name}: render"))?;
         if raw.views.is_empty() {
@@ -144,6 +150,7 @@ impl Dataset {
         Ok(Dataset {
             views,
             mesh,
+            object,
             truth,
             render,
             metadata: DatasetMetadata {
@@ -157,6 +164,31 @@ impl Dataset {
             warnings: Vec::new(),
         })
     }
+}
+
+/// A dataset whose `truth` (what rendered it) contradicts its `object` (what a recovery renders
+/// with) is inconsistent: refused, naming both. A truth without an object is fine here (the
+/// recovery says what it assumes); an object needs no truth.
+pub(super) fn check_truth_agrees(
+    object: Option<&Object>,
+    truth: Option<&Medium>,
+    name: &str,
+) -> Result<(), SceneError> {
+    if let (Some(o), Some(t)) = (object, truth)
+        && Object::of(t) != *o
+    {
+        return Err(SceneError::Invalid {
+            location: format!("{name}: truth"),
+            reason: format!(
+                "the medium that rendered the images has a {}, but object states a {}; fix: \
+                 make object state the boundary and phase function of the capture (the \
+                 recovery renders with object, never with truth)",
+                Object::of(t).describe(),
+                o.describe()
+            ),
+        });
+    }
+    Ok(())
 }
 
 #[derive(Serialize, Deserialize)]
@@ -174,6 +206,8 @@ pub(super) struct RawDataset {
     pub(super) mesh: Option<PathBuf>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) shape: Option<ShapeSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) object: Option<ObjectSpec>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) truth: Option<MediumSpec>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -13,7 +13,7 @@ use super::{
 };
 use crate::rig::check_intensity;
 use crate::scene_file::{RenderInfo, check_finite3, look_at_checked, resolve_mesh_path};
-use crate::{Camera, Medium, MeshSource, PointLight, SceneError};
+use crate::{Camera, Medium, MeshSource, Object, PointLight, SceneError};
 
 /// Navigation in a JSON document with errors naming the file and the field path.
 struct Doc<'a> {
@@ -145,6 +145,7 @@ pub fn load_reference_folder(dir: &Path) -> Result<Dataset, SceneError> {
     Ok(Dataset {
         views,
         mesh,
+        object: Some(Object::of(&truth)),
         truth: Some(truth),
         render,
         metadata,
@@ -174,66 +175,124 @@ fn medium_of(d: &Doc, doc: &Value, name: &str) -> Result<Medium, SceneError> {
         d.req(doc, "medium.albedo", "medium.albedo")?,
         "medium.albedo",
     )?;
-    let g = match d.get(doc, "medium.phase.g") {
-        Some(v) => d.num(v, "medium.phase.g")? as f32,
-        None => match d.get(doc, "medium.phase.type").and_then(Value::as_str) {
-            None | Some("isotropic") => 0.0,
-            Some(other) => {
-                return Err(d.err(
-                    "medium.phase.g",
-                    format!(
-                        "missing for phase function \"{other}\"; fix: add g (Henyey–Greenstein)"
-                    ),
-                ));
-            }
-        },
-    };
-    let eta = match d
-        .get(doc, "boundary.bsdf")
-        .map(|v| d.str(v, "boundary.bsdf"))
-        .transpose()?
-    {
-        None | Some("null") => 1.0,
-        Some(bsdf @ ("dielectric" | "roughdielectric")) => {
-            // Mitsuba's roughdielectric defaults to α = 0.1: rough unless told otherwise.
-            let alpha = match d.get(doc, "boundary.alpha") {
-                Some(v) => d.num(v, "boundary.alpha")?,
-                None if bsdf == "roughdielectric" => 0.1,
-                None => 0.0,
-            };
-            if alpha != 0.0 {
-                return Err(d.err(
-                    &format!("boundary.bsdf = \"{bsdf}\" with alpha = {alpha}"),
-                    "a rough boundary is not modelled, and read as a smooth one it would change \
-                     how light enters and leaves; fix: a smooth \"dielectric\" (alpha 0) or a \
-                     \"null\" boundary",
-                ));
-            }
-            let int = d.num(
-                d.req(doc, "boundary.int_ior", "boundary.int_ior")?,
-                "boundary.int_ior",
-            )?;
-            let ext = match d.get(doc, "boundary.ext_ior") {
-                Some(v) => d.num(v, "boundary.ext_ior")?,
-                None => 1.000_277,
-            };
-            (int / ext) as f32
-        }
-        Some(other) => {
-            return Err(d.err(
-                &format!("boundary.bsdf = \"{other}\""),
-                "unsupported boundary; fix: use \"null\" (index-matched) or \"dielectric\" with int_ior/ext_ior",
-            ));
-        }
-    };
+    let g = phase_of(d, doc)?;
+    let (eta, roughness) = boundary_of(d, doc)?;
     let truth = Medium {
         sigma_t,
         albedo,
         g,
         eta,
+        roughness,
     };
     truth.validate(&format!("{name}: medium"))?;
     Ok(truth)
+}
+
+/// The Henyey–Greenstein g of `scene.json`'s `medium.phase`: `{"type": "hg", "g": …}`,
+/// `{"type": "isotropic"}`, or absent (isotropic).
+fn phase_of(d: &Doc, doc: &Value) -> Result<f32, SceneError> {
+    let kind = d
+        .get(doc, "medium.phase.type")
+        .map(|v| d.str(v, "medium.phase.type"))
+        .transpose()?;
+    let g = d
+        .get(doc, "medium.phase.g")
+        .map(|v| d.num(v, "medium.phase.g"))
+        .transpose()?;
+    match (kind, g) {
+        (None | Some("hg"), Some(g)) => Ok(g as f32),
+        (None | Some("isotropic"), None) => Ok(0.0),
+        (Some("isotropic"), Some(0.0)) => Ok(0.0),
+        (Some("isotropic"), Some(g)) => Err(d.err(
+            &format!("medium.phase.g = {g}"),
+            "an isotropic phase function has g = 0; fix: type \"hg\" for an anisotropic medium",
+        )),
+        (Some("hg"), None) => Err(d.err(
+            "medium.phase.g",
+            "missing for the Henyey–Greenstein phase function; fix: add g, in (−1, 1)",
+        )),
+        (Some(other), _) => Err(d.err(
+            &format!("medium.phase.type = \"{other}\""),
+            "only the Henyey–Greenstein (\"hg\") and isotropic phase functions are modelled; \
+             fix: render the reference with one of them",
+        )),
+    }
+}
+
+/// The boundary of `scene.json` as (η, GGX α): `boundary.bsdf` `"null"` (or absent),
+/// `"dielectric"` or `"roughdielectric"` (Mitsuba 3's plugins: `int_ior`, `ext_ior` (default
+/// 1.000277), `distribution` (default `"beckmann"`), `alpha` (default 0.1)).
+fn boundary_of(d: &Doc, doc: &Value) -> Result<(f32, f32), SceneError> {
+    let bsdf = d
+        .get(doc, "boundary.bsdf")
+        .map(|v| d.str(v, "boundary.bsdf"))
+        .transpose()?;
+    let Some(bsdf @ ("dielectric" | "roughdielectric")) = bsdf else {
+        return match bsdf {
+            None | Some("null") => Ok((1.0, 0.0)),
+            Some(other) => Err(d.err(
+                &format!("boundary.bsdf = \"{other}\""),
+                "unsupported boundary; fix: \"null\" (index-matched), \"dielectric\" or \
+                 \"roughdielectric\" with int_ior/ext_ior",
+            )),
+        };
+    };
+    let int = d.num(
+        d.req(doc, "boundary.int_ior", "boundary.int_ior")?,
+        "boundary.int_ior",
+    )?;
+    let ext = match d.get(doc, "boundary.ext_ior") {
+        Some(v) => d.num(v, "boundary.ext_ior")?,
+        None => 1.000_277,
+    };
+    if !(int.is_finite() && ext.is_finite() && int > 0.0 && ext > 0.0 && int > ext) {
+        return Err(d.err(
+            &format!("boundary.int_ior = {int}, boundary.ext_ior = {ext}"),
+            "the object must be optically denser than its surroundings (int_ior > ext_ior > 0); \
+             fix: e.g. int_ior 1.5, ext_ior 1",
+        ));
+    }
+    if bsdf == "dielectric" {
+        if let Some(v) = d.get(doc, "boundary.alpha")
+            && d.num(v, "boundary.alpha")? != 0.0
+        {
+            return Err(d.err(
+                "boundary.alpha",
+                "a smooth \"dielectric\" has no roughness; fix: \"roughdielectric\" for a \
+                 rough surface, or drop alpha",
+            ));
+        }
+        return Ok(((int / ext) as f32, 0.0));
+    }
+    let distribution = match d.get(doc, "boundary.distribution") {
+        Some(v) => d.str(v, "boundary.distribution")?,
+        None => "beckmann",
+    };
+    if distribution != "ggx" {
+        return Err(d.err(
+            &format!("boundary.distribution = \"{distribution}\""),
+            "only GGX microfacets are modelled (Mitsuba's roughdielectric defaults to \
+             \"beckmann\"); fix: render the reference with distribution \"ggx\"",
+        ));
+    }
+    if d.get(doc, "boundary.alpha_u").is_some() || d.get(doc, "boundary.alpha_v").is_some() {
+        return Err(d.err(
+            "boundary.alpha_u",
+            "anisotropic roughness is not modelled; fix: one isotropic alpha",
+        ));
+    }
+    // Mitsuba's roughdielectric defaults to α = 0.1.
+    let alpha = match d.get(doc, "boundary.alpha") {
+        Some(v) => d.num(v, "boundary.alpha")?,
+        None => 0.1,
+    };
+    if !(alpha.is_finite() && (0.0..=1.0).contains(&alpha)) {
+        return Err(d.err(
+            &format!("boundary.alpha = {alpha}"),
+            "the GGX α of the surface must be in [0, 1]; fix: e.g. 0.1 (polished) to 0.3 (matte)",
+        ));
+    }
+    Ok(((int / ext) as f32, alpha as f32))
 }
 
 /// The light of `scene.json`: its intensity per channel and its default position.

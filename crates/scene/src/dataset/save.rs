@@ -11,6 +11,7 @@ use super::{
 };
 use crate::fsutil::atomic_write;
 use crate::image::auto_exposure;
+use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{MediumSpec, RenderInfo, Rgb, ShapeSpec, check_finite3};
 use crate::{Image, MeshSource, SceneError};
@@ -34,6 +35,10 @@ impl Dataset {
         if let Some(t) = &self.truth {
             t.validate(&format!("{ctx_name}: truth"))?;
         }
+        if let Some(o) = &self.object {
+            o.validate(&format!("{ctx_name}: object"))?;
+        }
+        super::json::check_truth_agrees(self.object.as_ref(), self.truth.as_ref(), &ctx_name)?;
         self.render.validate(&format!("{ctx_name}: render"))?;
         for (i, v) in self.views.iter().enumerate() {
             let ctx = format!("{ctx_name}: views[{i}]");
@@ -114,6 +119,7 @@ impl Dataset {
             generator: self.metadata.generator.clone(),
             mesh,
             shape,
+            object: self.object.as_ref().map(ObjectSpec::from),
             truth: self.truth.as_ref().map(MediumSpec::from),
             render: if self.render == RenderInfo::default() {
                 None

@@ -384,7 +384,8 @@ fn mitsuba_reference_folder_loads() {
             sigma_t: [50.0, 60.0, 70.0],
             albedo: [0.95, 0.9, 0.85],
             g: 0.0,
-            eta: 1.0
+            eta: 1.0,
+            roughness: 0.0,
         })
     );
     assert_eq!(ds.render.max_depth, Some(32));
@@ -426,6 +427,64 @@ fn mitsuba_reference_folder_loads() {
     assert_same_views(&ds, &back);
 }
 
+/// A rough dielectric boundary and an HG medium are read into the object (what a recovery
+/// renders with) as well as the truth.
+#[test]
+fn mitsuba_reference_rough_boundary_and_phase_are_read() {
+    let out = tempfile::tempdir().unwrap();
+    reference_folder(out.path());
+    let p = out.path().join(REFERENCE_FILE);
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+    v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4,
+        "ext_ior": 1.0, "distribution": "ggx", "alpha": 0.3});
+    v["medium"]["phase"] = serde_json::json!({"type": "hg", "g": 0.6});
+    std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
+    let ds = Dataset::load(out.path()).unwrap();
+    let want = crate::Object {
+        eta: 1.4,
+        roughness: 0.3,
+        g: 0.6,
+    };
+    assert_eq!(ds.object, Some(want));
+    assert_eq!(ds.truth.map(|t| crate::Object::of(&t)), Some(want));
+}
+
+/// A dataset.json's object block is read, written back, and checked against its truth.
+#[test]
+fn dataset_object_block_round_trips_and_must_agree_with_truth() {
+    let src = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let mut ds = sample_dataset(src.path());
+    let object = crate::Object {
+        eta: 1.33,
+        roughness: 0.1,
+        g: 0.7,
+    };
+    ds.truth = ds.truth.map(|t| object.medium(t.sigma_t, t.albedo));
+    ds.object = Some(object);
+    ds.save(out.path(), false).unwrap();
+    let back = Dataset::load(out.path()).unwrap();
+    assert_eq!(back.object, Some(object));
+    // An object without a truth is a user's capture: fine.
+    edit_json(out.path(), |v| {
+        v.as_object_mut().unwrap().remove("truth");
+    });
+    assert_eq!(Dataset::load(out.path()).unwrap().object, Some(object));
+    // A truth that contradicts the object is refused, naming both.
+    ds.save(out.path(), true).unwrap();
+    edit_json(out.path(), |v| v["object"]["phase"]["g"] = 0.2.into());
+    let msg = load_err(out.path());
+    assert!(
+        msg.contains("truth") && msg.contains("g 0.7") && msg.contains("g 0.2"),
+        "{msg}"
+    );
+    edit_json(out.path(), |v| {
+        v["object"]["boundary"] = serde_json::json!({"type": "glass"})
+    });
+    let msg = load_err(out.path());
+    assert!(msg.contains("glass") && msg.contains("dielectric"), "{msg}");
+}
+
 #[test]
 fn mitsuba_reference_errors_name_the_field() {
     let edits: Vec<(Box<dyn Fn(&mut Value)>, &[&str])> = vec![
@@ -449,21 +508,51 @@ fn mitsuba_reference_errors_name_the_field() {
             &["boundary.bsdf = \"diffuse\""],
         ),
         (
-            Box::new(|v| {
-                v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4,
-                    "distribution": "ggx", "alpha": 0.3})
-            }),
-            &[
-                "boundary.bsdf = \"roughdielectric\" with alpha = 0.3",
-                "not modelled",
-            ],
-        ),
-        (
-            // Mitsuba's default roughness.
+            // Mitsuba's default distribution.
             Box::new(|v| {
                 v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4})
             }),
-            &["alpha = 0.1"],
+            &["boundary.distribution = \"beckmann\"", "GGX"],
+        ),
+        (
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4,
+                    "distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.3})
+            }),
+            &["boundary.alpha_u", "anisotropic"],
+        ),
+        (
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "roughdielectric", "int_ior": 1.4,
+                    "distribution": "ggx", "alpha": 1.5})
+            }),
+            &["boundary.alpha = 1.5"],
+        ),
+        (
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "dielectric", "int_ior": 1.4,
+                    "alpha": 0.2})
+            }),
+            &["boundary.alpha", "roughdielectric"],
+        ),
+        (
+            Box::new(|v| {
+                v["boundary"] = serde_json::json!({"bsdf": "dielectric", "int_ior": 1.0,
+                    "ext_ior": 1.33})
+            }),
+            &["boundary.int_ior = 1", "denser"],
+        ),
+        (
+            Box::new(|v| v["medium"]["phase"] = serde_json::json!({"type": "rayleigh"})),
+            &["medium.phase.type = \"rayleigh\""],
+        ),
+        (
+            Box::new(|v| v["medium"]["phase"] = serde_json::json!({"type": "hg"})),
+            &["medium.phase.g", "missing"],
+        ),
+        (
+            Box::new(|v| v["medium"]["phase"] = serde_json::json!({"type": "hg", "g": 1.2})),
+            &["medium.g = 1.2"],
         ),
         (
             Box::new(|v| v["camera"]["width"] = 0.into()),

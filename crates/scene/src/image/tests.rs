@@ -238,7 +238,10 @@ fn overwrite_is_refused_unless_asked() {
     ramp(2, 2).write_exr(&p, false).unwrap();
     let err = ramp(3, 3).write_exr(&p, false).unwrap_err();
     assert!(matches!(err, SceneError::Exists { .. }), "{err}");
-    assert!(err.to_string().contains("a.exr") && err.to_string().contains("--overwrite"));
+    assert!(
+        err.to_string().contains("a.exr")
+            && err.to_string().contains("pass overwrite to replace it")
+    );
     assert_eq!(
         Image::read_exr(&p).unwrap().width,
         2,

@@ -54,7 +54,7 @@ impl<'de> Deserialize<'de> for Rgb {
 }
 
 /// The medium as written in files: `sigma_t` and `albedo` per channel or one number; `g`
-/// (default 0) and `eta` (default 1).
+/// (default 0), `eta` (default 1) and the boundary's `roughness` (GGX α, default 0: smooth).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MediumSpec {
@@ -64,6 +64,8 @@ pub struct MediumSpec {
     pub g: f32,
     #[serde(default = "crate::medium::one")]
     pub eta: f32,
+    #[serde(default, skip_serializing_if = "crate::medium::is_zero")]
+    pub roughness: f32,
 }
 
 impl MediumSpec {
@@ -74,6 +76,7 @@ impl MediumSpec {
             albedo: self.albedo.0,
             g: self.g,
             eta: self.eta,
+            roughness: self.roughness,
         };
         m.validate(context)?;
         Ok(m)
@@ -87,6 +90,7 @@ impl From<&Medium> for MediumSpec {
             albedo: Rgb(m.albedo),
             g: m.g,
             eta: m.eta,
+            roughness: m.roughness,
         }
     }
 }

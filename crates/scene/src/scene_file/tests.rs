@@ -79,7 +79,8 @@ fn full_example_parses_the_same_in_toml_and_json() {
             sigma_t: [50.0, 60.5, 70.0],
             albedo: [0.9; 3],
             g: 0.2,
-            eta: 1.3
+            eta: 1.3,
+            roughness: 0.0,
         }
     );
     assert_eq!(a.medium, b.medium);
