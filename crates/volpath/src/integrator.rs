@@ -22,8 +22,9 @@
 //! behind a smooth dielectric cannot be reached by a shadow ray (Mitsuba 3's `volpath` renders
 //! such scenes black); we connect through the refraction by manifold NEE ([`crate::manifold`]),
 //! which is exact for convex objects (see its limitations). A rough boundary is crossed by
-//! sampling its BSDF and reaches the point light by next-event estimation at its own vertices
-//! ([`crate::rough`]), as Mitsuba 3 does. Environment light works for every boundary.
+//! sampling its BSDF and reaches the point light by next-event estimation at its own vertices,
+//! as Mitsuba 3 does, combined with a connection from the scattering vertices near it guided by
+//! the smooth refraction ([`crate::rough`]). Environment light works for every boundary.
 //!
 //! Queries. Free flights ask [`Accel::closest`] (which skips the BVH when the clearance grid
 //! rules out a hit); the shadow rays read the light's lists ([`LightBins`]); a camera ray and
@@ -285,6 +286,10 @@ pub fn trace<T: Tally>(
     let mut interface_events = 0u32;
     let rough = (m.eta != 1.0 && m.roughness > 0.0)
         .then(|| base::microfacet::RoughDielectric::new(m.eta, m.roughness));
+    // The last scattering's guided connection through a rough boundary, until the path meets
+    // the boundary, and then the weight of that meeting's next-event estimate against it.
+    let mut guide: Option<rough::Guide> = None;
+    let mut flight_weight = 1.0f32;
     // The path left the medium through a triangle whose plane has the whole mesh behind it
     // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
     // so the query for a re-entry is skipped (the BVH would answer "no hit").
@@ -306,6 +311,10 @@ pub fn trace<T: Tally>(
         let hit = if inside {
             let t = w.sample_distance(&m.sigma_t, s.next_f32());
             if let Some(hit) = closest(&mut line, on_line, o, d, t) {
+                if let Some(g) = guide.take() {
+                    let pass = w.pass_probability(&m.sigma_t, hit.t);
+                    flight_weight = g.flight_weight(&phase, d, pass);
+                }
                 w.pass(&m.sigma_t, hit.t);
                 len += hit.t;
                 hit
@@ -346,6 +355,19 @@ pub fn trace<T: Tally>(
                         w.scale(1.0 / q);
                     }
                 }
+                guide = None;
+                if let (Some(bsdf), Some(light)) = (&rough, &scene.light)
+                    && depth + 1 < settings.max_depth
+                {
+                    guide = rough::Guide::at(scene, bsdf, light, o, d);
+                    let spawn = settings.spawn_offset;
+                    if let Some(g) = &guide
+                        && let Some((c, seg)) =
+                            g.connect(scene, bsdf, spawn, &phase, light, o, &w, s)
+                    {
+                        l.record(c, k, len + seg, &m.sigma_t, &m.albedo);
+                    }
+                }
                 let (u1, u2) = (s.next_f32(), s.next_f32());
                 d = phase.sample(d, u1, u2);
                 continue;
@@ -383,8 +405,9 @@ pub fn trace<T: Tally>(
             if let Some(light) = &scene.light
                 && let Some(c) = rough::next_event(scene, bsdf, spawn, light, &hit, d, &w)
             {
-                l.record(c, k, len, &m.sigma_t, &m.albedo);
+                l.record(c.map(|c| c * flight_weight), k, len, &m.sigma_t, &m.albedo);
             }
+            flight_weight = 1.0;
             if !rough::cross(bsdf, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
                 break;
             }

@@ -82,6 +82,41 @@ fn residual(e: &Exit, light: Vec3, f: &Frame) -> Option<[f32; 2]> {
 
 /// Solve for the refraction point connecting the inside point `x` to the light at `light`.
 pub fn connect(accel: &Accel, x: Vec3, light: Vec3, eta: f32) -> Option<Connection> {
+    let (dir, cur) = solve(accel, x, light, eta, TOLERANCE, MAX_ITERS)?;
+    let flux_factor = flux_factor(accel, x, dir, &cur, light, eta)?;
+    let transmittance = 1.0 - fresnel_dielectric(cur.cos_in, 1.0 / eta);
+    Some(Connection {
+        dir,
+        inside_length: cur.t,
+        transmittance,
+        flux_factor,
+    })
+}
+
+/// The direction from the inside point `x` whose smooth refraction reaches the light within
+/// `tolerance` (radians, about), in at most `max_iters` Newton steps: the peak of a rough
+/// boundary's transmission towards it ([`crate::rough`] guides its connections by it, and needs
+/// it only to a fraction of the lobe's width). `None` when the solve does not get there.
+pub fn refracted_direction(
+    accel: &Accel,
+    x: Vec3,
+    light: Vec3,
+    eta: f32,
+    tolerance: f32,
+    max_iters: usize,
+) -> Option<Vec3> {
+    solve(accel, x, light, eta, tolerance, max_iters).map(|(dir, _)| dir)
+}
+
+/// Newton's method on the exit direction (module docs): the direction and its exit.
+fn solve(
+    accel: &Accel,
+    x: Vec3,
+    light: Vec3,
+    eta: f32,
+    tolerance: f32,
+    max_iters: usize,
+) -> Option<(Vec3, Exit)> {
     // Seed: the straight line to the light; if it meets the boundary beyond the critical angle,
     // tilt it towards that point's normal until it refracts.
     let straight = (light - x).try_normalize()?;
@@ -96,12 +131,12 @@ pub fn connect(accel: &Accel, x: Vec3, light: Vec3, eta: f32) -> Option<Connecti
     }
     let (mut dir, mut cur) = seed?;
     let mut converged = false;
-    for _ in 0..MAX_ITERS {
+    for _ in 0..max_iters {
         // Residual frame: around the current target direction (fixed within one iteration).
         let rf = Frame::from_normal((light - cur.y).try_normalize()?);
         let r0 = residual(&cur, light, &rf)?;
         let norm0 = (r0[0] * r0[0] + r0[1] * r0[1]).sqrt();
-        if norm0 < TOLERANCE {
+        if norm0 < tolerance {
             converged = true;
             break;
         }
@@ -140,17 +175,7 @@ pub fn connect(accel: &Accel, x: Vec3, light: Vec3, eta: f32) -> Option<Connecti
             return None;
         }
     }
-    if !converged {
-        return None;
-    }
-    let flux_factor = flux_factor(accel, x, dir, &cur, light, eta)?;
-    let transmittance = 1.0 - fresnel_dielectric(cur.cos_in, 1.0 / eta);
-    Some(Connection {
-        dir,
-        inside_length: cur.t,
-        transmittance,
-        flux_factor,
-    })
+    converged.then_some((dir, cur))
 }
 
 /// dω_L/dA⊥ at x by a tube of three rays from the light (see module docs). Returns `None` when the

@@ -94,6 +94,21 @@ impl SpectralWeight {
         self.renormalise(mean_r / 3.0);
     }
 
+    /// The probability, mixed over the channels as this path's weights mix them, that a free
+    /// flight from here passes a boundary at distance `t`: (1/3) Σ_j r_j e^{−σ_t,j t} (mean r = 1),
+    /// or the hero's e^{−σ_t,h t} with single-channel sampling. A strategy that reaches the same
+    /// boundary point otherwise combines with the free flight by it ([`crate::rough`]).
+    #[inline]
+    pub fn pass_probability(&self, sigma_t: &[f32; 3], t: f32) -> f32 {
+        if !self.mis {
+            return (-sigma_t[self.hero] * t).exp();
+        }
+        (0..3)
+            .map(|j| self.r[j] * (-sigma_t[j] * t).exp())
+            .sum::<f32>()
+            / 3.0
+    }
+
     /// Multiply every channel by a deterministic factor (Fresnel, radiance scaling, roulette).
     #[inline]
     pub fn scale(&mut self, s: f32) {
