@@ -25,10 +25,13 @@ use crate::{Camera, Image, Medium, MeshSource, Object, PointLight, SceneDesc, Sc
 
 mod json;
 mod reference;
-mod save;
 #[cfg(test)]
 // Numbers copied verbatim from Mitsuba's scene.json.
 #[allow(clippy::excessive_precision, clippy::type_complexity)]
+mod reference_tests;
+mod save;
+#[cfg(test)]
+#[allow(clippy::type_complexity)]
 mod tests;
 
 pub use reference::load_reference_folder;

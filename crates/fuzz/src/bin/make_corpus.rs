@@ -287,14 +287,10 @@ seed = 0
         serde_json::to_string_pretty(&doc)?,
     )?;
     // A user's capture of a rough, forward-scattering object: an object block, no truth.
-    doc["object"] = serde_json::json!({
-        "boundary": { "type": "dielectric", "eta": 1.4, "roughness": 0.2 },
-        "phase": { "type": "hg", "g": 0.7 }
-    });
-    std::fs::write(
-        corpus(Reader::Dataset, "object-rough.json"),
-        serde_json::to_string_pretty(&doc)?,
-    )?;
+    doc["object"] = serde_json::json!({ "boundary": { "type": "dielectric", "eta": 1.4,
+        "roughness": 0.2 }, "phase": { "type": "hg", "g": 0.7 } });
+    let text = serde_json::to_string_pretty(&doc)?;
+    std::fs::write(corpus(Reader::Dataset, "object-rough.json"), text)?;
 
     // A Mitsuba reference folder as render_reference.py writes it (DATASET.md).
     let img0 = pattern(8, 6, 0.0);
@@ -347,10 +343,8 @@ seed = 0
     doc["boundary"] = serde_json::json!({ "bsdf": "roughdielectric", "int_ior": 1.4,
         "ext_ior": 1.0, "distribution": "ggx", "alpha": 0.3 });
     doc["medium"]["phase"] = serde_json::json!({ "type": "hg", "g": 0.6 });
-    std::fs::write(
-        corpus(Reader::Reference, "rough-hg.json"),
-        serde_json::to_string_pretty(&doc)?,
-    )?;
+    let text = serde_json::to_string_pretty(&doc)?;
+    std::fs::write(corpus(Reader::Reference, "rough-hg.json"), text)?;
     Ok(())
 }
 
