@@ -99,6 +99,17 @@ pub struct RoughDielectric {
     pub ggx: Ggx,
 }
 
+/// Two directions seen from the side of `wi`, with their half vector.
+#[derive(Clone, Copy)]
+struct Pair {
+    wi: Vec3,
+    wo: Vec3,
+    eta: f32,
+    h: Vec3,
+    ih: f32,
+    oh: f32,
+}
+
 /// A direction drawn by [`RoughDielectric::sample`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BoundarySample {
@@ -142,16 +153,38 @@ impl RoughDielectric {
         Some(if h.z < 0.0 { -h } else { h })
     }
 
-    /// f(wi, wo)·|cos θ_o| in radiance transport (Mitsuba's `eval`).
-    pub fn eval(&self, wi: Vec3, wo: Vec3) -> f32 {
+    /// `wi`, `wo` oriented ([`RoughDielectric::oriented`]), η', their half vector h and wi·h,
+    /// wo·h; `None` for directions in the surface or without a half vector.
+    #[inline]
+    fn pair(&self, wi: Vec3, wo: Vec3) -> Option<Pair> {
         let (wi, wo, eta) = self.oriented(wi, wo);
         if wi.z == 0.0 || wo.z == 0.0 {
-            return 0.0;
+            return None;
         }
-        let Some(h) = Self::half(wi, wo, eta) else {
+        let h = Self::half(wi, wo, eta)?;
+        Some(Pair {
+            wi,
+            wo,
+            eta,
+            h,
+            ih: wi.dot(h),
+            oh: wo.dot(h),
+        })
+    }
+
+    /// f(wi, wo)·|cos θ_o| in radiance transport (Mitsuba's `eval`).
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let Some(Pair {
+            wi,
+            wo,
+            eta,
+            h,
+            ih,
+            oh,
+        }) = self.pair(wi, wo)
+        else {
             return 0.0;
         };
-        let (ih, oh) = (wi.dot(h), wo.dot(h));
         let d = self.ggx.d(h);
         let g = self.ggx.g1(wi, h) * self.ggx.g1(wo, h);
         let f = fresnel_dielectric(ih.abs(), if ih >= 0.0 { eta } else { 1.0 / eta });
@@ -169,14 +202,17 @@ impl RoughDielectric {
 
     /// The density of [`RoughDielectric::sample`] per solid angle of `wo`.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let (wi, wo, eta) = self.oriented(wi, wo);
-        if wi.z == 0.0 || wo.z == 0.0 {
-            return 0.0;
-        }
-        let Some(h) = Self::half(wi, wo, eta) else {
+        let Some(Pair {
+            wi,
+            wo,
+            eta,
+            h,
+            ih,
+            oh,
+        }) = self.pair(wi, wo)
+        else {
             return 0.0;
         };
-        let (ih, oh) = (wi.dot(h), wo.dot(h));
         if ih <= 0.0 {
             return 0.0;
         }

@@ -40,9 +40,18 @@ pub struct Connection {
     pub flux_factor: f32,
 }
 
-/// Solver settings.
-const MAX_ITERS: usize = 24;
-const TOLERANCE: f32 = 2e-5; // residual (≈ angle in radians)
+/// How far a solve goes: the residual it stops at (≈ an angle in radians) and its Newton steps.
+#[derive(Clone, Copy, Debug)]
+pub struct Precision {
+    pub tolerance: f32,
+    pub max_iters: usize,
+}
+
+/// The smooth boundary's connection: exact to 2·10⁻⁵.
+const EXACT: Precision = Precision {
+    tolerance: 2e-5,
+    max_iters: 24,
+};
 const FD_STEP: f32 = 2e-4; // radians, for the Newton Jacobian
 const TUBE_STEP: f32 = 5e-4; // radians, for the flux tube (central differences)
 
@@ -82,7 +91,7 @@ fn residual(e: &Exit, light: Vec3, f: &Frame) -> Option<[f32; 2]> {
 
 /// Solve for the refraction point connecting the inside point `x` to the light at `light`.
 pub fn connect(accel: &Accel, x: Vec3, light: Vec3, eta: f32) -> Option<Connection> {
-    let (dir, cur) = solve(accel, x, light, eta, TOLERANCE, MAX_ITERS)?;
+    let (dir, cur) = solve(accel, x, light, eta, EXACT)?;
     let flux_factor = flux_factor(accel, x, dir, &cur, light, eta)?;
     let transmittance = 1.0 - fresnel_dielectric(cur.cos_in, 1.0 / eta);
     Some(Connection {
@@ -93,30 +102,22 @@ pub fn connect(accel: &Accel, x: Vec3, light: Vec3, eta: f32) -> Option<Connecti
     })
 }
 
-/// The direction from the inside point `x` whose smooth refraction reaches the light within
-/// `tolerance` (radians, about), in at most `max_iters` Newton steps: the peak of a rough
-/// boundary's transmission towards it ([`crate::rough`] guides its connections by it, and needs
-/// it only to a fraction of the lobe's width). `None` when the solve does not get there.
+/// The direction from the inside point `x` whose smooth refraction reaches the light, to
+/// `precision`: the peak of a rough boundary's transmission towards it ([`crate::rough`] guides
+/// its connections by it, and needs it only to a fraction of the lobe's width). `None` when the
+/// solve does not get there.
 pub fn refracted_direction(
     accel: &Accel,
     x: Vec3,
     light: Vec3,
     eta: f32,
-    tolerance: f32,
-    max_iters: usize,
+    precision: Precision,
 ) -> Option<Vec3> {
-    solve(accel, x, light, eta, tolerance, max_iters).map(|(dir, _)| dir)
+    solve(accel, x, light, eta, precision).map(|(dir, _)| dir)
 }
 
-/// Newton's method on the exit direction (module docs): the direction and its exit.
-fn solve(
-    accel: &Accel,
-    x: Vec3,
-    light: Vec3,
-    eta: f32,
-    tolerance: f32,
-    max_iters: usize,
-) -> Option<(Vec3, Exit)> {
+/// Newton's method on the exit direction (module docs), to `p`: the direction and its exit.
+fn solve(accel: &Accel, x: Vec3, light: Vec3, eta: f32, p: Precision) -> Option<(Vec3, Exit)> {
     // Seed: the straight line to the light; if it meets the boundary beyond the critical angle,
     // tilt it towards that point's normal until it refracts.
     let straight = (light - x).try_normalize()?;
@@ -131,12 +132,12 @@ fn solve(
     }
     let (mut dir, mut cur) = seed?;
     let mut converged = false;
-    for _ in 0..max_iters {
+    for _ in 0..p.max_iters {
         // Residual frame: around the current target direction (fixed within one iteration).
         let rf = Frame::from_normal((light - cur.y).try_normalize()?);
         let r0 = residual(&cur, light, &rf)?;
         let norm0 = (r0[0] * r0[0] + r0[1] * r0[1]).sqrt();
-        if norm0 < tolerance {
+        if norm0 < p.tolerance {
             converged = true;
             break;
         }

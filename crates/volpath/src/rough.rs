@@ -123,8 +123,10 @@ impl Guide {
             x,
             light.position,
             bsdf.eta,
-            GUIDE_TOLERANCE * s,
-            GUIDE_ITERATIONS,
+            crate::manifold::Precision {
+                tolerance: GUIDE_TOLERANCE * s,
+                max_iters: GUIDE_ITERATIONS,
+            },
         )?;
         Some(Guide {
             frame: Frame::from_normal(w0),
