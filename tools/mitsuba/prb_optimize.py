@@ -14,7 +14,8 @@ DATASET is a dataset folder (dataset.json + mesh or built-in shape + view_XXX.ex
 a Mitsuba reference-render folder (scene.json, as render_reference.py's input). One Mitsuba scene
 holds the object (mesh file, or the built-in `blob` / `sphere` rebuilt here exactly as the
 geometry crate builds it and written to OUT/mesh.ply), a `null` boundary BSDF (eta = 1; a
-`dielectric` if the truth says eta > 1), a homogeneous interior medium with RGB sigma_t and
+`dielectric` if the truth says eta > 1, a GGX `roughdielectric` when it has a roughness), a
+homogeneous interior medium with RGB sigma_t and
 albedo (HG phase with the truth's g), one point light and one perspective sensor per view (fov
 along x, box filter, hdrfilm rgb, independent sampler), integrator `prbvolpath` with the dataset's
 max_depth (64 if not given) and rr_depth 5 (both as translucent's volpath). These are the same
@@ -274,7 +275,19 @@ def load_dataset(folder):
                 albedo=rgb3(truth["albedo"], "truth.albedo"),
                 g=float(truth.get("g", 0.0)),
                 eta=float(truth.get("eta", 1.0)),
+                roughness=float(truth.get("roughness", 0.0)),
             )
+            # What the dataset states about the object (boundary, phase function) is the
+            # physics to render; translucent refuses a truth that contradicts it.
+            obj = d.get("object")
+            if obj is not None:
+                b, ph = obj.get("boundary", {}), obj.get("phase", {})
+                if b.get("type") == "dielectric":
+                    truth["eta"] = float(b["eta"])
+                    truth["roughness"] = float(b.get("roughness", 0.0))
+                elif b.get("type") == "null":
+                    truth["eta"], truth["roughness"] = 1.0, 0.0
+                truth["g"] = float(ph["g"]) if ph.get("type") == "hg" else 0.0
         return dict(
             mesh=folder / d["mesh"] if "mesh" in d else None,
             shape=d.get("shape"),
@@ -320,12 +333,26 @@ def load_dataset(folder):
     sys.exit(f"error: {folder}: no dataset.json (or scene.json); see DATASET.md")
 
 
-def scene_dict(integrator, max_depth, rr_depth, view, mesh_type, mesh_path, eta, g, sigma_t, albedo, scale):
+def scene_dict(
+    integrator, max_depth, rr_depth, view, mesh_type, mesh_path, eta, g, sigma_t, albedo, scale, roughness=0.0
+):
     """Mitsuba's description of one of our datasets' scenes: the mesh with a `null` boundary
-    (a `dielectric` for eta != 1) around a homogeneous medium (RGB sigma_t stored as
-    sigma_t / scale with `scale`, since 'rgb' values must lie in [0, 1] when loaded; HG phase with
-    g), one point light at `view`'s light, and `integrator` (volpath or prbvolpath)."""
-    boundary = {"type": "null"} if eta == 1.0 else {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
+    (a `dielectric` for eta != 1, a GGX `roughdielectric` of alpha `roughness` when it is > 0)
+    around a homogeneous medium (RGB sigma_t stored as sigma_t / scale with `scale`, since 'rgb'
+    values must lie in [0, 1] when loaded; HG phase with g), one point light at `view`'s light,
+    and `integrator` (volpath or prbvolpath)."""
+    if eta == 1.0:
+        boundary = {"type": "null"}
+    elif roughness == 0.0:
+        boundary = {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
+    else:
+        boundary = {
+            "type": "roughdielectric",
+            "distribution": "ggx",
+            "alpha": roughness,
+            "int_ior": eta,
+            "ext_ior": 1.0,
+        }
     return {
         "type": "scene",
         "integrator": {"type": integrator, "max_depth": max_depth, "rr_depth": rr_depth},
@@ -433,7 +460,20 @@ def main():
     scale = max(init_st)
     v0 = ds["views"][0]
     scene = mi.load_dict(
-        scene_dict("prbvolpath", max_depth, a.rr_depth, v0, mesh_type, mesh_path, eta, g, init_st, init_al, scale)
+        scene_dict(
+            "prbvolpath",
+            max_depth,
+            a.rr_depth,
+            v0,
+            mesh_type,
+            mesh_path,
+            eta,
+            g,
+            init_st,
+            init_al,
+            scale,
+            roughness=ds["truth"]["roughness"] if ds["truth"] else 0.0,
+        )
     )
     sensors = [
         mi.load_dict(

@@ -15,8 +15,9 @@ written; `translucent experiment robustness --targets mitsuba` adds them).
 
 The scene follows prb_optimize.py and render_reference.py: the mesh (a mesh file, or the
 built-in blob / sphere rebuilt exactly as the geometry crate builds it), a `null` boundary BSDF
-(a `dielectric` when the truth has eta > 1), a homogeneous interior medium with the truth's RGB
-sigma_t, albedo and phase, one point light moved to each view's light, one perspective sensor per
+(a `dielectric` when the object has eta > 1, a GGX `roughdielectric` when it is rough: the
+dataset's `object` block, else its truth), a homogeneous interior medium with the truth's RGB
+sigma_t and albedo and the object's phase function, one point light moved to each view's light, one perspective sensor per
 view (fov along x, box filter, independent sampler), integrator `volpath` with rr_depth 5.
 Seeds: view i, pass k renders with seed (seed * 1_000_003 + i) * 4096 + k.
 Not used by the tests or CI: Mitsuba is a reference, not a dependency.
@@ -118,7 +119,18 @@ def main():
     v0 = ds["views"][0]
     scene = mi.load_dict(
         scene_dict(
-            "volpath", max_depth, a.rr_depth, v0, mesh_type, out_mesh, eta, g, truth["sigma_t"], truth["albedo"], scale
+            "volpath",
+            max_depth,
+            a.rr_depth,
+            v0,
+            mesh_type,
+            out_mesh,
+            eta,
+            g,
+            truth["sigma_t"],
+            truth["albedo"],
+            scale,
+            roughness=truth["roughness"],
         )
     )
     params = mi.traverse(scene)

@@ -4,6 +4,10 @@
 //! direction before and after scattering (g > 0 = forward scattering). Sampling inverts the CDF:
 //! cos θ = (1 + g² − ((1 − g²)/(1 − g + 2g u))²)/(2g) (isotropic 1 − 2u when |g| < 1e-3), as in
 //! docs/model.md §5 and pbrt-v4. Sampling is exact, so the sample weight p/pdf is 1.
+//!
+//! The derivative with respect to g that the tracer's ∂I/∂g needs is that of ln p:
+//!
+//!   ∂ ln p/∂g = −2g/(1 − g²) − 3(g − cos θ)/(1 + g² − 2g cos θ)   (3 cos θ at g = 0).
 
 use geometry::Frame;
 use glam::Vec3;
@@ -31,6 +35,14 @@ impl HenyeyGreenstein {
         INV_4PI * (1.0 - g * g) / (denom * denom.max(1e-12).sqrt())
     }
 
+    /// ∂ ln p/∂g at cos θ (module docs): the score of one phase-function factor of a path.
+    #[inline]
+    pub fn d_log_dg(&self, cos_theta: f32) -> f32 {
+        let g = self.g;
+        let denom = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
+        -2.0 * g / (1.0 - g * g) - 3.0 * (g - cos_theta) / denom
+    }
+
     /// Sample cos θ by inverting the CDF with one uniform.
     #[inline]
     pub fn sample_cos(&self, u: f32) -> f32 {
@@ -52,5 +64,30 @@ impl HenyeyGreenstein {
         let f = Frame::from_normal(d_in);
         f.to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
             .normalize()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ∂ ln p/∂g against a central difference of ln p, forward and backward scattering.
+    #[test]
+    fn log_derivative_matches_a_central_difference() {
+        let h = 1e-3f64;
+        for g in [-0.5f32, 0.0, 0.3, 0.9] {
+            for cos in [-1.0f32, -0.3, 0.0, 0.5, 0.99, 1.0] {
+                let ln_p = |g: f64| {
+                    let denom = 1.0 + g * g - 2.0 * g * cos as f64;
+                    ((1.0 - g * g) / (4.0 * std::f64::consts::PI * denom.powf(1.5))).ln()
+                };
+                let fd = (ln_p(g as f64 + h) - ln_p(g as f64 - h)) / (2.0 * h);
+                let ad = HenyeyGreenstein { g }.d_log_dg(cos) as f64;
+                assert!(
+                    (ad - fd).abs() <= 1e-3 * (1.0 + fd.abs()),
+                    "g {g}, cos {cos}: {ad} against {fd}"
+                );
+            }
+        }
     }
 }

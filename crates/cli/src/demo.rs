@@ -124,7 +124,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         return Ok(());
     }
     let o = recovery_args(a);
-    let c = cmdline::optimize::config_of(&o)?;
+    let c = cmdline::optimize::recovery_config(&o)?.optimize;
     println!(
         "recovering the medium from the images: {} iterations from σ_t = 50, α = 0.5 (Adam on \
          ln σ_t and α, α alone for the first {}), the learned BSSRDF (shipped model, estimator \

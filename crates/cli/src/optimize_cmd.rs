@@ -15,27 +15,30 @@ pub fn run(a: &OptimizeArgs) -> Result<()> {
 mod tests {
     use std::path::PathBuf;
 
-    use cmdline::optimize::config_for;
     use inverse::optimize::OptimizeConfig;
     use inverse::params::Params;
+    use inverse::recovery::RecoverySettings;
 
     use super::*;
 
-    /// `optimize --dataset D` runs the library's defaults ([`OptimizeConfig::default`]), and so
+    /// `optimize --dataset D` runs the library's defaults ([`RecoverySettings::default`],
+    /// [`OptimizeConfig::default`]), and so
     /// do `demo` and `experiment accuracy`: every number they publish comes from the settings a
     /// user gets.
     #[test]
     fn optimize_demo_and_experiment_share_the_library_defaults() {
         let d = PathBuf::from("d");
         let o = OptimizeArgs::with_defaults(d.clone(), PathBuf::from("o"));
-        let no_depth = || Ok(None);
-        assert_eq!(config_for(&o, no_depth).unwrap(), OptimizeConfig::default());
+        let config_for = |s: &RecoverySettings| s.optimize_config(|| Ok(None)).unwrap();
+        // Every option's default is the library's.
+        assert_eq!(o.settings(), RecoverySettings::default());
+        assert_eq!(config_for(&o.settings()), OptimizeConfig::default());
         let demo = crate::demo::recovery_args(&cmdline::arg_defaults::<crate::demo::DemoArgs>(&[]));
         let expected = OptimizeConfig {
             seed: demo.seed,
             ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
-        assert_eq!(config_for(&demo, no_depth).unwrap(), expected);
+        assert_eq!(config_for(&demo.settings()), expected);
         let exp = cmdline::arg_defaults::<experiment::accuracy::AccuracyArgs>(&[]);
         let init = Params {
             sigma_t: [50.0; 3],
@@ -50,7 +53,7 @@ mod tests {
             refine_restarts_moments: false,
             ..OptimizeConfig::default()
         };
-        assert_eq!(config_for(&run, no_depth).unwrap(), expected);
+        assert_eq!(config_for(&run.settings), expected);
         // The robustness suite, which measures the defaults, runs them unchanged.
         let suite = cmdline::arg_defaults::<experiment::robustness::RobustnessArgs>(&[]);
         let run = experiment::robustness::run_args(&suite, &d, &d, 0);
@@ -58,6 +61,6 @@ mod tests {
             seed: suite.seed,
             ..OptimizeConfig::default()
         };
-        assert_eq!(config_for(&run, no_depth).unwrap(), expected);
+        assert_eq!(config_for(&run.settings), expected);
     }
 }

@@ -355,6 +355,14 @@ impl LearnedArgs {
         }
     }
 
+    /// Sets the model, its file and the learned renderer's settings of `s` to these options
+    /// (the estimator stays).
+    pub fn apply(&self, s: &mut inverse::recovery::RecoverySettings) {
+        s.model.kind = self.kind();
+        s.model.file = self.model_file.clone();
+        s.learned.renderer = self.settings();
+    }
+
     /// The learned model's networks: `--model-file`, or the shipped ones.
     pub fn load_model(&self) -> Result<bssrdf::nn::ShapeAdaptiveModel> {
         match &self.model_file {
@@ -429,6 +437,11 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::ViewSubset => "--view-subset",
         Setting::Spp => "--spp",
         Setting::MaxDepth => "--max-depth",
+        Setting::Model => "--model",
+        Setting::ModelFile => "--model-file",
+        Setting::RefineSpp => "--refine-spp",
+        Setting::BiasCorrection => "--bias-correction",
+        Setting::ViewWeightFloor => "--view-weight-floor",
         Setting::Starts => "--starts",
         Setting::Iterations => "--iterations",
         Setting::Refine => "--refine",

@@ -1,19 +1,22 @@
-//! `optimize`'s options ([`OptimizeArgs`]) and their conversion into the library's typed
-//! recovery ([`inverse::recovery::RecoveryConfig`]); the experiments describe their runs with the
-//! same options, so that every run they publish is one a user can type.
+//! `optimize`'s options ([`OptimizeArgs`]) and their one conversion into the library's settings
+//! ([`inverse::recovery::RecoverySettings`], whose defaults are the options' defaults); the
+//! experiments describe their runs with the same settings, so that every run they publish is one
+//! a user can type.
 
 use std::path::PathBuf;
 
 use bssrdf::diff::{Loss, Primal};
 use clap::Args;
-use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::OptimizeConfig;
 use inverse::params::{ParamSpec, Parameterisation, Params};
-use inverse::recovery::{self, Observer, RecoveryConfig};
+use inverse::recovery::RecoveryConfig;
+use inverse::recovery::settings::{
+    CheckSettings, LearnedSection, ModelSettings, RecoverySettings, Schedule, StartSettings,
+    TracerSection,
+};
 use inverse::uncertainty::UncertaintySettings;
-use scene::Dataset;
 
-use crate::{CmdlineError, LearnedArgs, Result, parse_rgb};
+use crate::{LearnedArgs, Result, parse_rgb};
 
 mod bias_correction;
 
@@ -74,7 +77,7 @@ pub struct OptimizeArgs {
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
     pub normalize_views: bool,
     /// With --normalize-views: no view weighs more than 1/FLOOR times an average view.
-    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = 0.01, value_name = "FLOOR")]
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().view_weight_floor, value_name = "FLOOR")]
     pub view_weight_floor: f64,
     /// Initial σ_t (1/unit; one value or R,G,B).
     #[arg(long, default_value = "50", value_parser = parse_rgb, allow_negative_numbers = true)]
@@ -114,7 +117,7 @@ pub struct OptimizeArgs {
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
     pub fix_albedo: bool,
     /// Refit the polynomial features every K iterations (0: once, at the initial parameters).
-    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = 0)]
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().refit_every)]
     pub refit_every: u32,
     /// Also fit the polynomial's σ_n-derivative at every fit, so that the descriptor at another
     /// σ_n (in the value and in the σ_t offsets) follows a refit, not only the rescaling. Three
@@ -133,10 +136,10 @@ pub struct OptimizeArgs {
     #[arg(help_heading = crate::CHECK_OPTIONS, long, value_delimiter = ',', value_name = "I,J,…")]
     pub view_subset: Option<Vec<usize>>,
     /// Checkpoint every N iterations.
-    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = 10)]
+    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = RecoverySettings::default().checks.checkpoint_every)]
     pub checkpoint_every: u32,
     /// Samples per pixel of the final re-renders.
-    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = 64)]
+    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = RecoverySettings::default().checks.final_spp)]
     pub final_spp: u32,
     /// Views for the 95 % intervals at the end (two derivative renders each, spread evenly
     /// over the dataset; 0: no intervals).
@@ -148,16 +151,16 @@ pub struct OptimizeArgs {
     /// Views re-rendered at the estimate by the volumetric path tracer (twice, at the dataset's
     /// samples per pixel) to check that the estimate reproduces the images without the learned
     /// model (0: no check).
-    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = 4)]
+    #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = RecoverySettings::default().checks.consistency_views)]
     pub consistency_views: usize,
     /// Seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RecoverySettings::default().schedule.seed)]
     pub seed: u64,
     /// Several initialisations first: N shorter runs (a third of --iterations each) from σ_t
     /// between a third and three times --init-sigma-t; the one with the lowest loss starts the
     /// run. For images that may leave σ_t open; costs N/3 more runs. Listed in
     /// OUT/starts/starts.json and result.json.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    #[arg(long, default_value_t = RecoverySettings::default().start.starts, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub starts: u32,
     /// Continue the run in --out from its checkpoint (--iterations may extend it).
     #[arg(long)]
@@ -200,141 +203,92 @@ impl OptimizeArgs {
     }
 }
 
-pub fn config_of(a: &OptimizeArgs) -> Result<OptimizeConfig> {
-    config_for(a, || Ok(Dataset::load(&a.dataset)?.render.max_depth))
+impl IterationArgs {
+    /// Sets the schedule's budget to these options.
+    pub fn apply(&self, s: &mut Schedule) {
+        s.iterations = self.iterations;
+        s.spp = self.spp;
+        s.views_per_iter = self.views_per_iter;
+        s.crop = self.crop;
+    }
 }
 
-/// [`config_of`] with the dataset's own tracer depth from `dataset_depth`, asked only when the
-/// tracer is used and `--max-depth` is not given.
-pub fn config_for(
-    a: &OptimizeArgs,
-    dataset_depth: impl FnOnce() -> Result<Option<u32>>,
-) -> Result<OptimizeConfig> {
-    let model = a.learned.kind();
-    let mut c = OptimizeConfig::new(Params {
-        sigma_t: a.init_sigma_t.map(|v| v as f64),
-        albedo: a.init_albedo.map(|v| v as f64),
-    });
-    c.model = ModelChoice::new(model, a.estimator.as_deref())
-        .map_err(|e| CmdlineError::Invalid(format!("--estimator: {e}")))?;
-    c.iterations = a.budget.iterations;
-    c.refine_iterations = match a.refine {
-        Some(r) if r > 0 && a.bc.bias_correction => {
-            return Err(CmdlineError::Invalid(format!(
-                "--bias-correction with --refine {r}: the correction is for the learned model \
-                 alone; fix: drop one of the two (the refinement replaces the correction)"
-            )));
-        }
-        Some(r) => r,
-        // `--bias-correction` asks for the learned model alone with the correction.
-        None if a.bc.bias_correction => 0,
-        None => OptimizeConfig::default_refinement(model, a.budget.iterations),
-    };
-    // Only a run with a refinement records the choice (runs without one compare equal to those
-    // written before the option).
-    c.refine_restarts_moments = c.refine_iterations > 0 && !a.refine_keeps_moments;
-    if model == ModelKind::Volpath || c.refine_iterations > 0 {
-        c.volpath_max_depth = match a.max_depth {
-            Some(d) => Some(d),
-            None => dataset_depth()?,
+impl OptimizeArgs {
+    /// The options as the library's settings (the one conversion; every default is the
+    /// library's [`RecoverySettings::default`]).
+    pub fn settings(&self) -> RecoverySettings {
+        let rgb = |v: [f32; 3]| v.map(f64::from);
+        let mut s = RecoverySettings {
+            model: ModelSettings {
+                estimator: self.estimator.clone(),
+                ..ModelSettings::default()
+            },
+            start: StartSettings {
+                init: Params {
+                    sigma_t: rgb(self.init_sigma_t),
+                    albedo: rgb(self.init_albedo),
+                },
+                starts: self.starts,
+            },
+            schedule: Schedule {
+                view_subset: self.view_subset.clone(),
+                seed: self.seed,
+                lr_sigma_t: self.lr_sigma_t,
+                lr_albedo: self.lr_albedo,
+                decay: self.decay,
+                decay_every: self.decay_every,
+                albedo_warmup: self.albedo_warmup,
+                params: ParamSpec {
+                    parameterisation: if self.scaled_sigma_t {
+                        Parameterisation::Scaled
+                    } else {
+                        Parameterisation::Log
+                    },
+                    monochrome: self.monochrome,
+                    fix_sigma_t: self.fix_sigma_t,
+                    fix_albedo: self.fix_albedo,
+                },
+                loss: self.loss,
+                single_render: self.single_render,
+                full_renders: self.full_renders,
+                normalize_views: self.normalize_views,
+                view_weight_floor: self.view_weight_floor,
+                ..RecoverySettings::default().schedule
+            },
+            learned: LearnedSection {
+                refit_every: self.refit_every,
+                fit_derivative: self.fit_derivative,
+                delta_rel: self.delta_rel,
+                primal: self.primal,
+                ..RecoverySettings::default().learned
+            },
+            tracer: TracerSection {
+                max_depth: self.max_depth,
+                refine: self.refine,
+                refine_spp: self.refine_spp,
+                refine_keeps_moments: self.refine_keeps_moments,
+            },
+            checks: CheckSettings {
+                checkpoint_every: self.checkpoint_every,
+                final_spp: self.final_spp,
+                uncertainty: UncertaintySettings {
+                    views: self.uncertainty_views,
+                    spp: self.uncertainty_spp,
+                    ..Default::default()
+                },
+                consistency_views: self.consistency_views,
+            },
+            bias_correction: self.bc.settings(),
+            resume: self.resume,
+            overwrite: self.overwrite,
         };
+        self.budget.apply(&mut s.schedule);
+        self.learned.apply(&mut s);
+        s
     }
-    c.spp = a.budget.spp;
-    if let Some(r) = a.refine_spp {
-        if c.refine_iterations == 0 {
-            return Err(CmdlineError::Invalid(format!(
-                "--refine-spp {r} without a refinement (--refine 0, --bias-correction or a \
-                 model other than the learned one); fix: drop --refine-spp or refine"
-            )));
-        }
-        c.refine_spp = Some(r);
-    }
-    c.views_per_iter = a.budget.views_per_iter;
-    c.view_subset = a.view_subset.clone();
-    c.loss = a.loss;
-    c.two_renders = !a.single_render;
-    c.split_samples = !a.full_renders;
-    if !(a.view_weight_floor > 0.0 && a.view_weight_floor <= 1.0) {
-        return Err(CmdlineError::Invalid(format!(
-            "--view-weight-floor must be in (0, 1], got {}",
-            a.view_weight_floor
-        )));
-    }
-    c.normalize_views = a.normalize_views;
-    c.view_weight_floor = a.view_weight_floor;
-    c.crop = a.budget.crop;
-    c.lr_sigma_t = a.lr_sigma_t;
-    c.lr_albedo = a.lr_albedo;
-    c.decay = a.decay;
-    c.decay_every = a.decay_every;
-    c.refit_every = a.refit_every;
-    c.fit_derivative = a.fit_derivative;
-    c.delta_rel = a.delta_rel;
-    c.primal = a.primal;
-    c.learned = a.learned.settings();
-    c.seed = a.seed;
-    c.albedo_warmup = a.albedo_warmup;
-    c.params = ParamSpec {
-        parameterisation: if a.scaled_sigma_t {
-            Parameterisation::Scaled
-        } else {
-            Parameterisation::Log
-        },
-        monochrome: a.monochrome,
-        fix_sigma_t: a.fix_sigma_t,
-        fix_albedo: a.fix_albedo,
-    };
-    Ok(c)
 }
 
 /// The library's recovery for `a` ([`inverse::recovery`]): the flags as a typed configuration.
 pub fn recovery_config(a: &OptimizeArgs) -> Result<RecoveryConfig> {
-    let model_file = match a.learned.model_file_of(a.learned.kind())? {
-        Some(p) if !matches!(p.as_os_str().to_str(), Some("shipped" | "learned")) => Some(p),
-        _ => None,
-    };
-    Ok(RecoveryConfig {
-        dataset: a.dataset.clone(),
-        out: a.out.clone(),
-        optimize: config_of(a)?,
-        model_file,
-        max_depth: a.max_depth,
-        refine_given: a.refine.is_some(),
-        checkpoint_every: a.checkpoint_every,
-        final_spp: a.final_spp,
-        uncertainty: UncertaintySettings {
-            views: a.uncertainty_views,
-            spp: a.uncertainty_spp,
-            ..Default::default()
-        },
-        consistency_views: a.consistency_views,
-        starts: a.starts,
-        resume: a.resume,
-        overwrite: a.overwrite,
-        bias_correction: a.bc.settings(),
-    })
-}
-
-/// The result of the recovery `o` if its folder holds it finished ([`recovery::reuse::finished`]);
-/// runs nothing.
-pub fn finished_run(o: &OptimizeArgs) -> Result<Option<recovery::RunResult>> {
-    if !o.out.join("result.json").exists() {
-        // Nothing to read (and its dataset, which the settings may need, may not exist yet).
-        return Ok(None);
-    }
-    Ok(recovery::reuse::finished(&recovery_config(o)?))
-}
-
-/// Run the recovery `o` into `o.out`, resume it, or reuse it when it has finished
-/// ([`recovery::run_or_reuse`]).
-pub fn run_or_reuse(
-    o: &OptimizeArgs,
-    observer: &dyn Observer,
-    label: &str,
-) -> Result<recovery::RunResult> {
-    Ok(recovery::run_or_reuse(
-        &recovery_config(o)?,
-        observer,
-        label,
-    )?)
+    Ok(a.settings().resolve_for(a.dataset.clone(), a.out.clone())?)
 }

@@ -22,7 +22,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+use cmdline::optimize::{BiasCorrectionArgs, IterationArgs};
 use geometry::Shape;
 use inverse::forward::ModelKind;
 use inverse::params::Params;
@@ -34,6 +34,7 @@ use volpath::rng::Sampler;
 
 use crate::error::{Context, Result};
 use crate::report::{Row, inits_plot, report, results_csv};
+use crate::run::Run;
 use crate::{bail, baseline_model, jobs};
 
 #[derive(Args)]
@@ -437,26 +438,33 @@ pub fn run_args(
     run_dir: &Path,
     method: &str,
     init: Params,
-) -> OptimizeArgs {
-    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    o.learned = a.learned.clone();
+) -> Run {
+    let mut r = Run::defaults(dataset, run_dir);
+    let s = &mut r.settings;
+    a.learned.apply(s);
     match baseline_model(method) {
         // A baseline model with its default estimator.
-        Some(m) => o.learned.model = Some(m),
-        None => o.estimator = Some(method.to_string()),
+        Some(m) => s.model.kind = m,
+        None => s.model.estimator = Some(method.to_string()),
     }
-    o.budget = a.budget;
-    o.scaled_sigma_t = a.scaled_sigma_t;
-    o.albedo_warmup = a.albedo_warmup;
-    o.init_sigma_t = init.sigma_t.map(|v| v as f32);
-    o.init_albedo = init.albedo.map(|v| v as f32);
-    o.seed = a.seed;
-    o.final_spp = 16;
+    a.budget.apply(&mut s.schedule);
+    if a.scaled_sigma_t {
+        s.schedule.params.parameterisation = inverse::params::Parameterisation::Scaled;
+    }
+    s.schedule.albedo_warmup = a.albedo_warmup;
+    // As `--init-sigma-t` and `--init-albedo` read them: in single precision.
+    let single = |v: [f64; 3]| v.map(|x| f64::from(x as f32));
+    s.start.init = Params {
+        sigma_t: single(init.sigma_t),
+        albedo: single(init.albedo),
+    };
+    s.schedule.seed = a.seed;
+    s.checks.final_spp = 16;
     // The experiment corrects its runs itself (rows `<method>+bc`), and compares the learned
     // model's estimators on the learned model alone: no volumetric refinement.
-    o.bc = cmdline::optimize::BiasCorrectionArgs::off();
-    o.refine = Some(0);
-    o
+    s.bias_correction.correction.enabled = false;
+    s.tracer.refine = Some(0);
+    r
 }
 
 /// Run (or resume, or reuse) one optimisation and read its result; with `run` false, only read
@@ -475,9 +483,9 @@ fn optimize(
 ) -> Result<Option<Row>> {
     let o = run_args(a, dataset, run_dir, method, init);
     let done = if run {
-        Some(run_or_reuse(&o, obs, label)?)
+        Some(o.run_or_reuse(obs, label)?)
     } else {
-        cmdline::optimize::finished_run(&o)?
+        o.finished()?
     };
     Ok(done.map(|done| Row {
         case: label.to_string(),

@@ -14,8 +14,9 @@
 //! | `volumetric` | [`volumetric`] | Fig. 8 |
 //! | `prb` | [`prb`] | Fig. 9 |
 //!
-//! The runs are `optimize`'s own ([`cmdline::optimize::OptimizeArgs`]), with the defaults a user
-//! gets unless a row says otherwise. The library prints nothing: its lines and progress bars go
+//! The runs are `optimize`'s own ([`run::Run`]: the library's [`inverse::recovery::RecoverySettings`],
+//! each field one of `optimize`'s options), with the defaults a user gets unless a row says
+//! otherwise. The library prints nothing: its lines and progress bars go
 //! to an [`Observer`]. Errors are typed ([`ExperimentError`]).
 
 use std::path::Path;
@@ -36,6 +37,7 @@ pub mod planar;
 pub mod prb;
 pub mod report;
 pub mod robustness;
+pub mod run;
 pub mod timing;
 pub mod volumetric;
 
@@ -48,9 +50,11 @@ pub enum ExperimentCommand {
     /// Accuracy of the recovered σ_t and α on volumetric-path-traced datasets (paper Table 1,
     /// Fig. 7): shapes × media, methods, random initialisations.
     Accuracy(Box<AccuracyArgs>),
-    /// `optimize`'s defaults on twelve cases we did not tune on (flash, fixed light, turntable,
-    /// back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh file): errors, 95 % intervals
-    /// and their calibration, whether σ_t is determined, consistency, status.
+    /// `optimize`'s defaults on cases we did not tune on: twelve index-matched, isotropic ones
+    /// (flash, fixed light, turntable, back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh
+    /// file) and nine with a smooth or rough dielectric boundary around a forward-scattering
+    /// medium (up to 300 mean free paths): errors, 95 % intervals and their calibration,
+    /// whether σ_t is determined, consistency, status.
     Robustness(Box<robustness::RobustnessArgs>),
     /// Seconds per iteration of every forward model × estimator at the paper's workload
     /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with

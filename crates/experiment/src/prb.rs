@@ -18,7 +18,8 @@ use clap::Args;
 use plot::{Figure, Panel, Series};
 
 use super::report::{Step, read_steps};
-use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+
+use crate::run::Run;
 use inverse::views::random_medium;
 
 #[derive(Args)]
@@ -64,21 +65,18 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     let mut missing = Vec::new();
     for (name, model) in [("ours", None), ("volumetric", Some(ModelKind::Volpath))] {
         let dir = a.out.join("runs").join(name);
-        let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
-        o.learned.model = model;
-        o.budget = IterationArgs {
-            iterations,
-            spp,
-            ..o.budget
-        };
-        o.seed = a.seed;
-        o.final_spp = 16;
-        o.bc = BiasCorrectionArgs::off();
+        let mut o = Run::defaults(&data, &dir);
+        let s = &mut o.settings;
+        s.model.kind = model.unwrap_or_default();
+        (s.schedule.iterations, s.schedule.spp) = (iterations, spp);
+        s.schedule.seed = a.seed;
+        s.checks.final_spp = 16;
+        s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.
-        o.refine = Some(0);
+        s.tracer.refine = Some(0);
         if a.jobs.runs(name) {
-            run_or_reuse(&o, obs, name)?;
-        } else if cmdline::optimize::finished_run(&o)?.is_none() {
+            o.run_or_reuse(obs, name)?;
+        } else if o.finished()?.is_none() {
             missing.push(name.to_string());
             continue;
         }

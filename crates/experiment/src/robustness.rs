@@ -1,7 +1,14 @@
 //! `translucent experiment robustness`: recovery with `optimize`'s defaults on data we did not
 //! tune on, crossing the capture, the object's size in mean free paths and the shape.
 //!
-//! Twelve cases: each of four captures at each of three optical sizes, the shapes taking turns.
+//! Two sets of cases ([`Suite`]): twelve index-matched, isotropic ones, each of four captures at
+//! each of three optical sizes, the shapes taking turns; and nine of a real object's physics, a
+//! dielectric boundary (smooth η 1.5; rough η 1.33, GGX α 0.1; rough η 1.5, α 0.3) around a
+//! forward-scattering medium (HG g 0.3, 0.7, 0.9), at 15, 50 and 300 mean free paths (two
+//! orthogonal Latin squares: every boundary meets every g and every size once), the captures
+//! and shapes taking turns. The datasets state the boundary and the phase function, which the
+//! recoveries read; the learned model renders neither (its runs say so, and the tracer's
+//! refinement carries them).
 //! * Captures: `flash` (a light 0.14 units from each camera, about 4° off its axis: the light
 //!   moves with the camera); `fixed` (one point light for every view, the paper's data: some
 //!   views are lit from behind); `turntable` (camera and lamp fixed, the object turning: the
@@ -22,18 +29,19 @@
 //! 95 % interval holds the truth, whether the images determine σ_t, the α error, the
 //! consistency (the uncorrected estimate re-rendered by the volumetric path tracer against the
 //! targets), the status and the seconds per iteration; the summary the calibration (how often
-//! the intervals hold the truth) and the accuracy where σ_t is determined. `OUT/robustness.md`
-//! and `OUT/robustness.csv`; an interrupted run continues where it stopped.
+//! the intervals hold the truth) and the accuracy where σ_t is determined, one table per set.
+//! `OUT/robustness.md` and `OUT/robustness.csv`; an interrupted run continues where it stopped.
 
 use inverse::recovery::Observer;
 use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
+use crate::run::Run;
 use clap::Args;
 use scene::{Dataset, MeshSource, RenderInfo, SceneDesc};
 
-use cmdline::optimize::{IterationArgs, OptimizeArgs, run_or_reuse};
+use cmdline::optimize::IterationArgs;
 use inverse::forward::learned::LearnedSpec;
 use inverse::recovery::reuse::read_json;
 use inverse::views::build_accel;
@@ -42,7 +50,7 @@ use inverse::views::{RenderOpts, make_dataset};
 mod cases;
 mod report;
 
-pub use cases::{Capture, Case, Targets, cases};
+pub use cases::{Capture, Case, Suite, Targets, cases, dielectric_cases};
 use cases::{mesh_source, rig};
 use report::report;
 
@@ -77,7 +85,11 @@ pub struct RobustnessArgs {
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
-    /// Only these cases (names as in the table, e.g. `flash-15-blob`).
+    /// Which cases: the twelve index-matched, isotropic ones (the default), the nine with a
+    /// dielectric boundary and a forward-scattering medium, or all.
+    #[arg(long, value_enum, default_value_t)]
+    pub suite: Suite,
+    /// Only these cases of the suite (names as in the table, e.g. `flash-15-blob`).
     #[arg(long, value_delimiter = ',')]
     pub cases: Option<Vec<String>>,
     /// The mesh file of the third shape.
@@ -215,13 +227,14 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
 /// renders the truth 10 % too dark must move σ_t or α to match the images. Cached in
 /// `RUN/model-ratio.json`.
 fn model_ratio(
-    o: &OptimizeArgs,
+    o: &Run,
     data: &Path,
     run_dir: &Path,
     quick: bool,
     obs: &dyn Observer,
 ) -> Result<[f64; 3]> {
-    let kind = o.learned.kind();
+    let kind = o.settings.model.kind;
+    let seed = o.settings.schedule.seed;
     if kind == inverse::forward::ModelKind::Volpath {
         // The volumetric model is the targets' own renderer (or Mitsuba's, which it matches).
         return Ok([f64::NAN; 3]);
@@ -245,16 +258,18 @@ fn model_ratio(
         medium: &truth,
         views: &views,
         spp,
-        seed: o.seed,
+        seed,
     };
     let networks = match kind {
-        inverse::forward::ModelKind::Learned => Some(o.learned.load_model()?),
+        inverse::forward::ModelKind::Learned => Some(o.networks()?),
         _ => None,
     };
     let spec = match &networks {
-        Some(n) => {
-            inverse::forward::ModelSpec::Learned(LearnedSpec::new(n, o.learned.settings(), o.seed))
-        }
+        Some(n) => inverse::forward::ModelSpec::Learned(LearnedSpec::new(
+            n,
+            o.settings.learned.renderer,
+            seed,
+        )),
         None => inverse::forward::ModelSpec::Dipole {
             estimator: Default::default(),
         },
@@ -478,29 +493,29 @@ fn target_renderers(a: &RobustnessArgs, obs: &dyn Observer) -> Result<Vec<Target
 }
 
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
-pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> OptimizeArgs {
-    let mut o = OptimizeArgs::with_defaults(dataset.to_path_buf(), run_dir.to_path_buf());
-    if a.model != inverse::forward::ModelKind::Learned {
-        o.learned.model = Some(a.model);
-    }
-    o.budget = a.budget;
-    o.seed = a.seed + rep;
-    o.final_spp = 16;
-    o.refine = a.refine;
-    o.refine_spp = a.refine_spp;
+pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> Run {
+    let mut r = Run::defaults(dataset, run_dir);
+    let s = &mut r.settings;
+    s.model.kind = a.model;
+    a.budget.apply(&mut s.schedule);
+    s.schedule.seed = a.seed + rep;
+    s.checks.final_spp = 16;
+    s.tracer.refine = a.refine;
+    s.tracer.refine_spp = a.refine_spp;
     if a.quick {
-        o.budget.iterations = 12;
-        o.budget.spp = 4;
-        o.uncertainty_views = 3;
-        o.uncertainty_spp = 4;
-        o.consistency_views = 2;
-        o.refine = o.refine.map(|r| r.min(o.budget.iterations / 2));
+        s.schedule.iterations = 12;
+        s.schedule.spp = 4;
+        s.checks.uncertainty.views = 3;
+        s.checks.uncertainty.spp = 4;
+        s.checks.consistency_views = 2;
+        let half = s.schedule.iterations / 2;
+        s.tracer.refine = s.tracer.refine.map(|r| r.min(half));
     }
-    o
+    r
 }
 
 pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
-    let mut all = cases(a.seed);
+    let mut all = a.suite.cases(a.seed);
     if let Some(want) = &a.cases {
         for w in want {
             if !all.iter().any(|c| &c.name == w) {
@@ -541,8 +556,8 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
         let run = a.jobs.runs(tag);
         if run {
             ensure_dataset(a, case, rep, targets, &data, obs)?;
-            run_or_reuse(&o, obs, tag)?;
-        } else if cmdline::optimize::finished_run(&o)?.is_none() {
+            o.run_or_reuse(obs, tag)?;
+        } else if o.finished()?.is_none() {
             missing.push(tag.clone());
             continue;
         }

@@ -19,7 +19,9 @@ use plot::{Figure, Panel, Series};
 use scene::Medium;
 
 use super::report::read_steps;
-use cmdline::optimize::{BiasCorrectionArgs, IterationArgs, OptimizeArgs, run_or_reuse};
+
+use crate::run::Run;
+use inverse::params::Params;
 
 #[derive(Args)]
 pub struct VolumetricArgs {
@@ -100,25 +102,24 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     for v in &VARIANTS {
         let label = format!("{}, {} spp", v.name, spp * v.spp_factor);
         let dir = a.out.join("runs").join(case(v));
-        let mut o = OptimizeArgs::with_defaults(data.clone(), dir.clone());
-        o.learned.model = v.model;
-        o.budget = IterationArgs {
-            iterations,
-            spp: spp * v.spp_factor,
-            ..o.budget
+        let mut o = Run::defaults(&data, &dir);
+        let s = &mut o.settings;
+        s.model.kind = v.model.unwrap_or_default();
+        (s.schedule.iterations, s.schedule.spp) = (iterations, spp * v.spp_factor);
+        s.start.init = Params {
+            sigma_t: [50.0; 3],
+            albedo: TRUTH.albedo.map(f64::from),
         };
-        o.init_sigma_t = [50.0; 3];
-        o.init_albedo = TRUTH.albedo;
-        o.fix_albedo = true;
-        o.monochrome = true;
-        o.seed = a.seed;
-        o.final_spp = 16;
-        o.bc = BiasCorrectionArgs::off();
+        s.schedule.params.fix_albedo = true;
+        s.schedule.params.monochrome = true;
+        s.schedule.seed = a.seed;
+        s.checks.final_spp = 16;
+        s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.
-        o.refine = Some(0);
+        s.tracer.refine = Some(0);
         let done = if a.jobs.runs(&case(v)) {
-            run_or_reuse(&o, obs, &label)?
-        } else if let Some(done) = cmdline::optimize::finished_run(&o)? {
+            o.run_or_reuse(obs, &label)?
+        } else if let Some(done) = o.finished()? {
             done
         } else {
             missing.push(case(v));

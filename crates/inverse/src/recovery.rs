@@ -41,9 +41,11 @@ pub mod multi_start;
 mod outputs;
 mod prepare;
 pub mod reuse;
+pub mod settings;
 
 pub use bias_correction::BiasCorrection;
 pub use reuse::{RunResult, run_or_reuse};
+pub use settings::RecoverySettings;
 
 /// Everything a recovery needs, resolved: what the binary makes of `optimize`'s options.
 #[derive(Clone, Debug)]
@@ -81,29 +83,12 @@ pub struct RecoveryConfig {
 }
 
 impl RecoveryConfig {
-    /// The library's defaults ([`OptimizeConfig::default`]) for `dataset` into `out`, with the
-    /// dataset's own tracer depth `depth` for the refinement.
+    /// The library's defaults ([`RecoverySettings::default`]) for `dataset` into `out`, with
+    /// the dataset's own tracer depth `depth` for the refinement.
     pub fn new(dataset: PathBuf, out: PathBuf, depth: Option<u32>) -> Self {
-        let mut optimize = OptimizeConfig::default();
-        if optimize.refine_iterations > 0 {
-            optimize.volpath_max_depth = depth;
-        }
-        RecoveryConfig {
-            dataset,
-            out,
-            optimize,
-            model_file: None,
-            max_depth: None,
-            refine_given: false,
-            checkpoint_every: 10,
-            final_spp: 64,
-            uncertainty: UncertaintySettings::default(),
-            consistency_views: 4,
-            starts: 1,
-            resume: false,
-            overwrite: false,
-            bias_correction: BiasCorrection::default(),
-        }
+        RecoverySettings::default()
+            .resolve(dataset, out, || Ok(depth))
+            .expect("the default settings resolve")
     }
 
     /// The estimator's name (`ours`, `ad`, …).

@@ -31,6 +31,16 @@ pub enum Setting {
     Spp,
     /// The tracer's maximum path depth.
     MaxDepth,
+    /// The forward model.
+    Model,
+    /// A learned model's file.
+    ModelFile,
+    /// Samples per pixel of the tracer's refinement.
+    RefineSpp,
+    /// The learned model alone with the bias correction, instead of the refinement.
+    BiasCorrection,
+    /// The least weight of a view relative to an average one.
+    ViewWeightFloor,
     /// The starting points of a multi-start recovery.
     Starts,
     /// The number of iterations.
@@ -73,6 +83,11 @@ impl Setting {
             Setting::ViewSubset => "view_subset",
             Setting::Spp => "spp",
             Setting::MaxDepth => "max_depth",
+            Setting::Model => "model",
+            Setting::ModelFile => "model_file",
+            Setting::RefineSpp => "refine_spp",
+            Setting::BiasCorrection => "bias_correction",
+            Setting::ViewWeightFloor => "view_weight_floor",
             Setting::Starts => "starts",
             Setting::Iterations => "iterations",
             Setting::Refine => "refine",

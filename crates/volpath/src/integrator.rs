@@ -209,28 +209,40 @@ pub fn radiance_primary(
     trace::<[f32; 3]>(scene, settings, origin, dir, line, s)
 }
 
+/// What a contribution's weight depends on the medium by: the real scatterings `k` before it,
+/// its length `len` inside the medium up to the light (its free flights, plus the shadow
+/// segment's inside length for a next-event estimate), and `phase`, the sum of ∂ ln p/∂g over
+/// its phase-function factors ([`HenyeyGreenstein::d_log_dg`]; 0 unless the tally asks for it,
+/// [`Tally::SCORES_PHASE`]). The path's throughput depends on σ_t and α only through
+/// (α σ_t)^k e^{−σ_t ℓ}, and on g only through its phase-function factors.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PathScore {
+    pub k: u32,
+    pub len: f32,
+    pub phase: f32,
+}
+
 /// What a traced path adds up: the radiance alone (`[f32; 3]`) or the radiance with its
-/// derivatives with respect to the medium ([`crate::derivative::PathDerivatives`]).
-///
-/// Every contribution of a path (a next-event estimate or the environment at its escape) is
-/// handed over with the number k of real scatterings before it and the total length ℓ of the
-/// path inside the medium up to the light (its free flights, plus the shadow segment's inside
-/// length for a next-event estimate): the path's throughput depends on the medium only through
-/// (α σ_t)^k e^{−σ_t ℓ}, which is what the derivatives need.
+/// derivatives with respect to the medium ([`crate::derivative::PathDerivatives`]). Every
+/// contribution of a path (a next-event estimate or the environment at its escape) is handed
+/// over with its [`PathScore`], which is what the derivatives need.
 pub trait Tally: Copy + Default + Send + Sync {
     /// A pixel's running sum of tallies.
     type Sum: Copy + Default + Send + Sync;
+    /// Whether [`PathScore::phase`] is wanted (the value alone skips its arithmetic).
+    const SCORES_PHASE: bool;
     /// Adds this tally to a pixel's sum.
     fn add_to(&self, sum: &mut Self::Sum);
     /// Adds the contribution `c` (per channel, the estimator's weight included) of a path with
-    /// `k` real scatterings and inside length `len`, in a medium of `sigma_t`, `albedo`.
-    fn record(&mut self, c: [f32; 3], k: u32, len: f32, sigma_t: &[f32; 3], albedo: &[f32; 3]);
+    /// `score`, in a medium of `sigma_t`, `albedo`.
+    fn record(&mut self, c: [f32; 3], score: PathScore, sigma_t: &[f32; 3], albedo: &[f32; 3]);
     /// Replaces non-finite values by 0 (a path that lost its numbers contributes nothing).
     fn finish(&mut self);
 }
 
 impl Tally for [f32; 3] {
     type Sum = [f64; 3];
+    const SCORES_PHASE: bool = false;
 
     #[inline]
     fn add_to(&self, sum: &mut [f64; 3]) {
@@ -240,7 +252,7 @@ impl Tally for [f32; 3] {
     }
 
     #[inline]
-    fn record(&mut self, c: [f32; 3], _k: u32, _len: f32, _st: &[f32; 3], _al: &[f32; 3]) {
+    fn record(&mut self, c: [f32; 3], _score: PathScore, _st: &[f32; 3], _al: &[f32; 3]) {
         for (l, c) in self.iter_mut().zip(c) {
             *l += c;
         }
@@ -275,6 +287,18 @@ pub fn trace<T: Tally>(
     let mut l = T::default();
     // The path's length inside the medium so far (its free flights).
     let mut len = 0.0f32;
+    // Σ ∂ ln p/∂g over the phase-function directions sampled so far (with T::SCORES_PHASE).
+    let mut phase_score = 0.0f32;
+    // The score of a contribution after `k` scatterings and `len`, with `cos` the angle of a
+    // connection's own phase-function factor at the last vertex (`None`: none).
+    let score = |k: u32, len: f32, phase_score: f32, cos: Option<f32>| PathScore {
+        k,
+        len,
+        phase: match cos {
+            Some(cos) if T::SCORES_PHASE => phase_score + phase.d_log_dg(cos),
+            _ => phase_score,
+        },
+    };
     let mut o = origin;
     let mut d = dir;
     let mut inside = false;
@@ -338,8 +362,9 @@ pub fn trace<T: Tally>(
                         // Behind a rough boundary the light is reached from its vertices.
                         None
                     };
-                    if let Some((c, shadow_len)) = nee {
-                        l.record(c, k, len + shadow_len, &m.sigma_t, &m.albedo);
+                    if let Some((c, shadow_len, cos)) = nee {
+                        let sc = score(k, len + shadow_len, phase_score, Some(cos));
+                        l.record(c, sc, &m.sigma_t, &m.albedo);
                     }
                 }
                 if depth > settings.rr_depth {
@@ -362,14 +387,19 @@ pub fn trace<T: Tally>(
                     guide = rough::Guide::at(scene, bsdf, light, o, d);
                     let spawn = settings.spawn_offset;
                     if let Some(g) = &guide
-                        && let Some((c, seg)) =
+                        && let Some((c, seg, cos)) =
                             g.connect(scene, bsdf, spawn, &phase, light, o, &w, s)
                     {
-                        l.record(c, k, len + seg, &m.sigma_t, &m.albedo);
+                        let sc = score(k, len + seg, phase_score, Some(cos));
+                        l.record(c, sc, &m.sigma_t, &m.albedo);
                     }
                 }
                 let (u1, u2) = (s.next_f32(), s.next_f32());
-                d = phase.sample(d, u1, u2);
+                let d_new = phase.sample(d, u1, u2);
+                if T::SCORES_PHASE {
+                    phase_score += phase.d_log_dg(d.dot(d_new));
+                }
+                d = d_new;
                 continue;
             }
         } else {
@@ -386,7 +416,7 @@ pub fn trace<T: Tally>(
             let Some(hit) = hit else {
                 if let Some(env) = &scene.environment {
                     let c = std::array::from_fn(|c| w.beta[c] * env.radiance[c]);
-                    l.record(c, k, len, &m.sigma_t, &m.albedo);
+                    l.record(c, score(k, len, phase_score, None), &m.sigma_t, &m.albedo);
                 }
                 break;
             };
@@ -405,7 +435,8 @@ pub fn trace<T: Tally>(
             if let Some(light) = &scene.light
                 && let Some(c) = rough::next_event(scene, bsdf, spawn, light, &hit, d, &w)
             {
-                l.record(c.map(|c| c * flight_weight), k, len, &m.sigma_t, &m.albedo);
+                let c = c.map(|c| c * flight_weight);
+                l.record(c, score(k, len, phase_score, None), &m.sigma_t, &m.albedo);
             }
             flight_weight = 1.0;
             if !rough::cross(bsdf, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
@@ -421,8 +452,8 @@ pub fn trace<T: Tally>(
 }
 
 /// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
-/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]), and
-/// ℓ_inside (`None`: no contribution).
+/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]),
+/// ℓ_inside and the phase function's cos θ = d·ω_l (`None`: no contribution).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn next_event(
@@ -434,7 +465,7 @@ fn next_event(
     d: Vec3,
     w: &SpectralWeight,
     s: &mut Sampler,
-) -> Option<([f32; 3], f32)> {
+) -> Option<([f32; 3], f32, f32)> {
     let to_l = light.position - p;
     let r2 = to_l.length_squared();
     if r2 <= 0.0 {
@@ -453,11 +484,13 @@ fn next_event(
     Some((
         std::array::from_fn(|c| w.beta[c] * f * tr[c] * light.intensity[c]),
         len,
+        d.dot(dir_l),
     ))
 }
 
 /// NEE to a point light through the dielectric boundary (η ≠ 1) by manifold NEE
-/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥, and ℓ.
+/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥, ℓ and the
+/// phase function's cos θ = d·ω.
 #[inline]
 fn next_event_refracted(
     scene: &VolpathScene,
@@ -466,7 +499,7 @@ fn next_event_refracted(
     p: Vec3,
     d: Vec3,
     w: &SpectralWeight,
-) -> Option<([f32; 3], f32)> {
+) -> Option<([f32; 3], f32, f32)> {
     let c = manifold::connect(scene.accel, p, light.position, scene.medium.eta)?;
     let f = phase.eval(d, c.dir) * c.transmittance * c.flux_factor;
     let st = &scene.medium.sigma_t;
@@ -475,6 +508,7 @@ fn next_event_refracted(
             w.beta[k] * f * (-st[k] * c.inside_length).exp() * light.intensity[k]
         }),
         c.inside_length,
+        d.dot(c.dir),
     ))
 }
 

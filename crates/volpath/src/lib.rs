@@ -27,7 +27,7 @@ pub mod spectral;
 
 pub use derivative::{DerivativeImages, PathDerivatives};
 pub use integrator::{
-    CameraLine, ChannelSampling, DEFAULT_MAX_DEPTH, SpawnOffset, Tally, VolpathScene,
+    CameraLine, ChannelSampling, DEFAULT_MAX_DEPTH, PathScore, SpawnOffset, Tally, VolpathScene,
     VolpathSettings, radiance, radiance_primary, trace,
 };
 pub use render::{Progressive, RenderSettings, render_derivatives, render_image, shadow_lists};

@@ -137,6 +137,7 @@ impl<'a> Progressive<'a, PathDerivatives> {
             value: image(0),
             d_sigma_t: image(1),
             d_albedo: image(2),
+            d_g: image(3),
         }
     }
 }

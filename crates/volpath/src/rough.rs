@@ -168,8 +168,8 @@ impl Guide {
         if pa + pb > 0.0 { pa / (pa + pb) } else { 1.0 }
     }
 
-    /// The guided connection's contribution from x ([module docs](self), 3) and the inside
-    /// length of its segment: β·f_p(ω)·e^{−σ_t d}·f_s·|cos θ_l|·I/r² / (p_phase(ω)·P̄_pass(d) +
+    /// The guided connection's contribution from x ([module docs](self), 3), the inside
+    /// length of its segment and its phase function's cos θ: β·f_p(ω)·e^{−σ_t d}·f_s·|cos θ_l|·I/r² / (p_phase(ω)·P̄_pass(d) +
     /// p_guide(ω)), the balance heuristic over the two strategies (and the channels).
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -183,7 +183,7 @@ impl Guide {
         x: Vec3,
         w: &SpectralWeight,
         s: &mut Sampler,
-    ) -> Option<([f32; 3], f32)> {
+    ) -> Option<([f32; 3], f32, f32)> {
         let dir = self.sample(s.next_f32(), s.next_f32());
         let hit = scene.accel.closest(x, dir, 0.0, f32::INFINITY)?;
         if hit.entering(dir) {
@@ -202,6 +202,7 @@ impl Guide {
         Some((
             std::array::from_fn(|c| w.beta[c] * g * (-st[c] * hit.t).exp() * fs[c]),
             hit.t,
+            self.d_in.dot(dir),
         ))
     }
 }

@@ -1,5 +1,5 @@
-//! The tracer's derivatives ∂I/∂σ_t and ∂I/∂α ([`volpath::derivative`]) against finite
-//! differences, per parameter and channel.
+//! The tracer's derivatives ∂I/∂σ_t, ∂I/∂α and ∂I/∂g ([`volpath::derivative`]) against
+//! finite differences, per parameter and channel.
 //!
 //! The quantity is the mean radiance over camera rays aimed uniformly at a disk that covers a
 //! sphere of medium (rays that miss count 0). Per sample i, one derivative path gives
@@ -25,9 +25,10 @@ use volpath::{
 };
 
 const SAMPLES: u64 = 40_000;
-/// Relative step in σ_t, absolute step in α.
+/// Relative step in σ_t, absolute steps in α and g.
 const H_SIGMA_T: f32 = 0.02;
 const H_ALBEDO: f32 = 0.01;
+const H_G: f32 = 0.02;
 
 fn sphere() -> Accel {
     Accel::new(
@@ -96,6 +97,11 @@ fn compare(name: &str, accel: &Accel, scene: &VolpathScene, settings: &VolpathSe
         fd_h: Default::default(),
         fd_2h: Default::default(),
     };
+    let mut g = Comparison {
+        ad: Default::default(),
+        fd_h: Default::default(),
+        fd_2h: Default::default(),
+    };
     let moved = |f: &dyn Fn(&mut Medium)| {
         let mut m = m;
         f(&mut m);
@@ -136,24 +142,31 @@ fn compare(name: &str, accel: &Accel, scene: &VolpathScene, settings: &VolpathSe
                 moved(&|m| m.albedo = m.albedo.map(|v| v - ha)),
                 i,
             );
+            let hg = H_G * step;
+            let g_up = value(accel, scene, settings, moved(&|m| m.g += hg), i);
+            let g_down = value(accel, scene, settings, moved(&|m| m.g -= hg), i);
             for c in 0..3 {
                 let dt = (up[c] - down[c]) as f64 / (2.0 * (m.sigma_t[c] * ht) as f64);
                 let da = (a_up[c] - a_down[c]) as f64 / (2.0 * ha as f64);
-                let (ft, fa) = if k == 0 {
-                    (&mut sigma_t.fd_h[c], &mut albedo.fd_h[c])
+                let dg = (g_up[c] - g_down[c]) as f64 / (2.0 * hg as f64);
+                let (ft, fa, fg) = if k == 0 {
+                    (&mut sigma_t.fd_h[c], &mut albedo.fd_h[c], &mut g.fd_h[c])
                 } else {
-                    (&mut sigma_t.fd_2h[c], &mut albedo.fd_2h[c])
+                    (&mut sigma_t.fd_2h[c], &mut albedo.fd_2h[c], &mut g.fd_2h[c])
                 };
                 ft.push(dt);
                 fa.push(da);
+                fg.push(dg);
             }
         }
         for c in 0..3 {
             sigma_t.ad[c].push(p.d_sigma_t[c] as f64);
             albedo.ad[c].push(p.d_albedo[c] as f64);
+            g.ad[c].push(p.d_g[c] as f64);
         }
     }
-    for (param, cmp) in [("σ_t", &sigma_t), ("α", &albedo)] {
+    for (param, cmp) in [("σ_t", &sigma_t), ("α", &albedo), ("g", &g)] {
+        let mut resolved = [false; 3];
         for c in 0..3 {
             let (ad, fd, fd2) = (&cmp.ad[c], &cmp.fd_h[c], &cmp.fd_2h[c]);
             let trunc = (fd2.mean() - fd.mean()).abs() / 3.0
@@ -176,9 +189,23 @@ fn compare(name: &str, accel: &Accel, scene: &VolpathScene, settings: &VolpathSe
                 fd.mean()
             );
             // The derivative is not trivially zero: it is resolved by the samples.
+            let z = if param == "g" { 3.0 } else { 4.5 };
+            resolved[c] = ad.mean().abs() > z * ad.std_error();
+        }
+        // In every channel for σ_t and α; for g in one channel at least, and at 3 standard
+        // errors: its effects (more light forward, less sideways) partly cancel over the disk of
+        // rays, and each phase-function factor adds to the score's spread, so that at these
+        // samples ∂I/∂g is resolved only at 3–8 standard errors (a run with 300 000 samples and
+        // independent streams agreed with differences within 1.3 standard errors, rough case).
+        if param == "g" {
             assert!(
-                ad.mean().abs() > 4.5 * ad.std_error(),
-                "{name}: ∂/∂{param} {c} unresolved"
+                resolved.contains(&true),
+                "{name}: ∂/∂g unresolved in every channel"
+            );
+        } else {
+            assert!(
+                resolved == [true; 3],
+                "{name}: ∂/∂{param} unresolved: {resolved:?}"
             );
         }
     }

@@ -674,7 +674,7 @@ fn flash_capture_says_sigma_t_is_not_determined() {
     assert!(ratio.iter().all(|r| r.as_f64().unwrap() >= 1.0), "{res}");
 }
 
-/// `experiment robustness --quick`: every one of the twelve cases is rendered, recovered and
+/// `experiment robustness --quick` (`--suite index-matched`, the default): every one of the twelve cases is rendered, recovered and
 /// tabulated (Markdown and CSV, with intervals, consistency and the learned model's own error at
 /// the truth); a second invocation reuses the datasets and runs; Mitsuba targets without a
 /// usable script are a clear error.
@@ -689,6 +689,8 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
         "experiment",
         "robustness",
         "--quick",
+        "--suite",
+        "index-matched",
         "--out",
         "rb",
         "--mesh",
@@ -741,6 +743,62 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
     assert_stderr_has(
         &fails_,
         &["--targets mitsuba", "no-such.py", "pip install mitsuba"],
+    );
+}
+
+/// `experiment robustness --suite dielectric`: a case with a smooth boundary and one with a rough
+/// boundary at 300 mean free paths are rendered with the boundary and the phase function their
+/// datasets state, recovered with them (not with an assumed index-matched, isotropic object),
+/// and tabulated with their boundary and g. With the tracer as the model: the learned model
+/// would first simulate its walk tables at each case's (g, η), a minute per case.
+#[test]
+fn experiment_robustness_dielectric_cases_state_and_use_their_object() {
+    let t = tmp();
+    let d = t.path();
+    let cases = "flash-15-blob-smooth1.5-g0.3,backlit-300-blob-rough1.33a0.1-g0.7";
+    let args = [
+        "-q",
+        "experiment",
+        "robustness",
+        "--quick",
+        "--suite",
+        "dielectric",
+        "--cases",
+        cases,
+        "--model",
+        "volpath",
+        "--out",
+        "rb",
+    ];
+    ok(d, &args);
+    let csv = testkit::CsvTable::read(d.join("rb/robustness.csv"));
+    assert_eq!(csv.rows.len(), 2 * 3, "{}", csv.text);
+    for f in &csv.rows {
+        let rough = f[csv.column("case")].contains("rough");
+        let (eta, roughness, g) = if rough {
+            ("1.33", "0.1", "0.7")
+        } else {
+            ("1.5", "0", "0.3")
+        };
+        assert_eq!(f[csv.column("eta")], eta);
+        assert_eq!(f[csv.column("roughness")], roughness);
+        assert_eq!(f[csv.column("g")], g);
+        assert_eq!(f[csv.column("mfp")], if rough { "300" } else { "15" });
+    }
+    let ds = read_json(&d.join("rb/data/backlit-300-blob-rough1.33a0.1-g0.7-r0/dataset.json"));
+    assert_eq!(ds["object"]["boundary"]["type"], "dielectric", "{ds}");
+    let f32_at = |v: &serde_json::Value| v.as_f64().map(|x| x as f32);
+    assert_eq!(f32_at(&ds["object"]["boundary"]["roughness"]), Some(0.1));
+    assert_eq!(f32_at(&ds["object"]["phase"]["g"]), Some(0.7));
+    let res = read_json(&d.join("rb/runs/backlit-300-blob-rough1.33a0.1-g0.7-r0/result.json"));
+    assert_eq!(res["object"]["source"], "dataset", "{res}");
+    let boundary = serde_json::json!({ "type": "dielectric", "eta": 1.33, "roughness": 0.1 });
+    assert_eq!(res["object"]["boundary"], boundary, "{res}");
+    assert_eq!(res["object"]["phase"]["g"], 0.7, "{res}");
+    assert_eq!(
+        res["object"]["not_modelled"],
+        serde_json::json!([]),
+        "{res}"
     );
 }
 

@@ -53,11 +53,14 @@ impl BiasCorrectionArgs {
     }
 
     /// The library's settings of the correction.
-    pub fn settings(&self) -> inverse::recovery::BiasCorrection {
-        inverse::recovery::BiasCorrection {
-            enabled: self.enabled(),
-            steps: self.bias_correction_steps,
-            spp: self.bias_correction_spp,
+    pub fn settings(&self) -> inverse::recovery::settings::BiasCorrectionSettings {
+        inverse::recovery::settings::BiasCorrectionSettings {
+            correction: inverse::recovery::BiasCorrection {
+                enabled: self.enabled(),
+                steps: self.bias_correction_steps,
+                spp: self.bias_correction_spp,
+            },
+            instead_of_refinement: self.bias_correction,
         }
     }
 }

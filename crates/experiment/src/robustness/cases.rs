@@ -1,6 +1,8 @@
-//! The twelve cases of the robustness suite: capture × optical size, the shapes taking turns,
-//! each with its medium from the paper's ranges and its scene scaled to the size (module docs of
-//! [`super`]); the rig of a case and its mesh.
+//! The cases of the robustness suite (module docs of [`super`]): twelve index-matched, isotropic
+//! ones (capture × optical size, the shapes taking turns) and nine with a dielectric boundary and
+//! a forward-scattering medium (boundary × anisotropy × optical size in two orthogonal Latin
+//! squares), each with its medium from the paper's ranges and its scene scaled to the size; the
+//! rig of a case and its mesh.
 
 use std::path::Path;
 
@@ -98,35 +100,112 @@ pub struct Case {
     pub scale: f32,
 }
 
-/// The twelve cases (module docs), media drawn from `seed`.
+/// Which of the suite's cases run. The default is the twelve that every published run of the
+/// suite measured, so that their commands still mean those runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Suite {
+    /// The twelve index-matched, isotropic cases.
+    #[default]
+    IndexMatched,
+    /// The nine cases with a dielectric boundary (smooth or rough) and an HG medium.
+    Dielectric,
+    /// Both.
+    All,
+}
+
+impl Suite {
+    /// The cases of this suite, media drawn from `seed`.
+    pub fn cases(self, seed: u64) -> Vec<Case> {
+        match self {
+            Suite::IndexMatched => cases(seed),
+            Suite::Dielectric => dielectric_cases(seed),
+            Suite::All => [cases(seed), dielectric_cases(seed)].concat(),
+        }
+    }
+}
+
+/// The optical sizes (mean free paths across the radius) and the range of σ_t drawn at each.
+const SIZES: [(f32, f32, f32); 3] = [(5.0, 30.0, 50.0), (15.0, 30.0, 100.0), (50.0, 70.0, 100.0)];
+const SHAPES: [&str; 3] = ["blob", "torus", "spot"];
+
+/// A case's medium: σ_t from [lo, hi] per channel, α ~ U[0.8, 0.98], drawn from stream `i` of
+/// `seed` under `key`, with the object's `g`, `eta` and `roughness`.
+fn draw_medium(seed: u64, key: u64, i: usize, lo: f32, hi: f32, object: (f32, f32, f32)) -> Medium {
+    let mut s = Sampler::new(seed, key, i as u64, 0);
+    let sigma_t = [0; 3].map(|_| lo + (hi - lo) * s.next_f32());
+    let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
+    let (g, eta, roughness) = object;
+    Medium {
+        sigma_t,
+        albedo,
+        g,
+        eta,
+        roughness,
+    }
+}
+
+/// A case of `medium` scaled to `mfp` mean free paths across the radius (every shape is made
+/// 0.5 in radius, then the scene is scaled).
+fn case(name: String, capture: Capture, mfp: f32, shape: &'static str, medium: Medium) -> Case {
+    let mean = medium.sigma_t.iter().sum::<f32>() / 3.0;
+    Case {
+        name,
+        capture,
+        mfp,
+        shape,
+        medium,
+        scale: mfp / (0.5 * mean),
+    }
+}
+
+/// The twelve index-matched, isotropic cases (module docs), media drawn from `seed`.
 pub fn cases(seed: u64) -> Vec<Case> {
-    const SIZES: [(f32, f32, f32); 3] =
-        [(5.0, 30.0, 50.0), (15.0, 30.0, 100.0), (50.0, 70.0, 100.0)];
-    const SHAPES: [&str; 3] = ["blob", "torus", "spot"];
     let mut out = Vec::new();
     for (k, &(mfp, lo, hi)) in SIZES.iter().enumerate() {
         for (j, &capture) in Capture::ALL.iter().enumerate() {
             let i = k * 4 + j;
             let shape = SHAPES[i % 3];
-            let mut s = Sampler::new(seed, 0x0B05_7000, i as u64, 0);
-            let sigma_t = [0; 3].map(|_| lo + (hi - lo) * s.next_f32());
-            let albedo = [0; 3].map(|_| 0.8 + 0.18 * s.next_f32());
-            let mean = sigma_t.iter().sum::<f32>() / 3.0;
-            out.push(Case {
-                name: format!("{}-{}-{}", capture.name(), mfp as u32, shape),
-                capture,
-                mfp,
-                shape,
-                medium: Medium {
-                    sigma_t,
-                    albedo,
-                    g: 0.0,
-                    eta: 1.0,
-                    roughness: 0.0,
-                },
-                // Every shape is made 0.5 in radius, then the scene is scaled by this.
-                scale: mfp / (0.5 * mean),
-            });
+            let medium = draw_medium(seed, 0x0B05_7000, i, lo, hi, (0.0, 1.0, 0.0));
+            let name = format!("{}-{}-{}", capture.name(), mfp as u32, shape);
+            out.push(case(name, capture, mfp, shape, medium));
+        }
+    }
+    out
+}
+
+/// The boundaries of the dielectric cases: (name, η, GGX α): wax or jade polished, water-like
+/// and lightly rough, glass-like and rough.
+const BOUNDARIES: [(&str, f32, f32); 3] = [
+    ("smooth1.5", 1.5, 0.0),
+    ("rough1.33a0.1", 1.33, 0.1),
+    ("rough1.5a0.3", 1.5, 0.3),
+];
+/// Their media's anisotropy: weakly forward, milk-like, strongly forward.
+const ANISOTROPIES: [f32; 3] = [0.3, 0.7, 0.9];
+/// Their optical sizes with σ_t's range: 15 and 50 as the index-matched cases, and 300, a
+/// real object's (marble in a 5 cm statue is about 100 across its radius).
+const DIELECTRIC_SIZES: [(f32, f32, f32); 3] = [
+    (15.0, 30.0, 100.0),
+    (50.0, 70.0, 100.0),
+    (300.0, 70.0, 100.0),
+];
+
+/// The nine cases with a dielectric boundary and an HG medium: boundary b and j = 0, 1, 2 give
+/// the anisotropy (j + b) mod 3 and the size (j + 2b) mod 3 (two orthogonal Latin squares:
+/// every boundary meets every g and every size once, every g every size once), the shape j,
+/// the captures taking turns. Media drawn from `seed` (a stream of their own).
+pub fn dielectric_cases(seed: u64) -> Vec<Case> {
+    let mut out = Vec::new();
+    for (b, &(boundary, eta, roughness)) in BOUNDARIES.iter().enumerate() {
+        for j in 0..3 {
+            let i = 3 * b + j;
+            let g = ANISOTROPIES[(j + b) % 3];
+            let (mfp, lo, hi) = DIELECTRIC_SIZES[(j + 2 * b) % 3];
+            let capture = Capture::ALL[i % 4];
+            let shape = SHAPES[j];
+            let medium = draw_medium(seed, 0x0B05_7001, i, lo, hi, (g, eta, roughness));
+            let name = format!("{}-{}-{shape}-{boundary}-g{g}", capture.name(), mfp as u32);
+            out.push(case(name, capture, mfp, shape, medium));
         }
     }
     out
@@ -193,4 +272,56 @@ pub(super) fn mesh_source(
     let path = dir.join("mesh-input.obj");
     geometry::io::save_obj(&mesh, &path)?;
     Ok(MeshSource::File(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dielectric cases cross boundary, anisotropy and size as two orthogonal Latin squares,
+    /// state their object in the medium, and leave the index-matched cases' media as they were.
+    #[test]
+    fn the_dielectric_cases_cross_boundary_anisotropy_and_size() {
+        let d = dielectric_cases(0);
+        assert_eq!(d.len(), 9);
+        let key = |c: &Case| (c.medium.eta, c.medium.roughness);
+        for (i, a) in d.iter().enumerate() {
+            for b in &d[i + 1..] {
+                assert_ne!(a.name, b.name);
+                // No two cases share a boundary and a g, a boundary and a size, or a g and a
+                // size: with three of each, every pair occurs once.
+                assert!(
+                    key(a) != key(b) || a.medium.g != b.medium.g,
+                    "{} {}",
+                    a.name,
+                    b.name
+                );
+                assert!(key(a) != key(b) || a.mfp != b.mfp, "{} {}", a.name, b.name);
+                assert!(
+                    a.medium.g != b.medium.g || a.mfp != b.mfp,
+                    "{} {}",
+                    a.name,
+                    b.name
+                );
+            }
+            assert!(a.medium.eta > 1.0 && a.medium.g > 0.0, "{}", a.name);
+            let mean = a.medium.sigma_t.iter().sum::<f32>() / 3.0;
+            assert!(
+                (0.5 * a.scale * mean - a.mfp).abs() < 1e-3 * a.mfp,
+                "{}",
+                a.name
+            );
+        }
+        assert!(d.iter().any(|c| c.mfp == 300.0 && c.medium.roughness > 0.0));
+        let all = Suite::All.cases(0);
+        assert_eq!(all.len(), 21);
+        assert_eq!(Suite::IndexMatched.cases(0).len(), 12);
+        for c in &all[..12] {
+            assert_eq!(
+                (c.medium.g, c.medium.eta, c.medium.roughness),
+                (0.0, 1.0, 0.0)
+            );
+        }
+        assert_eq!(all[0].name, "flash-5-blob");
+    }
 }

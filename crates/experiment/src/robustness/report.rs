@@ -21,7 +21,11 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// The Markdown table with its summary, and the CSV.
+/// The CSV's columns: one row per case, repetition and channel.
+const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g\n";
+
+/// The Markdown header, then a table with its summary per set of cases (index-matched or
+/// dielectric; a heading each when both ran), and the CSV.
 pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
     let mut md = String::new();
     let (views, res, spp) = if a.quick {
@@ -62,14 +66,37 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             ""
         }
     );
+    let mut csv = String::from(CSV_HEADER);
+    let (index_matched, dielectric): (Vec<Outcome>, Vec<Outcome>) = outcomes
+        .iter()
+        .cloned()
+        .partition(|o| o.case.medium.eta == 1.0 && o.case.medium.g == 0.0);
+    let both = !index_matched.is_empty() && !dielectric.is_empty();
+    for (title, set) in [
+        ("Index-matched boundary, isotropic medium", index_matched),
+        (
+            "Dielectric boundary (smooth or rough), forward-scattering medium",
+            dielectric,
+        ),
+    ] {
+        if set.is_empty() {
+            continue;
+        }
+        if both {
+            let _ = writeln!(md, "### {title}\n");
+        }
+        table(&mut md, &mut csv, &set);
+    }
+    (md, csv)
+}
+
+/// The table of `outcomes` with its summary (Markdown), and their CSV rows.
+fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome]) {
     let _ = writeln!(
         md,
         "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
     );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut csv = String::from(
-        "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration\n",
-    );
     let f3 = |v: [f64; 3], s: f64, p: usize| {
         format!(
             "{:+.p$}, {:+.p$}, {:+.p$}",
@@ -116,7 +143,7 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4}",
+                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4},{},{},{}",
                 o.case.name,
                 o.case.capture.name(),
                 o.case.mfp,
@@ -143,7 +170,10 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
                 o.valley_curvature[c],
                 o.model_ratio[c],
                 o.status,
-                o.seconds_per_iteration
+                o.seconds_per_iteration,
+                o.case.medium.eta,
+                o.case.medium.roughness,
+                o.case.medium.g
             );
         }
     }
@@ -151,19 +181,18 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
     let mut names: Vec<Targets> = outcomes.iter().map(|o| o.targets).collect();
     names.dedup();
     if names.len() > 1 {
-        summary(&mut md, "all targets", outcomes);
+        summary(md, "all targets", outcomes);
         for t in names {
             let only: Vec<Outcome> = outcomes
                 .iter()
                 .filter(|o| o.targets == t)
                 .cloned()
                 .collect();
-            summary(&mut md, &format!("{} targets", t.name()), &only);
+            summary(md, &format!("{} targets", t.name()), &only);
         }
     } else {
-        summary(&mut md, "", outcomes);
+        summary(md, "", outcomes);
     }
-    (md, csv)
 }
 
 /// The summary lines of `outcomes` (under the heading `label`, when given).

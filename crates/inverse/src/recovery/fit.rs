@@ -96,13 +96,19 @@ pub(super) fn intervals(
     result["complete"] = json!(false);
     result["status"] = json!("incomplete");
     let (object, stated) = p.object;
+    // The values as the dataset states them (1.33, not f32's 1.3300000429153442).
+    let short = |x: f32| format!("{x}").parse::<f64>().unwrap_or(x as f64);
     result["object"] = json!({
         "boundary": if object.eta == 1.0 {
             json!({ "type": "null" })
         } else {
-            json!({ "type": "dielectric", "eta": object.eta, "roughness": object.roughness })
+            json!({
+                "type": "dielectric",
+                "eta": short(object.eta),
+                "roughness": short(object.roughness),
+            })
         },
-        "phase": json!({ "type": "hg", "g": object.g }),
+        "phase": json!({ "type": "hg", "g": short(object.g) }),
         "source": if stated { "dataset" } else { "assumed: the dataset states none" },
         "not_modelled": p.gaps,
     });

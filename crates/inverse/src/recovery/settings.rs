@@ -1,0 +1,423 @@
+//! What a user chooses about a recovery, grouped as `optimize --help` groups it, with the
+//! product's defaults: [`RecoverySettings`]. Every front end (the command line, the
+//! experiments, a Python caller) starts from [`RecoverySettings::default`], changes what it
+//! was asked to, and resolves the result into the [`RecoveryConfig`] that
+//! [`super::run`] takes. The defaults of the loop itself are [`OptimizeConfig::default`]'s,
+//! so each is written once.
+//!
+//! Resolution ([`RecoverySettings::resolve`]) decides what depends on more than one setting:
+//! the refinement's length (half of the iterations with the learned model, none with the
+//! others or when the bias correction is asked for instead), the tracer's depth (the dataset's
+//! own unless given), which model file is read, and it refuses combinations that cannot run,
+//! naming the settings ([`Setting`]) and the fix.
+
+use std::path::PathBuf;
+
+use bssrdf::diff::{Loss, Primal};
+use bssrdf::render::LearnedSettings;
+use scene::setting::Setting;
+
+use super::{BiasCorrection, RecoveryConfig, RecoveryError};
+use crate::forward::{ModelChoice, ModelKind};
+use crate::optimize::OptimizeConfig;
+use crate::params::{ParamSpec, Params};
+use crate::uncertainty::UncertaintySettings;
+
+/// A recovery's settings, nested by concern; [`Default`] is the product's recovery.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecoverySettings {
+    /// The forward model, its gradient estimator and its file.
+    pub model: ModelSettings,
+    /// Where the fit starts.
+    pub start: StartSettings,
+    /// The Adam loop every model shares: budget, learning rates, loss, views, seed.
+    pub schedule: Schedule,
+    /// The learned model's own settings (renderer, descriptor refits, offset samples).
+    pub learned: LearnedSection,
+    /// The volumetric path tracer's: its depth and the refinement it runs after the learned fit.
+    pub tracer: TracerSection,
+    /// Outputs and checks after the fit.
+    pub checks: CheckSettings,
+    /// The parametric-bootstrap bias correction of a learned-model run without refinement.
+    pub bias_correction: BiasCorrectionSettings,
+    /// Continue the run in the output folder from its checkpoint.
+    pub resume: bool,
+    /// Replace a run in the output folder.
+    pub overwrite: bool,
+}
+
+/// Which forward model renders, and how its gradient is estimated.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModelSettings {
+    /// The model ([`ModelKind`]); the learned BSSRDF by default.
+    pub kind: ModelKind,
+    /// The gradient estimator by name (`None`: the model's default;
+    /// [`ModelChoice::new`] lists the valid names).
+    pub estimator: Option<String>,
+    /// The learned model's networks from a file (`None`, `shipped` or `learned`: the shipped
+    /// model). Only the learned model reads one.
+    pub file: Option<PathBuf>,
+}
+
+/// The initial medium and the number of initialisations tried first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartSettings {
+    /// Initial σ_t and α (the paper's σ_t = 50, α = 0.5).
+    pub init: Params,
+    /// Initialisations tried first (1: none; [`super::multi_start`]).
+    pub starts: u32,
+}
+
+/// The loop's schedule, shared by every model ([`OptimizeConfig`] documents each field).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Schedule {
+    pub iterations: u32,
+    pub spp: u32,
+    pub views_per_iter: usize,
+    pub crop: Option<u32>,
+    /// The dataset's views that are the targets (`None`: all).
+    pub view_subset: Option<Vec<usize>>,
+    pub seed: u64,
+    pub lr_sigma_t: f32,
+    pub lr_albedo: f32,
+    pub decay: f32,
+    pub decay_every: u32,
+    pub albedo_warmup: u32,
+    pub params: ParamSpec,
+    pub loss: Loss,
+    /// The paper's single-render gradient 2(I − T)·∂I/∂θ instead of two independent renders.
+    pub single_render: bool,
+    /// The two renders as a full value and a full derivative render instead of two derivative
+    /// renders at half the samples each.
+    pub full_renders: bool,
+    pub normalize_views: bool,
+    pub view_weight_floor: f64,
+}
+
+/// The learned model's settings ([`OptimizeConfig`] documents each field).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LearnedSection {
+    /// The learned renderer's projection, descriptor handling and ablations.
+    pub renderer: LearnedSettings,
+    pub refit_every: u32,
+    pub fit_derivative: bool,
+    pub delta_rel: f32,
+    pub primal: Primal,
+}
+
+/// The volumetric path tracer's settings.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TracerSection {
+    /// Maximum path depth (Mitsuba `volpath` semantics; `None`: the dataset's own, else 32).
+    pub max_depth: Option<u32>,
+    /// The last this many iterations refine with the tracer (`None`: half of the iterations
+    /// with the learned model, none with the others; 0: the learned model alone).
+    pub refine: Option<u32>,
+    /// Samples per pixel of the refinement's iterations (`None`: the schedule's).
+    pub refine_spp: Option<u32>,
+    /// Carry Adam's moments into the refinement instead of starting them again.
+    pub refine_keeps_moments: bool,
+}
+
+/// Checkpoints, re-renders, intervals and the consistency check after the fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckSettings {
+    /// Iterations between checkpoints.
+    pub checkpoint_every: u32,
+    /// Samples per pixel of the re-renders in `OUT/final/`.
+    pub final_spp: u32,
+    /// The 95 % intervals (`views` 0: none).
+    pub uncertainty: UncertaintySettings,
+    /// Views re-rendered by the volumetric path tracer at the estimate (0: no check).
+    pub consistency_views: usize,
+}
+
+/// The bias correction ([`super::bias_correction`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BiasCorrectionSettings {
+    /// Its steps, samples and whether it runs after a learned-model run without refinement.
+    pub correction: BiasCorrection,
+    /// The learned model alone with the correction, instead of the tracer's refinement.
+    pub instead_of_refinement: bool,
+}
+
+impl Default for RecoverySettings {
+    /// The product's recovery: [`OptimizeConfig::default`]'s loop, one start, the shipped
+    /// learned model refined by the tracer at the dataset's depth, checkpoints every 10
+    /// iterations, re-renders at 64 spp, intervals and the consistency check on 4 views.
+    fn default() -> Self {
+        let c = OptimizeConfig::default();
+        RecoverySettings {
+            model: ModelSettings::default(),
+            start: StartSettings {
+                init: c.init,
+                starts: 1,
+            },
+            schedule: Schedule {
+                iterations: c.iterations,
+                spp: c.spp,
+                views_per_iter: c.views_per_iter,
+                crop: c.crop,
+                view_subset: c.view_subset,
+                seed: c.seed,
+                lr_sigma_t: c.lr_sigma_t,
+                lr_albedo: c.lr_albedo,
+                decay: c.decay,
+                decay_every: c.decay_every,
+                albedo_warmup: c.albedo_warmup,
+                params: c.params,
+                loss: c.loss,
+                single_render: !c.two_renders,
+                full_renders: !c.split_samples,
+                normalize_views: c.normalize_views,
+                view_weight_floor: c.view_weight_floor,
+            },
+            learned: LearnedSection {
+                renderer: c.learned,
+                refit_every: c.refit_every,
+                fit_derivative: c.fit_derivative,
+                delta_rel: c.delta_rel,
+                primal: c.primal,
+            },
+            tracer: TracerSection::default(),
+            checks: CheckSettings {
+                checkpoint_every: 10,
+                final_spp: 64,
+                uncertainty: UncertaintySettings::default(),
+                consistency_views: 4,
+            },
+            bias_correction: BiasCorrectionSettings {
+                correction: BiasCorrection::default(),
+                instead_of_refinement: false,
+            },
+            resume: false,
+            overwrite: false,
+        }
+    }
+}
+
+impl RecoverySettings {
+    /// The recovery of `dataset` into `out`, resolved. The dataset's own tracer depth is asked
+    /// of `dataset_depth` only when the tracer is used and no depth is given.
+    pub fn resolve(
+        &self,
+        dataset: PathBuf,
+        out: PathBuf,
+        dataset_depth: impl FnOnce() -> Result<Option<u32>, RecoveryError>,
+    ) -> Result<RecoveryConfig, RecoveryError> {
+        let model_file = self.model_file()?;
+        Ok(RecoveryConfig {
+            dataset,
+            out,
+            optimize: self.optimize_config(dataset_depth)?,
+            model_file,
+            max_depth: self.tracer.max_depth,
+            refine_given: self.tracer.refine.is_some(),
+            checkpoint_every: self.checks.checkpoint_every,
+            final_spp: self.checks.final_spp,
+            uncertainty: self.checks.uncertainty,
+            consistency_views: self.checks.consistency_views,
+            starts: self.start.starts,
+            resume: self.resume,
+            overwrite: self.overwrite,
+            bias_correction: self.bias_correction.correction,
+        })
+    }
+
+    /// [`RecoverySettings::resolve`] with the depth read from the dataset's file when needed.
+    pub fn resolve_for(
+        &self,
+        dataset: PathBuf,
+        out: PathBuf,
+    ) -> Result<RecoveryConfig, RecoveryError> {
+        let depth = {
+            let d = dataset.clone();
+            move || Ok(scene::Dataset::load(&d)?.render.max_depth)
+        };
+        self.resolve(dataset, out, depth)
+    }
+
+    /// The model file to read: `None` for the shipped model; an error for a file given to a
+    /// model that has no networks.
+    pub fn model_file(&self) -> Result<Option<PathBuf>, RecoveryError> {
+        let Some(file) = &self.model.file else {
+            return Ok(None);
+        };
+        if self.model.kind != ModelKind::Learned {
+            return Err(RecoveryError::Invalid(format!(
+                "{} {} with {} {}: only the learned model reads a model file; drop {} or use \
+                 {} learned",
+                Setting::ModelFile,
+                file.display(),
+                Setting::Model,
+                self.model.kind,
+                Setting::ModelFile,
+                Setting::Model
+            )));
+        }
+        Ok(match file.as_os_str().to_str() {
+            Some("shipped" | "learned") => None,
+            _ => Some(file.clone()),
+        })
+    }
+
+    /// The loop's configuration: the schedule and the model's sections in the flat form that
+    /// checkpoints and `result.json` record.
+    pub fn optimize_config(
+        &self,
+        dataset_depth: impl FnOnce() -> Result<Option<u32>, RecoveryError>,
+    ) -> Result<OptimizeConfig, RecoveryError> {
+        let (s, t) = (&self.schedule, &self.tracer);
+        let kind = self.model.kind;
+        let invalid = RecoveryError::Invalid;
+        let mut c = OptimizeConfig::new(self.start.init);
+        c.model = ModelChoice::new(kind, self.model.estimator.as_deref())
+            .map_err(|e| invalid(format!("{}: {e}", Setting::Estimator)))?;
+        c.iterations = s.iterations;
+        let instead = self.bias_correction.instead_of_refinement;
+        c.refine_iterations = match t.refine {
+            Some(r) if r > 0 && instead => {
+                return Err(invalid(format!(
+                    "{} with {} {r}: the correction is for the learned model alone; fix: drop \
+                     one of the two (the refinement replaces the correction)",
+                    Setting::BiasCorrection,
+                    Setting::Refine
+                )));
+            }
+            Some(r) => r,
+            None if instead => 0,
+            None => OptimizeConfig::default_refinement(kind, s.iterations),
+        };
+        // Only a run with a refinement records the choice (runs without one compare equal to
+        // those written before it existed).
+        c.refine_restarts_moments = c.refine_iterations > 0 && !t.refine_keeps_moments;
+        if kind == ModelKind::Volpath || c.refine_iterations > 0 {
+            c.volpath_max_depth = match t.max_depth {
+                Some(d) => Some(d),
+                None => dataset_depth()?,
+            };
+        }
+        c.spp = s.spp;
+        if let Some(r) = t.refine_spp {
+            if c.refine_iterations == 0 {
+                return Err(invalid(format!(
+                    "{} {r} without a refinement ({} 0, {} or a model other than the learned \
+                     one); fix: drop {} or refine",
+                    Setting::RefineSpp,
+                    Setting::Refine,
+                    Setting::BiasCorrection,
+                    Setting::RefineSpp
+                )));
+            }
+            c.refine_spp = Some(r);
+        }
+        c.views_per_iter = s.views_per_iter;
+        c.view_subset = s.view_subset.clone();
+        c.loss = s.loss;
+        c.two_renders = !s.single_render;
+        c.split_samples = !s.full_renders;
+        if s.view_weight_floor.is_nan() || s.view_weight_floor <= 0.0 || s.view_weight_floor > 1.0 {
+            return Err(invalid(format!(
+                "{} must be in (0, 1], got {}",
+                Setting::ViewWeightFloor,
+                s.view_weight_floor
+            )));
+        }
+        c.normalize_views = s.normalize_views;
+        c.view_weight_floor = s.view_weight_floor;
+        c.crop = s.crop;
+        c.lr_sigma_t = s.lr_sigma_t;
+        c.lr_albedo = s.lr_albedo;
+        c.decay = s.decay;
+        c.decay_every = s.decay_every;
+        let l = &self.learned;
+        c.refit_every = l.refit_every;
+        c.fit_derivative = l.fit_derivative;
+        c.delta_rel = l.delta_rel;
+        c.primal = l.primal;
+        c.learned = l.renderer;
+        c.seed = s.seed;
+        c.albedo_warmup = s.albedo_warmup;
+        c.params = s.params.clone();
+        Ok(c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn no_depth() -> Result<Option<u32>, RecoveryError> {
+        Ok(None)
+    }
+
+    /// The defaults resolve to the loop's own defaults: nothing is decided twice.
+    #[test]
+    fn the_defaults_are_the_loops_defaults() {
+        let s = RecoverySettings::default();
+        assert_eq!(
+            s.optimize_config(no_depth).unwrap(),
+            OptimizeConfig::default()
+        );
+        let cfg = s
+            .resolve(PathBuf::from("d"), PathBuf::from("o"), || Ok(Some(16)))
+            .unwrap();
+        assert_eq!(cfg.optimize.volpath_max_depth, Some(16));
+        assert!(cfg.model_file.is_none() && cfg.bias_correction.enabled && cfg.starts == 1);
+    }
+
+    /// The refinement's length follows the model and the correction; wrong combinations are
+    /// refused naming both settings.
+    #[test]
+    fn the_refinement_follows_the_model_and_the_correction() {
+        let mut s = RecoverySettings::default();
+        s.model.kind = ModelKind::Dipole;
+        let c = s.optimize_config(no_depth).unwrap();
+        assert_eq!((c.refine_iterations, c.volpath_max_depth), (0, None));
+        s.model.kind = ModelKind::Volpath;
+        let c = s.optimize_config(|| Ok(Some(7))).unwrap();
+        assert_eq!((c.refine_iterations, c.volpath_max_depth), (0, Some(7)));
+
+        let mut s = RecoverySettings::default();
+        s.bias_correction.instead_of_refinement = true;
+        assert_eq!(s.optimize_config(no_depth).unwrap().refine_iterations, 0);
+        s.tracer.refine = Some(5);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(
+            e.contains("bias_correction") && e.contains("refine 5"),
+            "{e}"
+        );
+        s.bias_correction.instead_of_refinement = false;
+        s.tracer.refine = Some(0);
+        s.tracer.refine_spp = Some(8);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("refine_spp 8 without a refinement"), "{e}");
+    }
+
+    /// A model file for a model without networks, an unknown estimator and a view-weight floor
+    /// outside (0, 1] are refused, naming the setting.
+    #[test]
+    fn invalid_settings_are_refused_by_name() {
+        let mut s = RecoverySettings::default();
+        s.model.kind = ModelKind::Dipole;
+        s.model.file = Some(PathBuf::from("m.safetensors"));
+        let e = s.resolve_for(PathBuf::from("d"), PathBuf::from("o"));
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.contains("model_file m.safetensors with model dipole"),
+            "{e}"
+        );
+        s.model.kind = ModelKind::Learned;
+        s.model.file = Some(PathBuf::from("shipped"));
+        assert_eq!(s.model_file().unwrap(), None);
+
+        let mut s = RecoverySettings::default();
+        s.model.estimator = Some("ad".into());
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.starts_with("estimator: "), "{e}");
+        let mut s = RecoverySettings::default();
+        s.schedule.view_weight_floor = 0.0;
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("view_weight_floor must be in (0, 1]"), "{e}");
+    }
+}
