@@ -160,50 +160,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let views: Vec<ViewDesc> = ds.views.iter().map(|v| v.desc()).collect();
     let budget = equal_time_budget(a)?;
     let t0 = Instant::now();
-    let mut spp = a.spp.or(ds.render.spp).unwrap_or(1024);
-    anyhow::ensure!(spp > 0, "--spp must be at least 1");
-    let kind = a.learned.renderer(&a.method, ModelKind::Volpath)?;
-    for gap in kind.physics_gaps(&scene::Object::of(&medium)) {
-        tracing::warn!("{gap}");
-    }
-    let learned = match kind {
-        ModelKind::Volpath => false,
-        ModelKind::Learned => true,
-        ModelKind::Dipole => bail!(
-            "validate-mitsuba checks the volumetric path tracer or a learned model; --model \
-             dipole is neither"
-        ),
-    };
-    let job = inverse::views::Job {
-        accel: &accel,
-        medium: &medium,
-        views: &views,
-        spp,
-        seed: a.seed,
-    };
-    let rep = match (learned, budget) {
-        (false, Some(budget)) => {
-            let pb = progress(0, "equal time");
-            let (images, reached) = inverse::views::volpath_equal_time(
-                &accel, &medium, &views, a.seed, &settings, budget, &pb,
-            );
-            spp = reached;
-            images
-        }
-        (false, None) => by_rows(&views, "volpath", |pb| {
-            inverse::views::render(ModelSpec::tracer(settings), &job, false, pb)
-        })?,
-        (true, Some(_)) => bail!(
-            "--equal-time renders with the volumetric path tracer; drop it or --model learned"
-        ),
-        (true, None) => {
-            let model = a.learned.load_model()?;
-            let spec = LearnedSpec::new(&model, a.learned.settings(), a.seed);
-            by_rows(&views, "learned", |pb| {
-                inverse::views::render(ModelSpec::Learned(spec), &job, false, pb)
-            })?
-        }
-    };
+    let (rep, spp, learned) = render_views(a, &ds, &accel, &medium, &views, &settings, budget)?;
     let total = t0.elapsed().as_secs_f64();
     write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
 
@@ -235,8 +192,110 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
         "rel. RMSE 4×4 blocks",
         "status"
     );
+    let failures = compare_views(a, &rep.images, &refs, &names, brightest)?;
+    let per_view = total / views.len() as f64;
+    if let Some(budget) = budget {
+        println!(
+            "equal time: {spp} spp in {per_view:.3} s/view against a budget of {budget:.3} s/view \
+             (passes of {} spp; `--spp {spp}` gives the same images)",
+            inverse::views::EQUAL_TIME_PASS
+        );
+    }
+    match mitsuba_seconds(&a.dir) {
+        Some((ms, mspp)) => println!(
+            "time: ours {per_view:.3} s/view at {spp} spp; Mitsuba 3 {ms:.3} s/view at {mspp} spp \
+             (scene.json): ours {:.2}× Mitsuba's time",
+            per_view / ms
+        ),
+        None => println!("time: ours {per_view:.3} s/view at {spp} spp"),
+    }
+    println!("wrote {}", a.out.display());
+    if failures > 0 && learned {
+        println!(
+            "{failures} view(s) outside the volumetric tolerances (reported, not enforced for the \
+             learned BSSRDF, an approximate model)"
+        );
+        return Ok(());
+    }
+    if failures > 0 {
+        bail!("{failures} view(s) outside tolerance");
+    }
+    println!("all {} views within tolerance", views.len());
+    Ok(())
+}
+
+/// The views rendered by the model `--model` names (the tracer, at `--spp` or in equal time
+/// with Mitsuba's render; or a learned model): the images, the samples per pixel reached and
+/// whether the model is a learned one.
+fn render_views(
+    a: &ValidateArgs,
+    ds: &Dataset,
+    accel: &geometry::Accel,
+    medium: &scene::Medium,
+    views: &[ViewDesc],
+    settings: &VolpathSettings,
+    budget: Option<f64>,
+) -> Result<(inverse::views::RenderReport, u32, bool)> {
+    let (accel, medium, settings) = (accel, medium, *settings);
+    let mut spp = a.spp.or(ds.render.spp).unwrap_or(1024);
+    anyhow::ensure!(spp > 0, "--spp must be at least 1");
+    let kind = a.learned.renderer(&a.method, ModelKind::Volpath)?;
+    for gap in kind.physics_gaps(&scene::Object::of(medium)) {
+        tracing::warn!("{gap}");
+    }
+    let learned = match kind {
+        ModelKind::Volpath => false,
+        ModelKind::Learned => true,
+        ModelKind::Dipole => bail!(
+            "validate-mitsuba checks the volumetric path tracer or a learned model; --model \
+             dipole is neither"
+        ),
+    };
+    let job = inverse::views::Job {
+        accel,
+        medium,
+        views,
+        spp,
+        seed: a.seed,
+    };
+    let rep = match (learned, budget) {
+        (false, Some(budget)) => {
+            let pb = progress(0, "equal time");
+            let (images, reached) = inverse::views::volpath_equal_time(
+                accel, medium, views, a.seed, &settings, budget, &pb,
+            );
+            spp = reached;
+            images
+        }
+        (false, None) => by_rows(views, "volpath", |pb| {
+            inverse::views::render(ModelSpec::tracer(settings), &job, false, pb)
+        })?,
+        (true, Some(_)) => bail!(
+            "--equal-time renders with the volumetric path tracer; drop it or --model learned"
+        ),
+        (true, None) => {
+            let model = a.learned.load_model()?;
+            let spec = LearnedSpec::new(&model, a.learned.settings(), a.seed);
+            by_rows(views, "learned", |pb| {
+                inverse::views::render(ModelSpec::Learned(spec), &job, false, pb)
+            })?
+        }
+    };
+    Ok((rep, spp, learned))
+}
+
+/// The per-view table: each view's mean ratio against the reference (within the lit or the
+/// dark tolerance), its relative RMSE at full resolution and in 4×4 blocks. Returns the
+/// number of views outside their tolerance.
+fn compare_views(
+    a: &ValidateArgs,
+    images: &[Image],
+    refs: &[&Image],
+    names: &[String],
+    brightest: f64,
+) -> Result<usize> {
     let mut failures = 0;
-    for (i, (ours, reference)) in rep.images.iter().zip(&refs).enumerate() {
+    for (i, (ours, reference)) in images.iter().zip(refs).enumerate() {
         let dark = luminance(reference.mean()) < a.dark_fraction * brightest;
         let tol = if dark {
             a.dark_tolerance
@@ -270,33 +329,5 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
             if ok { "ok" } else { "FAIL" }
         );
     }
-    let per_view = total / views.len() as f64;
-    if let Some(budget) = budget {
-        println!(
-            "equal time: {spp} spp in {per_view:.3} s/view against a budget of {budget:.3} s/view \
-             (passes of {} spp; `--spp {spp}` gives the same images)",
-            inverse::views::EQUAL_TIME_PASS
-        );
-    }
-    match mitsuba_seconds(&a.dir) {
-        Some((ms, mspp)) => println!(
-            "time: ours {per_view:.3} s/view at {spp} spp; Mitsuba 3 {ms:.3} s/view at {mspp} spp \
-             (scene.json): ours {:.2}× Mitsuba's time",
-            per_view / ms
-        ),
-        None => println!("time: ours {per_view:.3} s/view at {spp} spp"),
-    }
-    println!("wrote {}", a.out.display());
-    if failures > 0 && learned {
-        println!(
-            "{failures} view(s) outside the volumetric tolerances (reported, not enforced for the \
-             learned BSSRDF, an approximate model)"
-        );
-        return Ok(());
-    }
-    if failures > 0 {
-        bail!("{failures} view(s) outside tolerance");
-    }
-    println!("all {} views within tolerance", views.len());
-    Ok(())
+    Ok(failures)
 }

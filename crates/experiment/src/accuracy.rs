@@ -94,23 +94,7 @@ pub struct AccuracyArgs {
 /// Runs the accuracy experiment; returns every row: the cases', then the random starts' (case
 /// `<name> init <i>`).
 pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
-    if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
-        bail!("--shapes, --methods and --media must name at least one of each");
-    }
-    for m in &a.methods {
-        if baseline_model(m).is_none() {
-            m.parse::<bssrdf::diff::Estimator>().ok().ok_or_else(|| {
-                let names =
-                    |it: &mut dyn Iterator<Item = &'static str>| it.collect::<Vec<_>>().join(", ");
-                crate::ExperimentError::Invalid(format!(
-                    "--methods: unknown method {m:?} (expected an estimator of the learned \
-                         model: {}, or a baseline model: {})",
-                    names(&mut ModelKind::Learned.estimators().iter().copied()),
-                    names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
-                ))
-            })?;
-        }
-    }
+    check_methods(a)?;
     let shapes: Vec<Shape> = a
         .shapes
         .iter()
@@ -145,90 +129,155 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     let _lock = a.jobs.lock(&a.out)?;
     std::fs::create_dir_all(a.out.join("data"))?;
     std::fs::create_dir_all(a.out.join("runs"))?;
-    let rig = paper_rig(a.views, a.res);
-    rig.validate("experiment")?;
+    let x = Experiment {
+        a,
+        rig: paper_rig(a.views, a.res),
+        obs,
+    };
+    x.rig.validate("experiment")?;
 
-    // A dataset is made by the first job that needs it (its own case's, or a random start's
-    // on it), the others wait for it.
-    let dataset = |name: &str, built: &Shape, medium: Medium| -> Result<()> {
+    let mut cases: Vec<Case> = Vec::new();
+    for &(ref name, built, k) in &specs {
+        let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
+        if a.jobs.runs(name) {
+            x.dataset(name, built, medium)?;
+        }
+        let dir = a.out.join("data").join(name);
+        cases.push((name.clone(), dir, medium, built));
+    }
+    let mut missing: Vec<String> = Vec::new();
+    let rows = x.case_rows(&cases, &mut missing)?;
+    let init_case = cases
+        .iter()
+        .find(|(n, ..)| *n == init_name)
+        .filter(|_| a.inits > 0);
+    let (init_rows, init_bc_rows) = match init_case {
+        Some(case) => x.start_rows(case, &init_jobs, &mut missing)?,
+        None => (Vec::new(), Vec::new()),
+    };
+    missing.dedup();
+    a.jobs.report_missing(&missing, obs);
+    write_outputs(a, &rows, &init_rows, &init_bc_rows, obs)?;
+    Ok(rows
+        .into_iter()
+        .chain(init_rows)
+        .chain(init_bc_rows)
+        .collect())
+}
+
+/// Every method names an estimator of the learned model or a baseline model.
+fn check_methods(a: &AccuracyArgs) -> Result<()> {
+    if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
+        bail!("--shapes, --methods and --media must name at least one of each");
+    }
+    for m in &a.methods {
+        if baseline_model(m).is_none() {
+            m.parse::<bssrdf::diff::Estimator>().ok().ok_or_else(|| {
+                let names =
+                    |it: &mut dyn Iterator<Item = &'static str>| it.collect::<Vec<_>>().join(", ");
+                crate::ExperimentError::Invalid(format!(
+                    "--methods: unknown method {m:?} (expected an estimator of the learned \
+                         model: {}, or a baseline model: {})",
+                    names(&mut ModelKind::Learned.estimators().iter().copied()),
+                    names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
+                ))
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// A case: its name, its dataset folder, its hidden medium and its shape.
+type Case<'s> = (String, PathBuf, Medium, &'s Shape);
+
+/// What every stage of the experiment shares: its options, the rig and the observer.
+struct Experiment<'a> {
+    a: &'a AccuracyArgs,
+    rig: Rig,
+    obs: &'a dyn Observer,
+}
+
+impl Experiment<'_> {
+    /// Makes the dataset of case `name`: the first job that needs it (its own case's, or a
+    /// random start's on it) renders it, the others wait for it.
+    fn dataset(&self, name: &str, built: &Shape, medium: Medium) -> Result<()> {
+        let a = self.a;
         let dir = a.out.join("data").join(name);
         a.jobs.shared_input(&a.out, name, || {
             ensure_dataset(
                 a,
-                &rig,
+                &self.rig,
                 built.clone(),
                 medium,
                 a.target_spp,
                 &dir,
                 name,
-                obs,
+                self.obs,
             )
         })?;
         Ok(())
-    };
-    let mut cases: Vec<(String, PathBuf, Medium)> = Vec::new();
-    let mut case_shapes: Vec<&Shape> = Vec::new();
-    for &(ref name, built, k) in &specs {
-        let medium = random_medium(a.seed.wrapping_mul(1000).wrapping_add(k));
-        if a.jobs.runs(name) {
-            dataset(name, built, medium)?;
-        }
-        let dir = a.out.join("data").join(name);
-        cases.push((name.clone(), dir, medium));
-        case_shapes.push(built);
     }
-    let init_case = cases
-        .iter()
-        .zip(&case_shapes)
-        .find(|((n, ..), _)| *n == init_name)
-        .filter(|_| a.inits > 0);
-    let default_init = Params {
-        sigma_t: [50.0; 3],
-        albedo: [0.5; 3],
-    };
-    let mut missing: Vec<String> = Vec::new();
-    let mut rows = Vec::new();
-    for ((name, dir, medium), shape) in cases.iter().zip(&case_shapes) {
-        let run = a.jobs.runs(name);
-        for method in &a.methods {
-            let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
-            let Some(row) = optimize(
-                a,
-                run,
-                dir,
-                &run_dir,
-                method,
-                default_init,
-                medium,
-                name,
-                obs,
-            )?
-            else {
-                missing.push(name.clone());
-                continue;
-            };
-            let mut corrected = Vec::new();
-            if a.bc.enabled() && baseline_model(method).is_none() {
-                for step in 1..=a.bc.bias_correction_steps {
-                    let current = corrected.last().unwrap_or(&row);
-                    match bias_corrected_row(
-                        a, run, &rig, shape, name, medium, &row, current, step, obs,
-                    )? {
-                        Some(next) => corrected.push(next),
-                        None => {
-                            missing.push(name.clone());
-                            break;
+
+    /// Every case × method from the paper's start, each followed by its bias-corrected rows
+    /// (learned-model estimators only); the cases not finished go to `missing`.
+    fn case_rows(&self, cases: &[Case], missing: &mut Vec<String>) -> Result<Vec<Row>> {
+        let (a, obs) = (self.a, self.obs);
+        let default_init = Params {
+            sigma_t: [50.0; 3],
+            albedo: [0.5; 3],
+        };
+        let mut rows = Vec::new();
+        for (name, dir, medium, shape) in cases {
+            let run = a.jobs.runs(name);
+            for method in &a.methods {
+                let run_dir = a.out.join("runs").join(format!("{name}-{method}"));
+                let Some(row) = optimize(
+                    a,
+                    run,
+                    dir,
+                    &run_dir,
+                    method,
+                    default_init,
+                    medium,
+                    name,
+                    obs,
+                )?
+                else {
+                    missing.push(name.clone());
+                    continue;
+                };
+                let mut corrected = Vec::new();
+                if a.bc.enabled() && baseline_model(method).is_none() {
+                    for step in 1..=a.bc.bias_correction_steps {
+                        let current = corrected.last().unwrap_or(&row);
+                        match bias_corrected_row(
+                            a, run, &self.rig, shape, name, medium, &row, current, step, obs,
+                        )? {
+                            Some(next) => corrected.push(next),
+                            None => {
+                                missing.push(name.clone());
+                                break;
+                            }
                         }
                     }
                 }
+                rows.push(row);
+                rows.extend(corrected);
             }
-            rows.push(row);
-            rows.extend(corrected);
         }
+        Ok(rows)
     }
-    let mut init_rows = Vec::new();
-    let mut init_bc_rows = Vec::new();
-    if let Some(((name, dir, medium), shape)) = init_case {
+
+    /// The random starts on `case` with the first method, and their last bias-corrected rows.
+    fn start_rows(
+        &self,
+        (name, dir, medium, shape): &Case,
+        init_jobs: &[String],
+        missing: &mut Vec<String>,
+    ) -> Result<(Vec<Row>, Vec<Row>)> {
+        let (a, obs) = (self.a, self.obs);
+        let mut init_rows = Vec::new();
+        let mut init_bc_rows = Vec::new();
         let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
         for (i, job) in init_jobs.iter().enumerate() {
             let init = Params {
@@ -238,7 +287,7 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
             let run = a.jobs.runs(job);
             if run && !a.jobs.runs(name) {
                 // A start's job makes (or waits for) the dataset it starts on.
-                dataset(name, shape, *medium)?;
+                self.dataset(name, shape, *medium)?;
             }
             let run_dir = a.out.join("runs").join(job);
             let label = format!("{name} init {i}");
@@ -260,13 +309,15 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
             // The correction of a random start: the bootstrap recovery starts where this run
             // started (same estimator F), so the bias it measures includes the start's side.
             let mut current = Some(row.clone());
-            for step in 1..=if a.bc.enabled() {
+            let steps = if a.bc.enabled() {
                 a.bc.bias_correction_steps
             } else {
                 0
-            } {
+            };
+            for step in 1..=steps {
                 let Some(c) = &current else { break };
-                current = bias_corrected_row(a, run, &rig, shape, job, medium, &row, c, step, obs)?;
+                current =
+                    bias_corrected_row(a, run, &self.rig, shape, job, medium, &row, c, step, obs)?;
             }
             if a.bc.enabled() {
                 match current {
@@ -276,19 +327,27 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
             }
             init_rows.push(row);
         }
+        Ok((init_rows, init_bc_rows))
     }
-    missing.dedup();
-    a.jobs.report_missing(&missing, obs);
+}
 
-    let table = report(a, &rows, &init_rows, &init_bc_rows);
+/// `OUT/table.md`, `OUT/results.csv` and, with random starts, `OUT/inits.png`.
+fn write_outputs(
+    a: &AccuracyArgs,
+    rows: &[Row],
+    init_rows: &[Row],
+    init_bc_rows: &[Row],
+    obs: &dyn Observer,
+) -> Result<()> {
+    let table = report(a, rows, init_rows, init_bc_rows);
     obs.say(table.trim_end_matches('\n'));
     std::fs::write(a.out.join("table.md"), &table)?;
     std::fs::write(
         a.out.join("results.csv"),
-        results_csv(rows.iter().chain(&init_rows).chain(&init_bc_rows)),
+        results_csv(rows.iter().chain(init_rows).chain(init_bc_rows)),
     )?;
     if !init_rows.is_empty() {
-        inits_plot(&init_rows, &a.out.join("inits.png"))?;
+        inits_plot(init_rows, &a.out.join("inits.png"))?;
     }
     obs.say(&format!(
         "wrote {} (table.md, results.csv{})",
@@ -299,11 +358,7 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
             ", inits.png"
         }
     ));
-    Ok(rows
-        .into_iter()
-        .chain(init_rows)
-        .chain(init_bc_rows)
-        .collect())
+    Ok(())
 }
 
 /// Step `step` of the parametric-bootstrap correction of `row` (`inverse::bootstrap`): the

@@ -39,20 +39,20 @@ use crate::bail;
 use crate::error::{Context, Result};
 use crate::run::Run;
 use clap::Args;
-use scene::{Dataset, MeshSource, RenderInfo, SceneDesc};
+use scene::Dataset;
 
 use cmdline::optimize::IterationArgs;
 use inverse::forward::learned::LearnedSpec;
 use inverse::recovery::reuse::read_json;
 use inverse::views::build_accel;
-use inverse::views::{RenderOpts, make_dataset};
 
 mod cases;
 mod report;
+mod targets;
 
 pub use cases::{Capture, Case, Suite, Targets, cases, dielectric_cases};
-use cases::{mesh_source, rig};
 use report::report;
+use targets::{ensure_dataset, target_renderers};
 
 #[derive(Args)]
 pub struct RobustnessArgs {
@@ -302,194 +302,6 @@ fn model_ratio(
         true,
     )?;
     Ok(ratio)
-}
-
-/// Render the dataset unless `dir` holds it already.
-fn ensure_dataset(
-    a: &RobustnessArgs,
-    case: &Case,
-    rep: u64,
-    targets: Targets,
-    dir: &Path,
-    obs: &dyn Observer,
-) -> Result<()> {
-    let spp = if a.quick { 8 } else { a.target_spp };
-    let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
-    if dir.join("dataset.json").exists() {
-        let ds = Dataset::load(dir)?;
-        let by_mitsuba = ds
-            .render
-            .renderer
-            .as_deref()
-            .is_some_and(|r| r.starts_with("Mitsuba"));
-        let same = ds.truth == Some(case.medium)
-            && ds.views.len() == views
-            && ds.render.spp == Some(spp)
-            && ds.views.first().is_some_and(|v| v.camera.width == res)
-            && by_mitsuba == (targets == Targets::Mitsuba);
-        if same {
-            return Ok(());
-        }
-        return Err(crate::other_dataset(dir));
-    }
-    obs.say(&format!(
-        "dataset {} (repetition {rep}, {} targets): {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}, radius {:.3}",
-        case.name,
-        targets.name(),
-        case.medium.sigma_t,
-        case.medium.albedo,
-        0.5 * case.scale
-    ));
-    let mesh_dir = dir.with_extension("mesh");
-    match targets {
-        Targets::Volpath => {
-            let mesh = mesh_source(case, &a.mesh, &mesh_dir, false)?;
-            make_dataset(
-                &rig(case, views, res),
-                mesh,
-                case.medium,
-                RenderOpts {
-                    spp,
-                    seed: a.seed + rep,
-                    max_depth: MAX_DEPTH,
-                    shadow: Default::default(),
-                },
-                dir,
-                false,
-                obs,
-            )?;
-        }
-        Targets::Mitsuba => {
-            let mesh = mesh_source(case, &a.mesh, &mesh_dir, true)?;
-            render_with_mitsuba(a, case, mesh, (views, res, spp), a.seed + rep, dir)?;
-        }
-    }
-    Ok(())
-}
-
-/// Depth limit of the target renders (Mitsuba's `max_depth` semantics).
-const MAX_DEPTH: u32 = 128;
-
-/// The case's views rendered by Mitsuba 3 into the dataset `dir`: our layout of the case (mesh,
-/// medium, cameras, lights; blank images) goes to `DIR.layout`, `--mitsuba-script` renders it
-/// into `DIR.mitsuba`, and that is saved as `dir` with PNG previews. A staged render that
-/// finished is reused.
-fn render_with_mitsuba(
-    a: &RobustnessArgs,
-    case: &Case,
-    mesh: MeshSource,
-    (views, res, spp): (usize, u32, u32),
-    seed: u64,
-    dir: &Path,
-) -> Result<()> {
-    let layout = dir.with_extension("layout");
-    let staged = dir.with_extension("mitsuba");
-    if !staged.join("dataset.json").exists() {
-        let desc = SceneDesc {
-            mesh,
-            medium: case.medium,
-            views: rig(case, views, res).build(),
-            render: RenderInfo {
-                max_depth: Some(MAX_DEPTH),
-                ..Default::default()
-            },
-            path: layout.join("dataset.json"),
-        };
-        let mut ds = Dataset::from_scene(&desc);
-        for v in &mut ds.views {
-            v.image = Some(scene::Image::new(v.camera.width, v.camera.height));
-        }
-        ds.save(&layout, true)?;
-        let status = std::process::Command::new(&a.python)
-            .arg(&a.mitsuba_script)
-            .arg(&layout)
-            .arg("--out")
-            .arg(&staged)
-            .args(["--spp", &spp.to_string(), "--seed", &seed.to_string()])
-            .args(["--max-depth", &MAX_DEPTH.to_string(), "--overwrite"])
-            .stdout(std::process::Stdio::null())
-            .status()
-            .with_context(|| {
-                format!(
-                    "running {} {}",
-                    a.python.display(),
-                    a.mitsuba_script.display()
-                )
-            })?;
-        if !status.success() {
-            bail!(
-                "{} {} {} failed ({status}); its error is above",
-                a.python.display(),
-                a.mitsuba_script.display(),
-                layout.display()
-            );
-        }
-    }
-    let ds = Dataset::load(&staged)?;
-    ds.save(dir, false)?;
-    for d in [&layout, &staged] {
-        let _ = std::fs::remove_dir_all(d);
-    }
-    Ok(())
-}
-
-/// Whether `--mitsuba-script --check` finds Mitsuba 3: `Ok(version line)` or `Err(why not)`.
-fn mitsuba_available(a: &RobustnessArgs) -> std::result::Result<String, String> {
-    if !a.mitsuba_script.exists() {
-        return Err(format!(
-            "{} not found (run from the repository root, or pass --mitsuba-script)",
-            a.mitsuba_script.display()
-        ));
-    }
-    let out = std::process::Command::new(&a.python)
-        .arg(&a.mitsuba_script)
-        .arg("--check")
-        .output()
-        .map_err(|e| format!("{}: {e}", a.python.display()))?;
-    let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    if out.status.success() {
-        Ok(text)
-    } else {
-        let err = String::from_utf8_lossy(&out.stderr);
-        Err(err.lines().last().unwrap_or("no output").to_string())
-    }
-}
-
-/// The target renderers of this run (`--targets`, or the default: ours, and Mitsuba's when
-/// found and not `--quick`).
-fn target_renderers(a: &RobustnessArgs, obs: &dyn Observer) -> Result<Vec<Targets>> {
-    if let Some(t) = &a.targets {
-        crate::ensure!(!t.is_empty(), "--targets: name volpath, mitsuba or both");
-        if t.contains(&Targets::Mitsuba)
-            && let Err(why) = mitsuba_available(a)
-        {
-            bail!(
-                "--targets mitsuba: Mitsuba 3 is not usable: {why}; fix: `pip install mitsuba numpy` \
-                 (on Debian also `apt-get install libllvm19`), or leave mitsuba out"
-            );
-        }
-        return Ok(t.clone());
-    }
-    if a.quick {
-        return Ok(vec![Targets::Volpath]);
-    }
-    // A list of jobs is only the commands.
-    let say = !a.jobs.list_jobs;
-    match mitsuba_available(a) {
-        Ok(v) => {
-            if say {
-                obs.say(&format!("targets: our volumetric path tracer and {v}"));
-            }
-            Ok(vec![Targets::Volpath, Targets::Mitsuba])
-        }
-        Err(_) if !say => Ok(vec![Targets::Volpath]),
-        Err(why) => {
-            obs.say(&format!(
-                "targets: our volumetric path tracer only (Mitsuba 3 not usable: {why}; `pip install mitsuba numpy` adds its renders as an independent check)"
-            ));
-            Ok(vec![Targets::Volpath])
-        }
-    }
 }
 
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
