@@ -10,7 +10,7 @@
 //! image sums of the replicates are i.i.d., so se = sd/√R. Statistical comparisons use
 //! |a − b| < 4·√(se_a² + se_b²).
 
-mod common;
+use crate::common;
 
 use bssrdf::diff::{
     DiffImages, DiffSettings, Estimator, Loss, Primal, render_diff, render_loss_gradient,

@@ -391,7 +391,7 @@ fn cpu_pressure() -> String {
 /// spread over 4096 shading points (256 samples per point). Single-thread figures use the
 /// thread's CPU time (robust on a shared machine), two-thread figures wall time; best of 5.
 /// Meaningful only in an optimised build, hence ignored by default: `cargo test --release -p
-/// translucent-bssrdf --test nn decoder_throughput -- --ignored --nocapture`.
+/// translucent-bssrdf --test integration nn::decoder_throughput -- --ignored --nocapture`.
 #[test]
 #[ignore = "timing; run with --release -- --ignored --nocapture"]
 fn decoder_throughput() {

@@ -18,7 +18,7 @@
 //! that of a grey render at each channel's medium (the same vertex fits), for both pixel-sampling
 //! schemes, within the standard errors of both estimates over independent seeds.
 
-mod common;
+use crate::common;
 
 use base::boundary::{sw, transmittance};
 use bssrdf::exit::{ExitLaw, ExitTable};

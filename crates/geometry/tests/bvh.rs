@@ -6,7 +6,7 @@ use geometry::{Accel, AreaSampler, Mesh, Vec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
-mod common;
+use crate::common;
 
 /// Test support: meshes, random directions, brute force, chi-square.
 mod support {

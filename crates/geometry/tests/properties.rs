@@ -6,7 +6,7 @@
 
 use geometry::{Accel, Mesh, MeshWarning, Vec3};
 
-mod common;
+use crate::common;
 use common::brute_all;
 use proptest::prelude::*;
 

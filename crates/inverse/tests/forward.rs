@@ -4,7 +4,7 @@
 //! back to the truth on targets they rendered, and their view renderers' images are their
 //! plain renders.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

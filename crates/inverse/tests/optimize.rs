@@ -2,7 +2,7 @@
 //! renderer with the shipped model at known parameters, the inverse loop started far away must
 //! bring the error down substantially; a checkpointed run resumes bit-identically.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 //! expensive measurement agree within their standard errors (Σ J² alone would not: its noise
 //! bias falls as 1/spp); α at its bound measures along σ_t alone.
 
-mod common;
+use crate::common;
 
 use geometry::{Accel, Vec3};
 use inverse::consistency::CheckView;

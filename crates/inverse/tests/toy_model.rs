@@ -7,7 +7,7 @@
 //!
 //! with its exact derivatives; the loop recovers α and σ_t from its own images.
 
-mod common;
+use crate::common;
 
 use bssrdf::diff::DiffImages;
 use bssrdf::render::RenderSettings;

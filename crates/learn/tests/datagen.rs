@@ -472,8 +472,8 @@ fn samples_file_round_trip_and_errors() {
     assert!(left.is_empty());
 }
 
-/// Throughput (release): `cargo test --release -p translucent-learn --test datagen -- --ignored
-/// --nocapture throughput`.
+/// Throughput (release): `cargo test --release -p translucent-learn --test integration
+/// datagen::throughput -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn throughput() {

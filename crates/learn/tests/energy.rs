@@ -4,7 +4,7 @@
 //! known conditional distribution with a sharp core and a long tail, where the CVAE's
 //! reconstruction objective is not asked to.
 
-mod common;
+use crate::common;
 use common::*;
 
 use base::rng::Sampler;

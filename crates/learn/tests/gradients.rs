@@ -17,10 +17,10 @@
 //! Also here: the training forward pass ([`MlpTape`], i.e. `Dense::forward_rows`) against the
 //! inference entry points, gradients bit-identical for any thread count, bad batches, Adam
 //! resuming bit-identically from its state, and (ignored) a
-//! throughput measurement: `cargo test --release -p translucent-learn --test gradients --
-//! --ignored --nocapture`.
+//! throughput measurement: `cargo test --release -p translucent-learn --test integration
+//! gradients:: -- --ignored --nocapture`.
 
-mod common;
+use crate::common;
 use common::*;
 
 use base::rng::Sampler;
