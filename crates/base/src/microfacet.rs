@@ -174,51 +174,37 @@ impl RoughDielectric {
 
     /// f(wi, wo)·|cos θ_o| in radiance transport (Mitsuba's `eval`).
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some(Pair {
-            wi,
-            wo,
-            eta,
-            h,
-            ih,
-            oh,
-        }) = self.pair(wi, wo)
-        else {
+        let Some(p) = self.pair(wi, wo) else {
             return 0.0;
         };
-        let d = self.ggx.d(h);
-        let g = self.ggx.g1(wi, h) * self.ggx.g1(wo, h);
+        let (ih, oh, eta) = (p.ih, p.oh, p.eta);
+        let d = self.ggx.d(p.h);
+        let g = self.ggx.g1(p.wi, p.h) * self.ggx.g1(p.wo, p.h);
         let f = fresnel_dielectric(ih.abs(), if ih >= 0.0 { eta } else { 1.0 / eta });
-        if wo.z > 0.0 {
-            f * d * g / (4.0 * wi.z)
+        if p.wo.z > 0.0 {
+            f * d * g / (4.0 * p.wi.z)
         } else {
             // Both sides of the microfacet must be consistent: wi in front, wo behind it.
             if ih * oh >= 0.0 {
                 return 0.0;
             }
             let denom = ih + eta * oh;
-            ((1.0 - f) * d * g * ih * oh / (wi.z * denom * denom)).abs()
+            ((1.0 - f) * d * g * ih * oh / (p.wi.z * denom * denom)).abs()
         }
     }
 
     /// The density of [`RoughDielectric::sample`] per solid angle of `wo`.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some(Pair {
-            wi,
-            wo,
-            eta,
-            h,
-            ih,
-            oh,
-        }) = self.pair(wi, wo)
-        else {
+        let Some(p) = self.pair(wi, wo) else {
             return 0.0;
         };
+        let (ih, oh, eta) = (p.ih, p.oh, p.eta);
         if ih <= 0.0 {
             return 0.0;
         }
         let f = fresnel_dielectric(ih, eta);
-        let ph = self.ggx.pdf_visible(wi, h);
-        if wo.z > 0.0 {
+        let ph = self.ggx.pdf_visible(p.wi, p.h);
+        if p.wo.z > 0.0 {
             ph * f / (4.0 * oh.abs())
         } else {
             if oh >= 0.0 {

@@ -30,7 +30,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
-use crate::polynomial::{N_COEFFS, POWERS, Poly3, monomials_f64, power_to_index};
+use crate::polynomial::{DERIV, N_COEFFS, Poly3, monomials_f64};
 
 /// Size of the global constraint set (VKJ19 ConstraintKdTree: first 32 points).
 pub const GLOBAL_CONSTRAINTS: usize = 32;
@@ -116,11 +116,9 @@ const fn build_grad_nz() -> [[(u8, u8, u8); 10]; 3] {
         let mut n = 0;
         let mut k = 0;
         while k < N_COEFFS {
-            let p = POWERS[k];
-            if p[axis] > 0 {
-                let mut q = [p[0] as usize, p[1] as usize, p[2] as usize];
-                q[axis] -= 1;
-                out[axis][n] = (k as u8, p[axis], power_to_index(q[0], q[1], q[2]) as u8);
+            let (e, src) = DERIV[axis][k];
+            if e > 0 {
+                out[axis][n] = (k as u8, e, src);
                 n += 1;
             }
             k += 1;

@@ -22,6 +22,7 @@ use std::ops::{Add, Mul};
 
 mod monomials;
 
+pub(crate) use monomials::DERIV;
 use monomials::*;
 pub use monomials::{
     N_COEFFS, POWERS, monomial_gradients, monomial_gradients_f64, monomials, monomials_f64,

@@ -43,7 +43,7 @@ pub(super) const fn build_powers() -> [[u8; 3]; N_COEFFS] {
 
 /// For `axis` and monomial `k`: `∂m_k/∂u_axis = DERIV[axis][k].0 · m_{DERIV[axis][k].1}`
 /// (factor 0 when the monomial does not contain that variable).
-pub(super) const DERIV: [[(u8, u8); N_COEFFS]; 3] = build_deriv();
+pub(crate) const DERIV: [[(u8, u8); N_COEFFS]; 3] = build_deriv();
 
 pub(super) const fn build_deriv() -> [[(u8, u8); N_COEFFS]; 3] {
     let mut out = [[(0u8, 0u8); N_COEFFS]; 3];

@@ -49,7 +49,10 @@ pub(super) fn ensure_dataset(
         case.medium.albedo,
         0.5 * case.scale
     ));
-    let mesh_dir = dir.with_extension("mesh");
+    // `{dir}.mesh`: the case names hold dots (`smooth1.5`), which `with_extension` would cut at.
+    let mut mesh_dir = dir.as_os_str().to_owned();
+    mesh_dir.push(".mesh");
+    let mesh_dir = std::path::PathBuf::from(mesh_dir);
     match targets {
         Targets::Volpath => {
             let mesh = mesh_source(case, &a.mesh, &mesh_dir, false)?;
