@@ -421,6 +421,14 @@ def main():
     if not all(ALBEDO_MIN <= x <= ALBEDO_MAX for x in init_al):
         sys.exit(f"error: --init-albedo must lie in [{ALBEDO_MIN}, {ALBEDO_MAX}]")
     ds = load_dataset(a.dataset)
+    if ds["truth"]["eta"] != 1.0 and ds["truth"]["roughness"] == 0.0:
+        # Under a point light a smooth dielectric object is black in volpath and prbvolpath:
+        # the one refracted path to the light is a delta connection neither can sample.
+        sys.exit(
+            f"error: {a.dataset}: a smooth dielectric boundary (eta {ds['truth']['eta']}) lit by a "
+            "point light renders black in Mitsuba 3 (no path reaches the light through the smooth "
+            "surface); this baseline needs an index-matched or rough boundary"
+        )
     nv = len(ds["views"])
     if a.views_per_iter > nv:
         sys.exit(f"error: --views-per-iter {a.views_per_iter} > {nv} views in the dataset")
@@ -544,7 +552,7 @@ def main():
             params[k_al] = opt["albedo"]
             params.update()
             img = mi.render(
-                scene, params, sensor=sensors[vi], spp=a.spp, seed=(a.seed * 1_000_003 + it) * 64 + j
+                scene, params, sensor=sensors[vi], spp=a.spp, seed=((a.seed * 1_000_003 + it) * 64 + j) & 0xFFFF_FFFF
             )
             loss = dr.mean(dr.square(img - targets[vi]), axis=None) / len(vs)
             dr.backward(loss)

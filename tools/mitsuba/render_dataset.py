@@ -19,7 +19,8 @@ built-in blob / sphere rebuilt exactly as the geometry crate builds it), a `null
 dataset's `object` block, else its truth), a homogeneous interior medium with the truth's RGB
 sigma_t and albedo and the object's phase function, one point light moved to each view's light, one perspective sensor per
 view (fov along x, box filter, independent sampler), integrator `volpath` with rr_depth 5.
-Seeds: view i, pass k renders with seed (seed * 1_000_003 + i) * 4096 + k.
+Seeds: view i, pass k renders with seed ((seed * 1_000_003 + i) * 4096 + k) mod 2^32 (Mitsuba's
+seeds are 32-bit).
 Not used by the tests or CI: Mitsuba is a reference, not a dependency.
 """
 import argparse
@@ -114,6 +115,15 @@ def main():
         sys.exit(f"error: {mesh_path}: mesh must be .ply or .obj")
 
     g, eta = truth["g"], truth["eta"]
+    if eta != 1.0 and truth["roughness"] == 0.0:
+        # A point light seen through a smooth dielectric is a delta connection: volpath's
+        # next-event estimation is blocked by the boundary and no sampled path can hit the
+        # light, so every view would render black (translucent connects it by manifold NEE).
+        sys.exit(
+            f"error: {src}: a smooth dielectric boundary (eta {eta}, roughness 0) lit by a point "
+            "light renders black in Mitsuba 3's volpath (no path reaches the light through the "
+            "smooth surface); render such a dataset with translucent, or state a rough boundary"
+        )
     max_depth = a.max_depth or ds["max_depth"] or 64
     scale = max(truth["sigma_t"])
     v0 = ds["views"][0]
@@ -155,7 +165,7 @@ def main():
         passes = a.spp // per_pass
         arr = 0.0
         for k in range(passes):
-            img = mi.render(scene, sensor=sensor, spp=per_pass, seed=(a.seed * 1_000_003 + i) * 4096 + k)
+            img = mi.render(scene, sensor=sensor, spp=per_pass, seed=((a.seed * 1_000_003 + i) * 4096 + k) & 0xFFFF_FFFF)
             arr = arr + mi.TensorXf(img).numpy() / passes
         dt = time.perf_counter() - t0
         total += dt

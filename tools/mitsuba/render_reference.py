@@ -142,7 +142,7 @@ def main():
         arr = 0.0
         for k in range(passes):
             # One seed per pass (distinct across seeds and passes).
-            img = mi.render(scenes[key], sensor=sensor, spp=per_pass, seed=a.seed * 1_000_003 + k)
+            img = mi.render(scenes[key], sensor=sensor, spp=per_pass, seed=(a.seed * 1_000_003 + k) & 0xFFFF_FFFF)
             arr = arr + mi.TensorXf(img).numpy() / passes
         dt = time.perf_counter() - t0
         total += dt

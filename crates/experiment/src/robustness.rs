@@ -348,8 +348,20 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
     let mut jobs: Vec<(u64, Targets, &Case)> = Vec::new();
     for rep in 0..a.seeds {
         for &t in &renderers {
-            jobs.extend(all.iter().map(|c| (rep, t, c)));
+            jobs.extend(all.iter().filter(|c| t.renders(c)).map(|c| (rep, t, c)));
         }
+    }
+    let unrendered: Vec<&str> = renderers
+        .iter()
+        .flat_map(|&t| all.iter().filter(move |c| !t.renders(c)))
+        .map(|c| c.name.as_str())
+        .collect();
+    if !unrendered.is_empty() && !a.jobs.list_jobs {
+        obs.say(&format!(
+            "Mitsuba 3 targets: none for {} (a smooth dielectric lit by a point light is black \
+             in Mitsuba's volpath: no path reaches the light through the smooth surface)",
+            unrendered.join(", ")
+        ));
     }
     let tags: Vec<String> = jobs
         .iter()

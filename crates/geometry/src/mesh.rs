@@ -363,6 +363,30 @@ fn invalid(
 /// Vertices are never removed or reordered (unreferenced vertices are kept). Every warning is also
 /// logged with `tracing::warn!`.
 pub fn validate(mesh: &mut Mesh, source_name: &str) -> Result<Vec<MeshWarning>, GeometryError> {
+    check_structure(mesh, source_name)?;
+    let mut warnings = Vec::new();
+    drop_degenerate(mesh, source_name, &mut warnings)?;
+    let edges = mesh.edge_report();
+    if edges.open > 0 {
+        warnings.push(MeshWarning::OpenEdges { count: edges.open });
+    }
+    if edges.non_manifold > 0 {
+        warnings.push(MeshWarning::NonManifoldEdges {
+            count: edges.non_manifold,
+        });
+    }
+    if edges.open == 0 {
+        orient_outward(mesh, &mut warnings);
+    }
+    repair_normals(mesh, &mut warnings);
+    for w in &warnings {
+        tracing::warn!(source = source_name, "{source_name}: {w}");
+    }
+    Ok(warnings)
+}
+
+/// Step 1 of [`validate`]: the errors that leave nothing to repair.
+fn check_structure(mesh: &Mesh, source_name: &str) -> Result<(), GeometryError> {
     let n_vertices = mesh.positions.len();
     if n_vertices == 0 {
         return Err(invalid(
@@ -429,9 +453,15 @@ pub fn validate(mesh: &mut Mesh, source_name: &str) -> Result<Vec<MeshWarning>, 
         ));
     }
 
-    let mut warnings = Vec::new();
+    Ok(())
+}
 
-    // 2. Degenerate triangles.
+/// Step 2 of [`validate`]: drops the degenerate triangles; an error if none is left.
+fn drop_degenerate(
+    mesh: &mut Mesh,
+    source_name: &str,
+    warnings: &mut Vec<MeshWarning>,
+) -> Result<(), GeometryError> {
     let (lo, hi) = mesh.bounds();
     let diag = (dvec(hi) - dvec(lo)).length();
     let threshold = DEGENERATE_AREA_TOLERANCE * diag * diag;
@@ -458,50 +488,43 @@ pub fn validate(mesh: &mut Mesh, source_name: &str) -> Result<Vec<MeshWarning>, 
         mesh.indices.retain(|_| *k.next().unwrap_or(&true));
         warnings.push(MeshWarning::DroppedDegenerate { count: dropped });
     }
+    Ok(())
+}
 
-    // 3. Edge topology.
-    let edges = mesh.edge_report();
-    if edges.open > 0 {
-        warnings.push(MeshWarning::OpenEdges { count: edges.open });
-    }
-    if edges.non_manifold > 0 {
-        warnings.push(MeshWarning::NonManifoldEdges {
-            count: edges.non_manifold,
-        });
-    }
-
-    // 4. Orientation of closed meshes.
-    if edges.open == 0 {
-        let volume = mesh.signed_volume();
-        if volume < 0.0 {
-            let normals_inward = mesh.normals.as_ref().is_some_and(|normals| {
-                let mut agreement = 0.0f64;
-                for (i, t) in mesh.indices.iter().enumerate() {
-                    let fnrm = dvec(mesh.face_normal_raw(i));
-                    for &v in t {
-                        let n = dvec(normals[v as usize]);
-                        if n.is_finite() {
-                            agreement += n.dot(fnrm);
-                        }
+/// Step 4 of [`validate`] on a closed mesh: turns an inside-out mesh (negative signed volume)
+/// outward, with its normals if they pointed inward.
+fn orient_outward(mesh: &mut Mesh, warnings: &mut Vec<MeshWarning>) {
+    let volume = mesh.signed_volume();
+    if volume < 0.0 {
+        let normals_inward = mesh.normals.as_ref().is_some_and(|normals| {
+            let mut agreement = 0.0f64;
+            for (i, t) in mesh.indices.iter().enumerate() {
+                let fnrm = dvec(mesh.face_normal_raw(i));
+                for &v in t {
+                    let n = dvec(normals[v as usize]);
+                    if n.is_finite() {
+                        agreement += n.dot(fnrm);
                     }
                 }
-                agreement > 0.0
-            });
-            for t in &mut mesh.indices {
-                t.swap(1, 2);
             }
-            if normals_inward && let Some(normals) = &mut mesh.normals {
-                for n in normals.iter_mut() {
-                    *n = -*n;
-                }
-            }
-            warnings.push(MeshWarning::Flipped {
-                signed_volume_before: volume,
-            });
+            agreement > 0.0
+        });
+        for t in &mut mesh.indices {
+            t.swap(1, 2);
         }
+        if normals_inward && let Some(normals) = &mut mesh.normals {
+            for n in normals.iter_mut() {
+                *n = -*n;
+            }
+        }
+        warnings.push(MeshWarning::Flipped {
+            signed_volume_before: volume,
+        });
     }
+}
 
-    // 5. Normals.
+/// Step 5 of [`validate`]: recomputes broken normals, normalises the others.
+fn repair_normals(mesh: &mut Mesh, warnings: &mut Vec<MeshWarning>) {
     if let Some(normals) = &mut mesh.normals {
         let broken = normals
             .iter()
@@ -520,9 +543,4 @@ pub fn validate(mesh: &mut Mesh, source_name: &str) -> Result<Vec<MeshWarning>, 
     if warnings.contains(&MeshWarning::RecomputedNormals) {
         mesh.normals = Some(mesh.compute_vertex_normals());
     }
-
-    for w in &warnings {
-        tracing::warn!(source = source_name, "{source_name}: {w}");
-    }
-    Ok(warnings)
 }

@@ -29,62 +29,7 @@ impl Dataset {
         let name = file.display().to_string();
         let dir = base_dir(file);
 
-        // Format and version first, so that a wrong file gets a clear message rather than a list
-        // of unknown fields.
-        #[derive(Deserialize)]
-        struct Header {
-            format: Option<Value>,
-            version: Option<Value>,
-        }
-        let header: Header = serde_json::from_str(&text).map_err(|e| SceneError::Parse {
-            path: file.to_path_buf(),
-            reason: format!("not valid JSON: {e}"),
-        })?;
-        match header.format.as_ref().and_then(Value::as_str) {
-            Some(DATASET_FORMAT) => {}
-            other => {
-                return Err(SceneError::Invalid {
-                    location: format!(
-                        "{name}: format = {}",
-                        other
-                            .map(|s| format!("\"{s}\""))
-                            .unwrap_or_else(|| "(missing)".into())
-                    ),
-                    reason: format!(
-                        "not a translucent dataset; fix: the file must start with \
-                         {{\"format\": \"{DATASET_FORMAT}\", \"version\": {DATASET_VERSION}, …}} \
-                         (DATASET.md); a Mitsuba reference folder has scene.json instead"
-                    ),
-                });
-            }
-        }
-        match header.version.as_ref().and_then(Value::as_u64) {
-            Some(v) if v == DATASET_VERSION as u64 => {}
-            Some(v) if v > DATASET_VERSION as u64 => {
-                return Err(SceneError::Invalid {
-                    location: format!("{name}: version = {v}"),
-                    reason: format!(
-                        "written by a newer translucent (this one reads version \
-                         {DATASET_VERSION}); fix: update translucent"
-                    ),
-                });
-            }
-            _ => {
-                return Err(SceneError::Invalid {
-                    location: format!(
-                        "{name}: version = {}",
-                        header
-                            .version
-                            .map(|v| v.to_string())
-                            .unwrap_or_else(|| "(missing)".into())
-                    ),
-                    reason: format!(
-                        "unsupported dataset version; fix: set \"version\": {DATASET_VERSION} \
-                         and follow DATASET.md"
-                    ),
-                });
-            }
-        }
+        check_header(&text, file, &name)?;
 
         let raw: RawDataset = serde_json::from_str(&text).map_err(|e| SceneError::Parse {
             path: file.to_path_buf(),
@@ -128,25 +73,12 @@ impl Dataset {
                 reason: "no views; fix: add at least one view".into(),
             });
         }
-        let mut views = Vec::with_capacity(raw.views.len());
-        for (i, v) in raw.views.into_iter().enumerate() {
-            let ctx = format!("{name}: views[{i}]");
-            let camera = v.camera.to_camera(&format!("{ctx}.camera"))?;
-            let position = check_finite3(v.light.position, &format!("{ctx}.light.position"))?;
-            check_intensity(&v.light.intensity.0, &format!("{ctx}.light.intensity"))?;
-            let (image, image_path) =
-                load_view_image(&dir, &v.image, &format!("{ctx}.image"), &camera)?;
-            views.push(View {
-                camera,
-                light: PointLight {
-                    position,
-                    intensity: v.light.intensity.0,
-                },
-                image: Some(image),
-                image_path: Some(image_path),
-                expected_mean: None,
-            });
-        }
+        let views = raw
+            .views
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| load_view(v, &dir, &format!("{name}: views[{i}]")))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Dataset {
             views,
             mesh,
@@ -164,6 +96,84 @@ impl Dataset {
             warnings: Vec::new(),
         })
     }
+}
+
+/// The `format` and `version` fields, read first so that a wrong file gets a clear message
+/// rather than a list of unknown fields.
+fn check_header(text: &str, file: &Path, name: &str) -> Result<(), SceneError> {
+    #[derive(Deserialize)]
+    struct Header {
+        format: Option<Value>,
+        version: Option<Value>,
+    }
+    let header: Header = serde_json::from_str(text).map_err(|e| SceneError::Parse {
+        path: file.to_path_buf(),
+        reason: format!("not valid JSON: {e}"),
+    })?;
+    match header.format.as_ref().and_then(Value::as_str) {
+        Some(DATASET_FORMAT) => {}
+        other => {
+            return Err(SceneError::Invalid {
+                location: format!(
+                    "{name}: format = {}",
+                    other
+                        .map(|s| format!("\"{s}\""))
+                        .unwrap_or_else(|| "(missing)".into())
+                ),
+                reason: format!(
+                    "not a translucent dataset; fix: the file must start with \
+                     {{\"format\": \"{DATASET_FORMAT}\", \"version\": {DATASET_VERSION}, …}} \
+                     (DATASET.md); a Mitsuba reference folder has scene.json instead"
+                ),
+            });
+        }
+    }
+    match header.version.as_ref().and_then(Value::as_u64) {
+        Some(v) if v == DATASET_VERSION as u64 => {}
+        Some(v) if v > DATASET_VERSION as u64 => {
+            return Err(SceneError::Invalid {
+                location: format!("{name}: version = {v}"),
+                reason: format!(
+                    "written by a newer translucent (this one reads version \
+                     {DATASET_VERSION}); fix: update translucent"
+                ),
+            });
+        }
+        _ => {
+            return Err(SceneError::Invalid {
+                location: format!(
+                    "{name}: version = {}",
+                    header
+                        .version
+                        .map(|v| v.to_string())
+                        .unwrap_or_else(|| "(missing)".into())
+                ),
+                reason: format!(
+                    "unsupported dataset version; fix: set \"version\": {DATASET_VERSION} \
+                     and follow DATASET.md"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// One entry of `views` (`ctx` names it): its camera, its light and its image, checked.
+fn load_view(v: RawView, dir: &Path, ctx: &str) -> Result<View, SceneError> {
+    let camera = v.camera.to_camera(&format!("{ctx}.camera"))?;
+    let position = check_finite3(v.light.position, &format!("{ctx}.light.position"))?;
+    check_intensity(&v.light.intensity.0, &format!("{ctx}.light.intensity"))?;
+    let (image, image_path) = load_view_image(dir, &v.image, &format!("{ctx}.image"), &camera)?;
+    Ok(View {
+        camera,
+        light: PointLight {
+            position,
+            intensity: v.light.intensity.0,
+        },
+        image: Some(image),
+        image_path: Some(image_path),
+        expected_mean: None,
+    })
 }
 
 /// A dataset whose `truth` (what rendered it) contradicts its `object` (what a recovery renders

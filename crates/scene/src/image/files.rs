@@ -18,119 +18,9 @@ impl Image {
     /// file can hold ([`check_exr_size`]), so that a damaged size field is an error and not an
     /// allocation of gigabytes; a panic inside the decoder is an error naming the file.
     pub fn read_exr(path: &Path) -> Result<Image, SceneError> {
-        use exr::prelude::{AnyChannels, FlatSamples, Layer, ReadChannels, ReadLayers, Vec2};
-        let exr_err = |e: exr::error::Error| match e {
-            exr::error::Error::Io(source) => SceneError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
-            other => SceneError::Parse {
-                path: path.to_path_buf(),
-                reason: format!(
-                    "not a readable OpenEXR file ({other}); fix: write the image as a linear RGB \
-                     OpenEXR (e.g. Mitsuba's default film output)"
-                ),
-            },
-        };
-        let file_len = std::fs::metadata(path)
-            .map_err(|source| SceneError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?
-            .len();
-        // The decoder asserts its own invariants, and some of those a damaged file can break
-        // (a tile of a mip level in an image without levels trips a debug assertion): a panic
-        // inside it is an error about this file, not a crash.
-        let decoded = std::panic::catch_unwind(|| {
-            let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_err)?;
-            check_exr_size(&meta, file_len, path)?;
-            // `read_all_flat_layers_from_file` with sequential decompression: the parallel
-            // decoder runs on a thread pool whose panics abort the process, out of reach of
-            // this guard.
-            exr::prelude::read()
-                .no_deep_data()
-                .largest_resolution_level()
-                .all_channels()
-                .all_layers()
-                .all_attributes()
-                .non_parallel()
-                .from_file(path)
-                .map_err(exr_err)
-        });
-        let file = decoded.unwrap_or_else(|payload| {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_string());
-            Err(SceneError::Parse {
-                path: path.to_path_buf(),
-                reason: format!(
-                    "the OpenEXR decoder failed on this file ({what}); the file is damaged, \
-                     write the image again"
-                ),
-            })
-        })?;
-        let find = |layer: &Layer<AnyChannels<FlatSamples>>, name: &str| {
-            layer
-                .channel_data
-                .list
-                .iter()
-                .position(|c| c.name.to_string() == name)
-        };
-        // First layer with R, G, B; otherwise the first with a luminance channel Y.
-        let mut chosen = None;
-        for layer in &file.layer_data {
-            let idx: Vec<Option<usize>> = CHANNEL_NAMES.iter().map(|n| find(layer, n)).collect();
-            if idx.iter().all(Option::is_some) {
-                chosen = Some((
-                    layer,
-                    [idx[0].unwrap(), idx[1].unwrap(), idx[2].unwrap()],
-                    false,
-                ));
-                break;
-            }
-        }
-        if chosen.is_none() {
-            for layer in &file.layer_data {
-                if let Some(y) = find(layer, "Y") {
-                    chosen = Some((layer, [y, y, y], true));
-                    break;
-                }
-            }
-        }
-        let Some((layer, idx, grey)) = chosen else {
-            let mut names: Vec<String> = Vec::new();
-            for layer in &file.layer_data {
-                let prefix = layer
-                    .attributes
-                    .layer_name
-                    .as_ref()
-                    .map(|n| format!("{n}/"))
-                    .unwrap_or_default();
-                for c in &layer.channel_data.list {
-                    names.push(format!("{prefix}{}", c.name));
-                }
-            }
-            let missing: Vec<&str> = CHANNEL_NAMES
-                .iter()
-                .copied()
-                .filter(|n| !names.iter().any(|m| m == n))
-                .collect();
-            return Err(SceneError::Parse {
-                path: path.to_path_buf(),
-                reason: format!(
-                    "no channel(s) named {} (channels found: {}); fix: write the image with \
-                     channels R, G, B",
-                    missing.join(", "),
-                    if names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        names.join(", ")
-                    }
-                ),
-            });
-        };
+        use exr::prelude::Vec2;
+        let file = decode_exr(path)?;
+        let (layer, idx, grey) = rgb_layer(&file, path)?;
         let (w, h) = (layer.size.width(), layer.size.height());
         let (Ok(wu), Ok(hu)) = (u32::try_from(w), u32::try_from(h)) else {
             return Err(SceneError::Parse {
@@ -334,4 +224,138 @@ pub fn to_srgb8(v: f32) -> u8 {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+/// A decoded EXR file: flat samples of every channel of every layer.
+type ExrFile =
+    exr::image::Image<exr::image::Layers<exr::image::AnyChannels<exr::image::FlatSamples>>>;
+/// One layer of an [`ExrFile`].
+type ExrLayer = exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>;
+
+/// The EXR's layers, decoded sequentially after [`check_exr_size`]; errors and decoder panics
+/// are errors naming `path`.
+fn decode_exr(path: &Path) -> Result<ExrFile, SceneError> {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let exr_err = |e: exr::error::Error| match e {
+        exr::error::Error::Io(source) => SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => SceneError::Parse {
+            path: path.to_path_buf(),
+            reason: format!(
+                "not a readable OpenEXR file ({other}); fix: write the image as a linear RGB \
+                 OpenEXR (e.g. Mitsuba's default film output)"
+            ),
+        },
+    };
+    let file_len = std::fs::metadata(path)
+        .map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .len();
+    // The decoder asserts its own invariants, and some of those a damaged file can break
+    // (a tile of a mip level in an image without levels trips a debug assertion): a panic
+    // inside it is an error about this file, not a crash.
+    let decoded = std::panic::catch_unwind(|| {
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_err)?;
+        check_exr_size(&meta, file_len, path)?;
+        // `read_all_flat_layers_from_file` with sequential decompression: the parallel
+        // decoder runs on a thread pool whose panics abort the process, out of reach of
+        // this guard.
+        exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .non_parallel()
+            .from_file(path)
+            .map_err(exr_err)
+    });
+    let file = decoded.unwrap_or_else(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_string());
+        Err(SceneError::Parse {
+            path: path.to_path_buf(),
+            reason: format!(
+                "the OpenEXR decoder failed on this file ({what}); the file is damaged, \
+                 write the image again"
+            ),
+        })
+    })?;
+    Ok(file)
+}
+
+/// The first layer with channels R, G, B (their indices), else the first with a luminance
+/// channel Y (`grey`); an error naming the channels found otherwise.
+fn rgb_layer<'f>(
+    file: &'f ExrFile,
+    path: &Path,
+) -> Result<(&'f ExrLayer, [usize; 3], bool), SceneError> {
+    let find = |layer: &ExrLayer, name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .position(|c| c.name.to_string() == name)
+    };
+    // First layer with R, G, B; otherwise the first with a luminance channel Y.
+    let mut chosen = None;
+    for layer in &file.layer_data {
+        let idx: Vec<Option<usize>> = CHANNEL_NAMES.iter().map(|n| find(layer, n)).collect();
+        if idx.iter().all(Option::is_some) {
+            chosen = Some((
+                layer,
+                [idx[0].unwrap(), idx[1].unwrap(), idx[2].unwrap()],
+                false,
+            ));
+            break;
+        }
+    }
+    if chosen.is_none() {
+        for layer in &file.layer_data {
+            if let Some(y) = find(layer, "Y") {
+                chosen = Some((layer, [y, y, y], true));
+                break;
+            }
+        }
+    }
+    let Some((layer, idx, grey)) = chosen else {
+        let mut names: Vec<String> = Vec::new();
+        for layer in &file.layer_data {
+            let prefix = layer
+                .attributes
+                .layer_name
+                .as_ref()
+                .map(|n| format!("{n}/"))
+                .unwrap_or_default();
+            for c in &layer.channel_data.list {
+                names.push(format!("{prefix}{}", c.name));
+            }
+        }
+        let missing: Vec<&str> = CHANNEL_NAMES
+            .iter()
+            .copied()
+            .filter(|n| !names.iter().any(|m| m == n))
+            .collect();
+        return Err(SceneError::Parse {
+            path: path.to_path_buf(),
+            reason: format!(
+                "no channel(s) named {} (channels found: {}); fix: write the image with \
+                 channels R, G, B",
+                missing.join(", "),
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        });
+    };
+    Ok((layer, idx, grey))
 }

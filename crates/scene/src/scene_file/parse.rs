@@ -245,98 +245,8 @@ impl RawScene {
                     "no cameras: fix: add `[[views]]` entries (camera + light) or a `[rig]`",
                 ));
             }
-            (Some(v), None) => {
-                if v.is_empty() {
-                    return Err(inv(
-                        format!("{file}: views"),
-                        "the list of views is empty; fix: add at least one view",
-                    ));
-                }
-                let mut out = Vec::with_capacity(v.len());
-                for (i, view) in v.into_iter().enumerate() {
-                    let ctx = format!("{file}: views[{i}]");
-                    let c = &view.camera;
-                    let camera = look_at_checked(
-                        &format!("{ctx}.camera"),
-                        c.origin,
-                        c.target,
-                        c.up,
-                        c.fov,
-                        "fov",
-                        c.width,
-                        c.height,
-                    )?;
-                    let position =
-                        check_finite3(view.light.position, &format!("{ctx}.light.position"))?;
-                    check_intensity(&view.light.intensity.0, &format!("{ctx}.light.intensity"))?;
-                    out.push(ViewDesc {
-                        camera,
-                        light: PointLight {
-                            position,
-                            intensity: view.light.intensity.0,
-                        },
-                    });
-                }
-                out
-            }
-            (None, Some(r)) => {
-                let ctx = format!("{file}: rig");
-                let light = match (r.light, r.light_position, r.light_offset) {
-                    (RawRigLight::Fixed, Some(p), None) => RigLight::Fixed {
-                        position: Vec3::from_array(p),
-                    },
-                    (RawRigLight::Fixed, None, _) => {
-                        return Err(inv(
-                            format!("{ctx}.light_position"),
-                            "missing: a fixed light needs `light_position = [x, y, z]` (world \
-                             coordinates); fix: add it, or use light = \"attached\"",
-                        ));
-                    }
-                    (RawRigLight::Fixed, Some(_), Some(_)) => {
-                        return Err(inv(
-                            format!("{ctx}.light_offset"),
-                            "only used with light = \"attached\"; fix: remove it",
-                        ));
-                    }
-                    (RawRigLight::Attached, None, off) => RigLight::Attached {
-                        offset: Vec3::from_array(off.unwrap_or_default()),
-                    },
-                    (RawRigLight::Attached, Some(_), _) => {
-                        return Err(inv(
-                            format!("{ctx}.light_position"),
-                            "only used with light = \"fixed\"; an attached light is placed with \
-                             `light_offset` (camera frame); fix: remove it",
-                        ));
-                    }
-                };
-                let elevation = r.elevation.unwrap_or([-90.0, 90.0]);
-                let rig = Rig {
-                    views: r.views,
-                    radius: r.radius,
-                    target: Vec3::from_array(r.target),
-                    fov_x_deg: r.fov,
-                    width: r.width,
-                    height: r.height,
-                    light,
-                    intensity: r.intensity.0,
-                    elevation_deg: (elevation[0], elevation[1]),
-                };
-                rig.validate(&ctx)?;
-                let probe = Camera {
-                    origin: Vec3::ZERO,
-                    rotation: glam::Mat3::IDENTITY,
-                    fov_x_deg: r.fov,
-                    width: r.width,
-                    height: r.height,
-                    crop: None,
-                };
-                probe.validate_named(&ctx, "fov")?;
-                let views = rig.build();
-                for (i, v) in views.iter().enumerate() {
-                    v.camera.validate(&format!("{ctx} (view {i})"))?;
-                }
-                views
-            }
+            (Some(v), None) => listed_views(v, &file)?,
+            (None, Some(r)) => rig_views(r, &file)?,
         };
         let render = self.render.unwrap_or_default();
         render.validate(&format!("{file}: render"))?;
@@ -348,4 +258,107 @@ impl RawScene {
             path: path.to_path_buf(),
         })
     }
+}
+
+/// The scene's `[[views]]`, each camera and light checked (`file` names the scene file).
+fn listed_views(v: Vec<RawView>, file: &str) -> Result<Vec<ViewDesc>, SceneError> {
+    let inv = |location: String, reason: &str| SceneError::Invalid {
+        location,
+        reason: reason.into(),
+    };
+    if v.is_empty() {
+        return Err(inv(
+            format!("{file}: views"),
+            "the list of views is empty; fix: add at least one view",
+        ));
+    }
+    let mut out = Vec::with_capacity(v.len());
+    for (i, view) in v.into_iter().enumerate() {
+        let ctx = format!("{file}: views[{i}]");
+        let c = &view.camera;
+        let camera = look_at_checked(
+            &format!("{ctx}.camera"),
+            c.origin,
+            c.target,
+            c.up,
+            c.fov,
+            "fov",
+            c.width,
+            c.height,
+        )?;
+        let position = check_finite3(view.light.position, &format!("{ctx}.light.position"))?;
+        check_intensity(&view.light.intensity.0, &format!("{ctx}.light.intensity"))?;
+        out.push(ViewDesc {
+            camera,
+            light: PointLight {
+                position,
+                intensity: view.light.intensity.0,
+            },
+        });
+    }
+    Ok(out)
+}
+
+/// The views of the scene's `[rig]`, checked (`file` names the scene file).
+fn rig_views(r: RawRig, file: &str) -> Result<Vec<ViewDesc>, SceneError> {
+    let inv = |location: String, reason: &str| SceneError::Invalid {
+        location,
+        reason: reason.into(),
+    };
+    let ctx = format!("{file}: rig");
+    let light = match (r.light, r.light_position, r.light_offset) {
+        (RawRigLight::Fixed, Some(p), None) => RigLight::Fixed {
+            position: Vec3::from_array(p),
+        },
+        (RawRigLight::Fixed, None, _) => {
+            return Err(inv(
+                format!("{ctx}.light_position"),
+                "missing: a fixed light needs `light_position = [x, y, z]` (world \
+                 coordinates); fix: add it, or use light = \"attached\"",
+            ));
+        }
+        (RawRigLight::Fixed, Some(_), Some(_)) => {
+            return Err(inv(
+                format!("{ctx}.light_offset"),
+                "only used with light = \"attached\"; fix: remove it",
+            ));
+        }
+        (RawRigLight::Attached, None, off) => RigLight::Attached {
+            offset: Vec3::from_array(off.unwrap_or_default()),
+        },
+        (RawRigLight::Attached, Some(_), _) => {
+            return Err(inv(
+                format!("{ctx}.light_position"),
+                "only used with light = \"fixed\"; an attached light is placed with \
+                 `light_offset` (camera frame); fix: remove it",
+            ));
+        }
+    };
+    let elevation = r.elevation.unwrap_or([-90.0, 90.0]);
+    let rig = Rig {
+        views: r.views,
+        radius: r.radius,
+        target: Vec3::from_array(r.target),
+        fov_x_deg: r.fov,
+        width: r.width,
+        height: r.height,
+        light,
+        intensity: r.intensity.0,
+        elevation_deg: (elevation[0], elevation[1]),
+    };
+    rig.validate(&ctx)?;
+    let probe = Camera {
+        origin: Vec3::ZERO,
+        rotation: glam::Mat3::IDENTITY,
+        fov_x_deg: r.fov,
+        width: r.width,
+        height: r.height,
+        crop: None,
+    };
+    probe.validate_named(&ctx, "fov")?;
+    let views = rig.build();
+    for (i, v) in views.iter().enumerate() {
+        v.camera.validate(&format!("{ctx} (view {i})"))?;
+    }
+    Ok(views)
 }

@@ -146,6 +146,50 @@ impl ShapeSpec {
             location: format!("{context}.name = \"{}\"", self.name),
             reason: e.to_string(),
         })?;
+        self.check_finite(context)?;
+        let allowed = self.apply(&mut shape);
+        let given = [
+            ("radius", self.radius.is_some()),
+            ("subdivisions", self.subdivisions.is_some()),
+            ("height", self.height.is_some()),
+            ("tip_radius", self.tip_radius.is_some()),
+            ("segments", self.segments.is_some()),
+            ("major", self.major.is_some()),
+            ("minor", self.minor.is_some()),
+            ("size", self.size.is_some()),
+            ("amplitude", self.amplitude.is_some()),
+            ("bumps", self.bumps.is_some()),
+            ("seed", self.seed.is_some()),
+        ];
+        for (name, is_given) in given {
+            if is_given && !allowed.contains(&name) {
+                return Err(SceneError::Invalid {
+                    location: format!("{context}.{name}"),
+                    reason: format!(
+                        "shape '{}' has no parameter '{name}'; fix: remove it (its parameters: \
+                         scale, {})",
+                        self.name,
+                        allowed.join(", ")
+                    ),
+                });
+            }
+        }
+        if let Some(s) = self.scale {
+            if s <= 0.0 {
+                return Err(SceneError::Invalid {
+                    location: format!("{context}.scale = {s}"),
+                    reason: "scale must be > 0; fix: use e.g. 0.25 for an object about 0.25 \
+                             units across"
+                        .into(),
+                });
+            }
+            shape = shape.scaled(s);
+        }
+        Ok(shape)
+    }
+
+    /// The given numbers are finite (`context` names the table).
+    fn check_finite(&self, context: &str) -> Result<(), SceneError> {
         let floats = [
             ("scale", self.scale),
             ("radius", self.radius),
@@ -173,12 +217,18 @@ impl ShapeSpec {
                 reason: "must be finite".into(),
             });
         }
+        Ok(())
+    }
+
+    /// Sets the given parameters on `shape`; the names of the parameters it has.
+    fn apply(&self, shape: &mut geometry::Shape) -> &'static [&'static str] {
+        use geometry::Shape;
         fn set<T: Copy>(dst: &mut T, src: Option<T>) {
             if let Some(v) = src {
                 *dst = v;
             }
         }
-        let allowed: &[&str] = match &mut shape {
+        match shape {
             Shape::Sphere {
                 radius,
                 subdivisions,
@@ -233,45 +283,7 @@ impl ShapeSpec {
                 set(subdivisions, self.subdivisions);
                 &["radius", "amplitude", "bumps", "seed", "subdivisions"]
             }
-        };
-        let given = [
-            ("radius", self.radius.is_some()),
-            ("subdivisions", self.subdivisions.is_some()),
-            ("height", self.height.is_some()),
-            ("tip_radius", self.tip_radius.is_some()),
-            ("segments", self.segments.is_some()),
-            ("major", self.major.is_some()),
-            ("minor", self.minor.is_some()),
-            ("size", self.size.is_some()),
-            ("amplitude", self.amplitude.is_some()),
-            ("bumps", self.bumps.is_some()),
-            ("seed", self.seed.is_some()),
-        ];
-        for (name, is_given) in given {
-            if is_given && !allowed.contains(&name) {
-                return Err(SceneError::Invalid {
-                    location: format!("{context}.{name}"),
-                    reason: format!(
-                        "shape '{}' has no parameter '{name}'; fix: remove it (its parameters: \
-                         scale, {})",
-                        self.name,
-                        allowed.join(", ")
-                    ),
-                });
-            }
         }
-        if let Some(s) = self.scale {
-            if s <= 0.0 {
-                return Err(SceneError::Invalid {
-                    location: format!("{context}.scale = {s}"),
-                    reason: "scale must be > 0; fix: use e.g. 0.25 for an object about 0.25 \
-                             units across"
-                        .into(),
-                });
-            }
-            shape = shape.scaled(s);
-        }
-        Ok(shape)
     }
 
     /// Parse the compact command-line form `NAME[:KEY=VALUE]…`, e.g. `blob:amplitude=0.05:bumps=6`
