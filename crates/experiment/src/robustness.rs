@@ -5,8 +5,9 @@
 //! each of three optical sizes, the shapes taking turns; and nine of a real object's physics, a
 //! dielectric boundary (smooth η 1.5; rough η 1.33, GGX α 0.1; rough η 1.5, α 0.3) around a
 //! forward-scattering medium (HG g 0.3, 0.7, 0.9), at 15, 50 and 300 mean free paths (two
-//! orthogonal Latin squares: every boundary meets every g and every size once), the captures
-//! and shapes taking turns. The datasets state the boundary and the phase function, which the
+//! orthogonal Latin squares: every boundary meets every g and every size once), the shapes
+//! taking turns and every capture at least twice, a back light only at 15 and 50 (at 300 it
+//! lights nothing the cameras see). The datasets state the boundary and the phase function, which the
 //! recoveries read; the learned model renders neither (its runs say so, and the tracer's
 //! refinement carries them).
 //! * Captures: `flash` (a light 0.14 units from each camera, about 4° off its axis: the light

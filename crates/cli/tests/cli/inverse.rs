@@ -759,7 +759,7 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
 fn experiment_robustness_dielectric_cases_state_and_use_their_object() {
     let t = tmp();
     let d = t.path();
-    let cases = "flash-15-blob-smooth1.5-g0.3,backlit-300-blob-rough1.33a0.1-g0.7";
+    let cases = "flash-15-blob-smooth1.5-g0.3,fixed-300-blob-rough1.33a0.1-g0.7";
     let args = quick_robustness("dielectric", &["--cases", cases, "--model", "volpath"]);
     ok(d, &args);
     let csv = testkit::CsvTable::read(d.join("rb/robustness.csv"));
@@ -776,12 +776,12 @@ fn experiment_robustness_dielectric_cases_state_and_use_their_object() {
         assert_eq!(f[csv.column("g")], g);
         assert_eq!(f[csv.column("mfp")], if rough { "300" } else { "15" });
     }
-    let ds = read_json(&d.join("rb/data/backlit-300-blob-rough1.33a0.1-g0.7-r0/dataset.json"));
+    let ds = read_json(&d.join("rb/data/fixed-300-blob-rough1.33a0.1-g0.7-r0/dataset.json"));
     assert_eq!(ds["object"]["boundary"]["type"], "dielectric", "{ds}");
     let f32_at = |v: &serde_json::Value| v.as_f64().map(|x| x as f32);
     assert_eq!(f32_at(&ds["object"]["boundary"]["roughness"]), Some(0.1));
     assert_eq!(f32_at(&ds["object"]["phase"]["g"]), Some(0.7));
-    let res = read_json(&d.join("rb/runs/backlit-300-blob-rough1.33a0.1-g0.7-r0/result.json"));
+    let res = read_json(&d.join("rb/runs/fixed-300-blob-rough1.33a0.1-g0.7-r0/result.json"));
     assert_eq!(res["object"]["source"], "dataset", "{res}");
     let boundary = serde_json::json!({ "type": "dielectric", "eta": 1.33, "roughness": 0.1 });
     assert_eq!(res["object"]["boundary"], boundary, "{res}");

@@ -200,18 +200,28 @@ const DIELECTRIC_SIZES: [(f32, f32, f32); 3] = [
     (300.0, 70.0, 100.0),
 ];
 
+/// The captures of the dielectric cases by size and boundary ([size][boundary]): every capture
+/// at least twice, a back light only at 15 and 50 mean free paths. At 300 the light a back
+/// light sends in is absorbed before it crosses the object, and every view is black.
+const DIELECTRIC_CAPTURES: [[Capture; 3]; 3] = [
+    [Capture::Flash, Capture::Backlit, Capture::Fixed],
+    [Capture::Fixed, Capture::Turntable, Capture::Backlit],
+    [Capture::Turntable, Capture::Fixed, Capture::Flash],
+];
+
 /// The nine cases with a dielectric boundary and an HG medium: boundary b and j = 0, 1, 2 give
 /// the anisotropy (j + b) mod 3 and the size (j + 2b) mod 3 (two orthogonal Latin squares:
-/// every boundary meets every g and every size once, every g every size once), the shape j,
-/// the captures taking turns. Media drawn from `seed` (a stream of their own).
+/// every boundary meets every g and every size once, every g every size once), the shape j and
+/// the capture of [`DIELECTRIC_CAPTURES`]. Media drawn from `seed` (a stream of their own).
 pub fn dielectric_cases(seed: u64) -> Vec<Case> {
     let mut out = Vec::new();
     for (b, &(boundary, eta, roughness)) in BOUNDARIES.iter().enumerate() {
         for j in 0..3 {
             let i = 3 * b + j;
             let g = ANISOTROPIES[(j + b) % 3];
-            let (mfp, lo, hi) = DIELECTRIC_SIZES[(j + 2 * b) % 3];
-            let capture = Capture::ALL[i % 4];
+            let size = (j + 2 * b) % 3;
+            let (mfp, lo, hi) = DIELECTRIC_SIZES[size];
+            let capture = DIELECTRIC_CAPTURES[size][b];
             let shape = SHAPES[j];
             let medium = draw_medium(seed, 0x0B05_7001, i, lo, hi, (g, eta, roughness));
             let name = format!("{}-{}-{shape}-{boundary}-g{g}", capture.name(), mfp as u32);
@@ -323,6 +333,14 @@ mod tests {
             );
         }
         assert!(d.iter().any(|c| c.mfp == 300.0 && c.medium.roughness > 0.0));
+        // Every capture, none of them back-lit at 300 mean free paths (black views).
+        for capture in Capture::ALL {
+            assert!(d.iter().filter(|c| c.capture == capture).count() >= 2);
+        }
+        assert!(
+            d.iter()
+                .all(|c| c.capture != Capture::Backlit || c.mfp < 300.0)
+        );
         let all = Suite::All.cases(0);
         assert_eq!(all.len(), 21);
         assert_eq!(Suite::IndexMatched.cases(0).len(), 12);
