@@ -195,10 +195,7 @@ pub fn check_exr_size(
         }
         total = total.saturating_add(bytes);
         if total > budget {
-            let name = header
-                .own_attributes
-                .layer_name
-                .as_ref()
+            let name = layer_name(&header.own_attributes)
                 .map(|n| format!(" '{n}'"))
                 .unwrap_or_default();
             return Err(SceneError::Parse {
@@ -291,6 +288,11 @@ fn decode_exr(path: &Path) -> Result<ExrFile, SceneError> {
     Ok(file)
 }
 
+/// A layer's name, if it has one.
+fn layer_name(attributes: &exr::meta::header::LayerAttributes) -> Option<String> {
+    attributes.layer_name.as_ref().map(|n| n.to_string())
+}
+
 /// The first layer with channels R, G, B (their indices), else the first with a luminance
 /// channel Y (`grey`); an error naming the channels found otherwise.
 fn rgb_layer<'f>(
@@ -328,10 +330,7 @@ fn rgb_layer<'f>(
     let Some((layer, idx, grey)) = chosen else {
         let mut names: Vec<String> = Vec::new();
         for layer in &file.layer_data {
-            let prefix = layer
-                .attributes
-                .layer_name
-                .as_ref()
+            let prefix = layer_name(&layer.attributes)
                 .map(|n| format!("{n}/"))
                 .unwrap_or_default();
             for c in &layer.channel_data.list {
