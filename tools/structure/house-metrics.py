@@ -58,7 +58,7 @@ print("crate graph height:", max(h(c) for c in crates), {c: h(c) for c in crates
 args = 0; longs = set()
 for _, p in files:
     src = open(f"{root}/{p}").read()
-    for m in re.finditer(r"#\[arg\(([^\]]*)\)\]\s*(?:///[^\n]*\n\s*)*pub (\w+)", src):
+    for m in re.finditer(r"#\[arg\(([^\]]*)\)\]\s*(?:///[^\n]*\n\s*)*(?:pub )?(\w+)", src):
         args += 1
         lm = re.search(r'long\s*=\s*"([^"]+)"', m.group(1))
         longs.add(lm.group(1) if lm else m.group(2).replace("_", "-"))

@@ -16,6 +16,14 @@ use inverse::views::random_medium;
 
 /// Where the object comes from and how it is viewed and lit.
 #[derive(Args, Clone)]
+#[command(mut_arg(
+    "views",
+    cmdline::groups::default_and_help(
+        "40",
+        "Number of views (cameras on a Fibonacci sphere around the object)"
+    )
+))]
+#[command(mut_arg("res", cmdline::groups::default("256")))]
 pub struct RigArgs {
     /// Mesh file (OBJ or PLY). Mutually exclusive with --shape.
     #[arg(long, conflicts_with = "shape")]
@@ -29,12 +37,10 @@ pub struct RigArgs {
     /// allowed with --mesh).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f32,
-    /// Number of views (cameras on a Fibonacci sphere around the object).
-    #[arg(long, default_value_t = 40)]
-    pub views: usize,
-    /// Image width and height in pixels.
-    #[arg(long, default_value_t = 256)]
-    pub res: u32,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
     /// Horizontal field of view in degrees.
     #[arg(long, default_value_t = 35.0)]
     pub fov: f32,
@@ -100,19 +106,19 @@ impl RigArgs {
             },
         };
         let rig = Rig {
-            views: self.views,
+            views: *self.views,
             radius: self.radius,
             target: Vec3::ZERO,
             fov_x_deg: self.fov,
-            width: self.res,
-            height: self.res,
+            width: *self.res,
+            height: *self.res,
             light,
             intensity: self.intensity,
             elevation_deg: (-90.0, 90.0),
         };
         rig.validate("command line")?;
         anyhow::ensure!(
-            self.res > 0 && self.res <= 16384,
+            *self.res > 0 && *self.res <= 16384,
             "--res must be between 1 and 16384"
         );
         anyhow::ensure!(
@@ -169,56 +175,62 @@ impl MediumArgs {
 }
 
 #[derive(Args)]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the render and of --random-medium")
+))]
+#[command(mut_arg("out", cmdline::groups::help("Output dataset folder")))]
+#[command(mut_arg(
+    "overwrite",
+    cmdline::groups::help("Replace an existing dataset in --out")
+))]
+#[command(mut_arg("spp", cmdline::groups::default("256")))]
 pub struct DatasetArgs {
     #[command(flatten)]
     pub rig: RigArgs,
     #[command(flatten)]
     pub medium: MediumArgs,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 256)]
-    pub spp: u32,
-    /// Seed of the render and of --random-medium.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Maximum depth (Mitsuba volpath semantics).
     #[arg(long, default_value_t = 32)]
     pub max_depth: u32,
     /// Shadow-ray transmittance estimator of the volumetric tracer.
     #[arg(long, value_enum, default_value_t)]
     pub shadow: volpath::ShadowTransmittance,
-    /// Output dataset folder.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Replace an existing dataset in --out.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 use inverse::views::{RenderOpts, make_dataset};
 
 pub fn run(a: &DatasetArgs) -> Result<()> {
     let rig = a.rig.rig()?;
-    let medium = a.medium.medium(a.seed)?;
+    let medium = a.medium.medium(*a.seed)?;
     let ds = make_dataset(
         &rig,
         a.rig.mesh_source()?,
         medium,
         RenderOpts {
-            spp: a.spp,
-            seed: a.seed,
+            spp: *a.spp,
+            seed: *a.seed,
             max_depth: a.max_depth,
             shadow: a.shadow,
         },
         &a.out,
-        a.overwrite,
+        *a.overwrite,
         &cmdline::Terminal,
     )?;
     println!(
         "dataset: {} views of {}×{} at {} spp -> {}",
         ds.views.len(),
-        a.rig.res,
-        a.rig.res,
-        a.spp,
+        *a.rig.res,
+        *a.rig.res,
+        *a.spp,
         a.out.display()
     );
     println!(

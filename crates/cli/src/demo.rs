@@ -6,8 +6,6 @@
 //! minimum lies off the true σ_t, docs/notes/learned-model-bias.md), prints the estimate with its
 //! interval against the truth and writes the convergence plots and re-renders.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use clap::Args;
 use geometry::Shape;
@@ -21,22 +19,31 @@ use scene::rig::paper_rig;
 const MARKER: &str = ".translucent-demo";
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/demo",
+        "Output folder (reused by later runs of the demo; other folders are never overwritten)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::default_and_help("1", "Seed of the hidden medium and of the renders")
+))]
+#[command(mut_arg("spp", cmdline::groups::default("64")))]
+#[command(mut_arg("res", cmdline::groups::default_and_help("128", "Image size")))]
+#[command(mut_arg("views", cmdline::groups::default("8")))]
 pub struct DemoArgs {
-    /// Output folder (reused by later runs of the demo; other folders are never overwritten).
-    #[arg(long, default_value = "out/demo")]
-    pub out: PathBuf,
-    /// Seed of the hidden medium and of the renders.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
-    /// Image size.
-    #[arg(long, default_value_t = 128)]
-    pub res: u32,
-    /// Number of views.
-    #[arg(long, default_value_t = 8)]
-    pub views: usize,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
+    #[command(flatten)]
+    pub views: cmdline::Views,
     /// Optimisation iterations of each recovery (0: only render the dataset).
     #[arg(long, default_value_t = 200)]
     pub iterations: u32,
@@ -70,22 +77,22 @@ pub fn run(a: &DemoArgs) -> Result<()> {
             }
         }
     }
-    let medium = random_medium(a.seed);
+    let medium = random_medium(*a.seed);
     // One fixed light for all views, as in the paper's data (docs/model.md §8.3): the views from
     // the unlit side see light that crossed the object, the strongest σ_t signal.
-    let rig = paper_rig(a.views, a.res);
+    let rig = paper_rig(*a.views, *a.res);
     rig.validate("demo")?;
     println!(
         "translucent demo: bumpy blob, {} views {}×{} at {} spp (volumetric path tracer)",
-        a.views, a.res, a.res, a.spp
+        *a.views, *a.res, *a.res, *a.spp
     );
     let ds = make_dataset(
         &rig,
         MeshSource::Shape(Shape::from_name("blob")?),
         medium,
         RenderOpts {
-            spp: a.spp,
-            seed: a.seed,
+            spp: *a.spp,
+            seed: *a.seed,
             max_depth: 32,
             shadow: Default::default(),
         },
@@ -99,7 +106,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     )?;
     println!(
         "medium (paper ranges, seed {}): σ_t = ({:.2}, {:.2}, {:.2}) 1/unit, α = ({:.4}, {:.4}, {:.4})",
-        a.seed,
+        *a.seed,
         medium.sigma_t[0],
         medium.sigma_t[1],
         medium.sigma_t[2],
@@ -146,10 +153,10 @@ pub fn run(a: &DemoArgs) -> Result<()> {
 /// into `OUT/optimize`.
 pub(crate) fn recovery_args(a: &DemoArgs) -> cmdline::optimize::OptimizeArgs {
     let mut o =
-        cmdline::optimize::OptimizeArgs::with_defaults(a.out.clone(), a.out.join("optimize"));
+        cmdline::optimize::OptimizeArgs::with_defaults(a.out.to_path_buf(), a.out.join("optimize"));
     o.budget.iterations = a.iterations;
     o.seed = a.seed;
-    o.overwrite = true;
+    o.overwrite = true.into();
     o.refine = a.refine;
     o
 }

@@ -18,6 +18,8 @@ use cmdline::{LearnedArgs, parse_rgb};
 use inverse::views::build_accel;
 
 #[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::default("out/gradcheck")))]
+#[command(mut_arg("spp", cmdline::groups::default("64")))]
 pub struct GradcheckArgs {
     /// Dataset folder (ours or a Mitsuba reference folder): mesh, camera and light of --view.
     #[arg(long)]
@@ -40,24 +42,20 @@ pub struct GradcheckArgs {
         default_value = "ours,naive"
     )]
     pub estimators: Vec<String>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
     /// Relative σ_t offset Δ/σ_t.
     #[arg(long, default_value_t = 0.02)]
     pub delta_rel: f32,
     /// Value image of `ours`: `offset-mean` (mean of the two σ_t offset samples) or `sample`.
     #[arg(long, default_value = "offset-mean")]
     pub primal: Primal,
-    /// Output folder.
-    #[arg(long, default_value = "out/gradcheck")]
-    pub out: PathBuf,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace existing outputs.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
     #[command(flatten)]
     pub learned: LearnedArgs,
 }
@@ -91,8 +89,8 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
     let accel = build_accel(mesh, &warnings, &a.dataset.display().to_string());
     let model = a.learned.load_model()?;
     let rs = RenderSettings {
-        spp: a.spp,
-        seed: a.seed,
+        spp: *a.spp,
+        seed: *a.seed,
         view: a.view as u64,
     };
     let estimators: Vec<Estimator> = a
@@ -103,7 +101,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out)?;
     let results = render_estimators(
         &accel,
-        LearnedSpec::new(&model, a.learned.settings(), a.seed),
+        LearnedSpec::new(&model, a.learned.settings(), *a.seed),
         medium,
         &view.camera,
         &view.light,
@@ -113,14 +111,14 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
         a.delta_rel,
         a.primal,
     )?;
-    inverse::gradcheck::write_estimators(&results, &a.out, a.overwrite)?;
+    inverse::gradcheck::write_estimators(&results, &a.out, *a.overwrite)?;
     println!(
         "view {} of {}, σ_t = {:?}, α = {:?}, {} spp",
         a.view,
         a.dataset.display(),
         medium.sigma_t,
         medium.albedo,
-        a.spp
+        *a.spp
     );
     println!(
         "{:<20} {:>8} | {:>36} {:>8} {:>6} | {:>36} {:>8} {:>6}",
@@ -163,7 +161,7 @@ pub fn run(a: &GradcheckArgs) -> Result<()> {
             ));
         }
     }
-    scene::fsutil::atomic_write(&a.out.join("gradcheck.csv"), csv.as_bytes(), a.overwrite)?;
+    scene::fsutil::atomic_write(&a.out.join("gradcheck.csv"), csv.as_bytes(), *a.overwrite)?;
     println!("wrote {}", a.out.display());
     Ok(())
 }

@@ -35,7 +35,7 @@ mod tests {
         assert_eq!(config_for(&o.settings()), OptimizeConfig::default());
         let demo = crate::demo::recovery_args(&cmdline::arg_defaults::<crate::demo::DemoArgs>(&[]));
         let expected = OptimizeConfig {
-            seed: demo.seed,
+            seed: *demo.seed,
             ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
         assert_eq!(config_for(&demo.settings()), expected);
@@ -48,7 +48,7 @@ mod tests {
         // the defaults.
         let run = experiment::accuracy::run_args(&exp, &d, &d, "ours", init);
         let expected = OptimizeConfig {
-            seed: exp.seed,
+            seed: *exp.seed,
             refine_iterations: 0,
             refine_restarts_moments: false,
             ..OptimizeConfig::default()
@@ -58,7 +58,7 @@ mod tests {
         let suite = cmdline::arg_defaults::<experiment::robustness::RobustnessArgs>(&[]);
         let run = experiment::robustness::run_args(&suite, &d, &d, 0);
         let expected = OptimizeConfig {
-            seed: suite.seed,
+            seed: *suite.seed,
             ..OptimizeConfig::default()
         };
         assert_eq!(config_for(&run.settings), expected);

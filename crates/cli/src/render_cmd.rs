@@ -28,13 +28,20 @@ use cmdline::{LearnedArgs, by_rows, check_output_free, write_outputs};
 use inverse::views::build_accel;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help("out/render", "Output folder (created if needed)")
+))]
+#[command(mut_arg(
+    "overwrite",
+    cmdline::groups::help("Replace existing images in the output folder")
+))]
 pub struct RenderArgs {
     /// Scene file (.toml or .json; format in SCENE.md), or a dataset folder (dataset.json or a
     /// Mitsuba reference folder with scene.json: its truth medium is rendered).
     pub scene: PathBuf,
-    /// Output folder (created if needed).
-    #[arg(long, default_value = "out/render")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Samples per pixel (default: the scene's [render].spp, else 64).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -70,9 +77,8 @@ pub struct RenderArgs {
     /// `optimize --dataset`, `compare` and `translucent-dev loss-scan` read.
     #[arg(long)]
     pub as_dataset: bool,
-    /// Replace existing images in the output folder.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 pub fn run(a: &RenderArgs) -> Result<()> {
@@ -88,15 +94,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     let names: Vec<String> = (0..desc.views.len())
         .map(|i| format!("view_{i:03}"))
         .collect();
-    check_output_free(&a.out, &names, a.overwrite)?;
+    check_output_free(&a.out, &names, *a.overwrite)?;
     let derivative_names: Vec<[String; 2]> = names
         .iter()
         .map(|n| [format!("{n}_d_sigma_t"), format!("{n}_d_albedo")])
         .collect();
     if a.derivatives {
-        check_output_free(&a.out, &derivative_names.concat(), a.overwrite)?;
+        check_output_free(&a.out, &derivative_names.concat(), *a.overwrite)?;
     }
-    if a.as_dataset && !a.overwrite && a.out.join("dataset.json").exists() {
+    if a.as_dataset && !*a.overwrite && a.out.join("dataset.json").exists() {
         bail!(
             "{} already holds a dataset; pass --overwrite to replace it",
             a.out.display()
@@ -164,13 +170,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         for (v, img) in ds.views.iter_mut().zip(&rep.images) {
             v.image = Some(img.clone());
         }
-        ds.save(&a.out, a.overwrite)
+        ds.save(&a.out, *a.overwrite)
             .with_context(|| format!("writing the dataset {}", a.out.display()))?;
     } else {
-        write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
+        write_outputs(&a.out, &names, &rep.images, *a.overwrite)?;
     }
     if a.derivatives {
-        write_derivatives(&a.out, &derivative_names, &rep.derivatives, a.overwrite)?;
+        write_derivatives(&a.out, &derivative_names, &rep.derivatives, *a.overwrite)?;
     }
     let total: f64 = rep.seconds_per_view.iter().sum();
     println!(

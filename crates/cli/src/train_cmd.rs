@@ -33,10 +33,14 @@ pub enum TrainCommand {
 }
 
 #[derive(Args, Clone)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::help("Output folder (train.tlsamples, val.tlsamples)")
+))]
+#[command(mut_arg("overwrite", cmdline::groups::help("Replace existing files")))]
 pub struct DataArgs {
-    /// Output folder (train.tlsamples, val.tlsamples).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Random training meshes.
     #[arg(long, default_value_t = 160)]
     pub meshes: usize,
@@ -62,22 +66,27 @@ pub struct DataArgs {
     /// give more strongly curved surfaces in units of the kernel σ_n.
     #[arg(long, default_value_t = 20.0)]
     pub mesh_scale: f32,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace existing files.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 #[derive(Args, Clone)]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed (initialisation, batch order, VAE noise)")
+))]
+#[command(mut_arg(
+    "overwrite",
+    cmdline::groups::help("Replace the outputs of an existing run in --out (without --resume)")
+))]
 pub struct FitArgs {
     /// Folder written by `train data`.
     #[arg(long)]
     pub data: PathBuf,
-    /// Output folder.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Optimisation steps.
     #[arg(long, default_value_t = 400_000)]
     pub steps: u64,
@@ -130,28 +139,27 @@ pub struct FitArgs {
     /// initialisation: its widths and input normalisation are kept (fine-tuning).
     #[arg(long)]
     pub init: Option<PathBuf>,
-    /// Seed (initialisation, batch order, VAE noise).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Continue the run in --out from its checkpoint (--steps may extend it).
     #[arg(long)]
     pub resume: bool,
-    /// Replace the outputs of an existing run in --out (without --resume).
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 #[derive(Args, Clone)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::help("Output folder (data/ and model/ inside)")
+))]
 pub struct AllArgs {
-    /// Output folder (data/ and model/ inside).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace existing outputs.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 pub fn run(cmd: &TrainCommand) -> Result<()> {
@@ -161,7 +169,7 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
         TrainCommand::All(a) => {
             let data: DataArgs = arg_defaults(&["--out", "o"]);
             run_data(&DataArgs {
-                out: a.out.join("data"),
+                out: a.out.join("data").into(),
                 seed: a.seed,
                 overwrite: a.overwrite,
                 ..data
@@ -169,7 +177,7 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
             let fit: FitArgs = arg_defaults(&["--data", "d", "--out", "o"]);
             let cvae = FitArgs {
                 data: a.out.join("data"),
-                out: a.out.join("cvae"),
+                out: a.out.join("cvae").into(),
                 seed: a.seed,
                 overwrite: a.overwrite,
                 ..fit
@@ -185,7 +193,7 @@ pub fn run(cmd: &TrainCommand) -> Result<()> {
 /// "The energy score: the decoder fitted as a distribution").
 pub fn energy_stage(cvae: &FitArgs, out: PathBuf) -> FitArgs {
     FitArgs {
-        out,
+        out: out.into(),
         init: Some(cvae.out.join("model.safetensors")),
         objective: learn::train::ObjectiveKind::Energy,
         draws: ENERGY_DRAWS,
@@ -227,7 +235,7 @@ fn run_data(a: &DataArgs) -> Result<()> {
         configs_per_mesh: a.configs_per_mesh,
         samples_per_config: a.samples_per_config,
         path_attempts: a.path_attempts,
-        seed: a.seed,
+        seed: *a.seed,
         quirk_c19: !a.no_c19_quirk,
         base_meshes,
         base_mesh_names,
@@ -246,7 +254,7 @@ fn run_data(a: &DataArgs) -> Result<()> {
         if meshes == 0 {
             continue;
         }
-        if path.exists() && !a.overwrite {
+        if path.exists() && !*a.overwrite {
             bail!(
                 "{} exists; pass --overwrite to replace it or choose another --out",
                 path.display()
@@ -263,7 +271,7 @@ fn run_data(a: &DataArgs) -> Result<()> {
         pb.finish_and_clear();
         let secs = t0.elapsed().as_secs_f64();
         let header = SampleFileHeader::new(&cfg, Some(&summary));
-        write_samples(&path, &header, &samples, a.overwrite)?;
+        write_samples(&path, &header, &samples, *a.overwrite)?;
         println!(
             "{name}: {} samples from {} meshes ({} configurations, {} skipped; {} paths, {:.1} % \
              absorbed) in {secs:.1} s ({:.0} samples/s) -> {}",
@@ -298,7 +306,7 @@ pub fn train_config(a: &FitArgs) -> Result<TrainConfig> {
             position: a.position_weight,
             ..Default::default()
         },
-        seed: a.seed,
+        seed: *a.seed,
         eval_every: a.eval_every.max(1),
         checkpoint_every: a.checkpoint_every.max(1),
         objective: match a.objective {
@@ -315,10 +323,10 @@ pub fn train_config(a: &FitArgs) -> Result<TrainConfig> {
 pub fn run_fit(a: &FitArgs) -> Result<()> {
     let run = learn::fit::FitRun {
         data: a.data.clone(),
-        out: a.out.clone(),
+        out: a.out.to_path_buf(),
         init: a.init.clone(),
         resume: a.resume,
-        overwrite: a.overwrite,
+        overwrite: *a.overwrite,
         config: train_config(a)?,
     };
     let done = learn::fit::run(&run, &cmdline::progress(0, "train"))?;
@@ -347,7 +355,7 @@ mod tests {
             (160, 16, 1250)
         );
         assert_eq!(
-            (d.samples_per_config, d.path_attempts, d.seed),
+            (d.samples_per_config, d.path_attempts, *d.seed),
             (16, 1024, 0)
         );
         assert!(!d.no_c19_quirk);
@@ -369,7 +377,7 @@ mod tests {
     #[test]
     fn train_all_fine_tunes_as_the_shipped_model_was() {
         let cvae = FitArgs {
-            out: "o/cvae".into(),
+            out: PathBuf::from("o/cvae").into(),
             ..arg_defaults(&["--data", "d", "--out", "o"])
         };
         let stage = energy_stage(&cvae, "o/model".into());

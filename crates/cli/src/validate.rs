@@ -30,12 +30,22 @@ use inverse::views::build_accel;
 use scene::image::pair_stats;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/validate-mitsuba",
+        "Output folder for our renders (view_XXX.exr/.png, same names as the reference)"
+    )
+))]
+#[command(mut_arg(
+    "overwrite",
+    cmdline::groups::help("Replace existing images in the output folder")
+))]
 pub struct ValidateArgs {
     /// Reference folder (scene.json + mesh + view_XXX.exr).
     pub dir: PathBuf,
-    /// Output folder for our renders (view_XXX.exr/.png, same names as the reference).
-    #[arg(long, default_value = "out/validate-mitsuba")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Samples per pixel of our renders (the reference's own spp by default, so both renders
     /// carry comparable noise).
     #[arg(long)]
@@ -50,9 +60,8 @@ pub struct ValidateArgs {
     /// recorded in scene.json).
     #[arg(long, requires = "equal_time")]
     pub time_per_view: Option<f64>,
-    /// Seed of every random stream.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Replaced by `--model` (learned, volpath, dipole or a model file).
     #[arg(long, hide = true)]
     pub method: Option<String>,
@@ -76,9 +85,8 @@ pub struct ValidateArgs {
     /// A view is dark when its mean luminance is below this fraction of the brightest view's.
     #[arg(long, default_value_t = 0.05)]
     pub dark_fraction: f64,
-    /// Replace existing images in the output folder.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 fn luminance(m: [f64; 3]) -> f64 {
@@ -148,7 +156,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
                 .unwrap_or_else(|| format!("view_{i:03}"))
         })
         .collect();
-    check_output_free(&a.out, &names, a.overwrite)?;
+    check_output_free(&a.out, &names, *a.overwrite)?;
     let (mesh, warnings) = ds.load_mesh()?;
     let accel = build_accel(mesh, &warnings, &ds.mesh.describe());
     let settings = VolpathSettings {
@@ -162,7 +170,7 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     let t0 = Instant::now();
     let (rep, spp, learned) = render_views(a, &ds, &accel, &medium, &views, &settings, budget)?;
     let total = t0.elapsed().as_secs_f64();
-    write_outputs(&a.out, &names, &rep.images, a.overwrite)?;
+    write_outputs(&a.out, &names, &rep.images, *a.overwrite)?;
 
     let brightest = refs.iter().map(|r| luminance(r.mean())).fold(0.0, f64::max);
     println!(
@@ -256,13 +264,13 @@ fn render_views(
         medium,
         views,
         spp,
-        seed: a.seed,
+        seed: *a.seed,
     };
     let rep = match (learned, budget) {
         (false, Some(budget)) => {
             let pb = progress(0, "equal time");
             let (images, reached) = inverse::views::volpath_equal_time(
-                accel, medium, views, a.seed, &settings, budget, &pb,
+                accel, medium, views, *a.seed, &settings, budget, &pb,
             );
             spp = reached;
             images
@@ -275,7 +283,7 @@ fn render_views(
         ),
         (true, None) => {
             let model = a.learned.load_model()?;
-            let spec = LearnedSpec::new(&model, a.learned.settings(), a.seed);
+            let spec = LearnedSpec::new(&model, a.learned.settings(), *a.seed);
             by_rows(views, "learned", |pb| {
                 inverse::views::render(ModelSpec::Learned(spec), &job, false, pb)
             })?

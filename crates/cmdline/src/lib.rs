@@ -48,7 +48,10 @@ pub enum CmdlineError {
 
 pub type Result<T, E = CmdlineError> = std::result::Result<T, E>;
 
+pub mod groups;
 pub mod optimize;
+
+pub use groups::{Output, Overwrite, Quick, Resolution, Seed, Spp, Views};
 
 /// The options every command of a program takes (`--threads`, `--quiet`).
 #[derive(clap::Args, Clone, Copy, Debug, Default)]

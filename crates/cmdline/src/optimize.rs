@@ -23,14 +23,15 @@ mod bias_correction;
 pub use bias_correction::BiasCorrectionArgs;
 
 #[derive(Args, Clone)]
+#[command(mut_arg("out", crate::groups::default("out/optimize")))]
+#[command(mut_arg("overwrite", crate::groups::help("Replace an existing run in --out")))]
 pub struct OptimizeArgs {
     /// Dataset folder: ours (dataset.json) or a Mitsuba reference folder (scene.json); its
     /// truth medium, when present, is only used to report errors.
     #[arg(long)]
     pub dataset: PathBuf,
-    /// Output folder.
-    #[arg(long, default_value = "out/optimize")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: crate::Output,
     /// Gradient estimator of the model (`--model`). The learned BSSRDF takes ours (default),
     /// ours-alpha-offsets, naive and fd; `volpath` and `dipole` take ad (default) and fd.
     #[arg(long, alias = "method", value_name = "ESTIMATOR")]
@@ -153,9 +154,8 @@ pub struct OptimizeArgs {
     /// model (0: no check).
     #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = RecoverySettings::default().checks.consistency_views)]
     pub consistency_views: usize,
-    /// Seed.
-    #[arg(long, default_value_t = RecoverySettings::default().schedule.seed)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: crate::Seed,
     /// Several initialisations first: N shorter runs (a third of --iterations each) from σ_t
     /// between a third and three times --init-sigma-t; the one with the lowest loss starts the
     /// run. For images that may leave σ_t open; costs N/3 more runs. Listed in
@@ -165,9 +165,8 @@ pub struct OptimizeArgs {
     /// Continue the run in --out from its checkpoint (--iterations may extend it).
     #[arg(long)]
     pub resume: bool,
-    /// Replace an existing run in --out.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub overwrite: crate::Overwrite,
     #[command(flatten)]
     pub bc: BiasCorrectionArgs,
     #[command(flatten)]
@@ -197,7 +196,7 @@ impl OptimizeArgs {
     pub fn with_defaults(dataset: PathBuf, out: PathBuf) -> Self {
         Self {
             dataset,
-            out,
+            out: out.into(),
             ..crate::arg_defaults(&["--dataset", "d"])
         }
     }
@@ -232,7 +231,7 @@ impl OptimizeArgs {
             },
             schedule: Schedule {
                 view_subset: self.view_subset.clone(),
-                seed: self.seed,
+                seed: *self.seed,
                 lr_sigma_t: self.lr_sigma_t,
                 lr_albedo: self.lr_albedo,
                 decay: self.decay,
@@ -280,7 +279,7 @@ impl OptimizeArgs {
             },
             bias_correction: self.bc.settings(),
             resume: self.resume,
-            overwrite: self.overwrite,
+            overwrite: *self.overwrite,
         };
         self.budget.apply(&mut s.schedule);
         self.learned.apply(&mut s);
@@ -290,5 +289,6 @@ impl OptimizeArgs {
 
 /// The library's recovery for `a` ([`inverse::recovery`]): the flags as a typed configuration.
 pub fn recovery_config(a: &OptimizeArgs) -> Result<RecoveryConfig> {
-    Ok(a.settings().resolve_for(a.dataset.clone(), a.out.clone())?)
+    Ok(a.settings()
+        .resolve_for(a.dataset.clone(), a.out.to_path_buf())?)
 }

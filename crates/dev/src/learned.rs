@@ -28,6 +28,16 @@ use inverse::views::build_accel;
 use scene::image::pair_stats;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help("out/bench-learned", "Output folder (volpath cache, CSV)")
+))]
+#[command(mut_arg("views", cmdline::groups::default_and_help("2", "Views per case")))]
+#[command(mut_arg("res", cmdline::groups::default_and_help("64", "Image size")))]
+#[command(mut_arg(
+    "spp",
+    cmdline::groups::default_and_help("64", "Samples per pixel of the learned renders")
+))]
 pub struct LearnedBenchArgs {
     /// Model files to evaluate (one or more, comma-separated; `shipped` = the built-in model),
     /// e.g. `shipped,son24.safetensors` (the imported reference model). With two or more, the
@@ -43,24 +53,19 @@ pub struct LearnedBenchArgs {
     /// Albedos α.
     #[arg(long, value_delimiter = ',', default_value = "0.8,0.9,0.98")]
     pub albedo: Vec<f32>,
-    /// Views per case.
-    #[arg(long, default_value_t = 2)]
-    pub views: usize,
-    /// Image size.
-    #[arg(long, default_value_t = 64)]
-    pub res: u32,
-    /// Samples per pixel of the learned renders.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
     /// Samples per pixel of the volumetric reference.
     #[arg(long, default_value_t = 1024)]
     pub volpath_spp: u32,
-    /// Output folder (volpath cache, CSV).
-    #[arg(long, default_value = "out/bench-learned")]
-    pub out: PathBuf,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Light-side exit law of the learned renders.
     #[arg(long, value_enum, default_value_t)]
     pub exit_law: bssrdf::exit::ExitLaw,
@@ -87,6 +92,50 @@ fn errors(a: &[Image], b: &[Image]) -> Result<(f64, f64)> {
     Ok((me / n, rr / n))
 }
 
+/// The table's and the CSV's headers: a mean error and an rRMSE per model and feature mode.
+fn headers(models: &[PathBuf], csv: &mut std::fs::File) -> Result<()> {
+    write!(csv, "shape,sigma_t,albedo")?;
+    for p in models {
+        let name = p.file_stem().unwrap_or_default().to_string_lossy();
+        write!(
+            csv,
+            ",{name}_mean_err,{name}_rel_rmse,{name}_planar_mean_err,{name}_planar_rel_rmse"
+        )?;
+    }
+    writeln!(csv)?;
+    print!("{:<7} {:>5} {:>5}", "shape", "σ_t", "α");
+    for p in models {
+        let name = p.file_stem().unwrap_or_default().to_string_lossy();
+        print!(
+            " | {:>22} {:>22}",
+            format!("{name}: mean err, rRMSE"),
+            "planar: mean err, rRMSE"
+        );
+    }
+    println!();
+    Ok(())
+}
+
+/// The volumetric tracer's images of a case at `spp`, written to `dir` (the cache a later run
+/// reads).
+fn tracer_reference(
+    job: inverse::views::Job,
+    spp: u32,
+    dir: &std::path::Path,
+    names: &[String],
+) -> Result<Vec<Image>> {
+    let rep = by_rows(job.views, "volpath", |pb| {
+        inverse::views::render(
+            ModelSpec::tracer(VolpathSettings::default()),
+            &inverse::views::Job { spp, ..job },
+            false,
+            pb,
+        )
+    })?;
+    cmdline::write_outputs(dir, names, &rep.images, true)?;
+    Ok(rep.images)
+}
+
 pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     let models: Vec<_> = a
         .model
@@ -96,25 +145,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out)?;
     let csv_path = a.out.join("learned_vs_volpath.csv");
     let mut csv = std::fs::File::create(&csv_path)?;
-    write!(csv, "shape,sigma_t,albedo")?;
-    for p in &a.model {
-        let name = p.file_stem().unwrap_or_default().to_string_lossy();
-        write!(
-            csv,
-            ",{name}_mean_err,{name}_rel_rmse,{name}_planar_mean_err,{name}_planar_rel_rmse"
-        )?;
-    }
-    writeln!(csv)?;
-    print!("{:<7} {:>5} {:>5}", "shape", "σ_t", "α");
-    for p in &a.model {
-        let name = p.file_stem().unwrap_or_default().to_string_lossy();
-        print!(
-            " | {:>22} {:>22}",
-            format!("{name}: mean err, rRMSE"),
-            "planar: mean err, rRMSE"
-        );
-    }
-    println!();
+    headers(&a.model, &mut csv)?;
     let t0 = Instant::now();
     // Per model and feature mode: (|mean err|, rRMSE) of every case.
     let mut results: Vec<[Vec<(f64, f64)>; 2]> = vec![[Vec::new(), Vec::new()]; models.len()];
@@ -122,8 +153,8 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
         let shape = Shape::from_name(shape_name)?;
         let accel = build_accel(shape.build()?, &[], shape_name);
         let rig = house_rig(
-            a.views,
-            a.res,
+            *a.views,
+            *a.res,
             RigLight::Attached {
                 offset: Vec3::new(0.8, 0.8, 0.0),
             },
@@ -144,7 +175,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                 let case = format!("{shape_name}_s{st}_a{al}");
                 let dir = a.out.join("volpath").join(format!(
                     "{case}_{}v_{}px_{}spp_seed{}",
-                    a.views, a.res, a.volpath_spp, a.seed
+                    *a.views, *a.res, a.volpath_spp, *a.seed
                 ));
                 let names: Vec<String> = (0..views.len()).map(|i| format!("view_{i:03}")).collect();
                 let cached: Option<Vec<Image>> = names
@@ -155,26 +186,12 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     accel: &accel,
                     medium: &medium,
                     views: &views,
-                    spp: a.spp,
-                    seed: a.seed,
+                    spp: *a.spp,
+                    seed: *a.seed,
                 };
                 let reference = match cached {
                     Some(v) => v,
-                    None => {
-                        let rep = by_rows(&views, "volpath", |pb| {
-                            inverse::views::render(
-                                ModelSpec::tracer(VolpathSettings::default()),
-                                &inverse::views::Job {
-                                    spp: a.volpath_spp,
-                                    ..job
-                                },
-                                false,
-                                pb,
-                            )
-                        })?;
-                        cmdline::write_outputs(&dir, &names, &rep.images, true)?;
-                        rep.images
-                    }
+                    None => tracer_reference(job, a.volpath_spp, &dir, &names)?,
                 };
                 print!("{shape_name:<7} {st:>5} {al:>5}");
                 write!(csv, "{shape_name},{st},{al}")?;

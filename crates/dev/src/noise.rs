@@ -34,7 +34,6 @@
 //! differentiable recovery.
 
 use std::io::Write;
-use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -44,12 +43,27 @@ use scene::rig::RigLight;
 use scene::{Image, Medium};
 use volpath::VolpathSettings;
 
+use bssrdf::nn::ShapeAdaptiveModel;
 use cmdline::{by_rows, parse_rgb};
 use inverse::forward::ModelSpec;
-use inverse::views::build_accel;
+use inverse::views::{RenderReport, build_accel};
 use scene::rig::house_rig;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/bench-noise",
+        "Output folder (`noise.csv`, `gradient-noise.csv`)"
+    )
+))]
+#[command(mut_arg("seed", cmdline::groups::help("Seed (renders use seed and seed + 1)")))]
+#[command(mut_arg("views", cmdline::groups::default_and_help("4", "Views per scene")))]
+#[command(mut_arg("res", cmdline::groups::default_and_help("128", "Image size")))]
+#[command(mut_arg(
+    "spp",
+    cmdline::groups::default_and_help("64", "Samples per pixel of the learned renders")
+))]
 pub struct NoiseBenchArgs {
     /// Blob sizes (uniform scale of the unit blob, about 1 unit across at scale 1).
     #[arg(long, value_delimiter = ',', default_value = "0.4,1")]
@@ -60,15 +74,12 @@ pub struct NoiseBenchArgs {
     /// Albedo per channel.
     #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "0.85,0.92,0.96")]
     pub albedo: [f32; 3],
-    /// Views per scene.
-    #[arg(long, default_value_t = 4)]
-    pub views: usize,
-    /// Image size.
-    #[arg(long, default_value_t = 128)]
-    pub res: u32,
-    /// Samples per pixel of the learned renders.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
     /// Samples per pixel of the volumetric renders.
     #[arg(long, default_value_t = 128)]
     pub volpath_spp: u32,
@@ -81,12 +92,10 @@ pub struct NoiseBenchArgs {
     /// Samples per pixel of the gradient evaluations (the default of `optimize`).
     #[arg(long, default_value_t = 32)]
     pub grad_spp: u32,
-    /// Output folder (`noise.csv`, `gradient-noise.csv`).
-    #[arg(long, default_value = "out/bench-noise")]
-    pub out: PathBuf,
-    /// Seed (renders use seed and seed + 1).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
 }
 
 struct Case {
@@ -171,7 +180,7 @@ fn mean_image(a: &[Image], b: &[Image]) -> Vec<Image> {
 
 pub fn run(a: &NoiseBenchArgs) -> Result<()> {
     anyhow::ensure!(
-        a.views > 0 && a.spp > 0 && a.volpath_spp > 0 && a.res > 0,
+        *a.views > 0 && *a.spp > 0 && a.volpath_spp > 0 && *a.res > 0,
         "--views, --res, --spp and --volpath-spp must be at least 1"
     );
     let schemes: Vec<bssrdf::render::PixelSampling> = a
@@ -199,7 +208,7 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
     )?;
     println!(
         "{} views of {}², learned {} spp, volpath {} spp; v = relative variance of one render per pixel, t = seconds per render",
-        a.views, a.res, a.spp, a.volpath_spp
+        *a.views, *a.res, *a.spp, a.volpath_spp
     );
     println!(
         "{:<22} {:<18} {:>7} {:>26} {:>24}",
@@ -208,25 +217,15 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
     for case in cases(a) {
         let mesh = Shape::from_name("blob")?.scaled(case.scale).build()?;
         let accel = build_accel(mesh, &[], "blob");
-        let rig = house_rig(a.views, a.res, case.light, (-90.0, 90.0));
+        let rig = house_rig(*a.views, *a.res, case.light, (-90.0, 90.0));
         let views = rig.build();
-        let timed = |f: &dyn Fn(u64) -> Result<inverse::views::RenderReport>| -> Result<_> {
-            let r0 = f(a.seed)?;
-            let r1 = f(a.seed + 1)?;
-            let t: f64 = r0
-                .seconds_per_view
-                .iter()
-                .chain(&r1.seconds_per_view)
-                .sum::<f64>()
-                / 2.0;
-            Ok((r0.images, r1.images, t))
-        };
+        let timed = |f: &dyn Fn(u64) -> Result<RenderReport>| twice(*a.seed, f);
         let job = inverse::views::Job {
             accel: &accel,
             medium: &case.medium,
             views: &views,
-            spp: a.spp,
-            seed: a.seed,
+            spp: *a.spp,
+            seed: *a.seed,
         };
         let (v0, v1, vt) = timed(&|seed| {
             Ok(by_rows(&views, "volpath", |pb| {
@@ -245,26 +244,8 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
         let mask = mean_image(&v0, &v1);
         let vrel = relative_variance(&v0, &v1, &mask);
         let vol_vt: [f64; 3] = vrel.map(|v| v * vt);
-        let row = |name: &str,
-                   spp: u32,
-                   ts: [f64; 3],
-                   v: [f64; 3],
-                   csv: &mut std::fs::File|
-         -> Result<()> {
-            // `ts`: seconds per render behind each channel's variance (one render for all
-            // three, except the ceiling's one render per channel); the table shows their mean.
-            let ratio: [f64; 3] = std::array::from_fn(|c| vol_vt[c] / (v[c] * ts[c]));
-            let t = ts.iter().sum::<f64>() / 3.0;
-            println!(
-                "{:<22} {:<18} {:>7.2} {:>8.5} {:>8.5} {:>8.5} {:>7.2} {:>7.2} {:>7.2}",
-                case.name, name, t, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
-            );
-            writeln!(
-                csv,
-                "{},{name},{spp},{t:.4},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.4}",
-                case.name, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
-            )?;
-            Ok(())
+        let row = |name: &str, spp: u32, ts: [f64; 3], v: [f64; 3], csv: &mut std::fs::File| {
+            write_row(csv, &case.name, name, spp, ts, v, vol_vt)
         };
         row("volpath", a.volpath_spp, [vt; 3], vrel, &mut csv)?;
         for &scheme in &schemes {
@@ -285,7 +266,7 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
             let lrel = relative_variance(&l0, &l1, &mask);
             row(
                 &format!("learned {}", scheme_name(scheme)),
-                a.spp,
+                *a.spp,
                 [lt; 3],
                 lrel,
                 &mut csv,
@@ -302,38 +283,8 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
                 .iter()
                 .any(|&x| x != case.medium.albedo[0])
         {
-            // The ceiling of channel sharing (module docs): channel c of the learned renderer on
-            // the grey medium of channel c, where every sample serves c from c's own proposal.
-            let mut v = [0.0; 3];
-            let mut ts = [0.0; 3];
-            for c in 0..3 {
-                let grey = Medium {
-                    sigma_t: [case.medium.sigma_t[c]; 3],
-                    albedo: [case.medium.albedo[c]; 3],
-                    ..case.medium
-                };
-                let (l0, l1, lt) = timed(&|seed| {
-                    Ok(by_rows(&views, "learned", |pb| {
-                        inverse::views::render(
-                            ModelSpec::learned(
-                                &model,
-                                bssrdf::render::LearnedSettings::default(),
-                                seed,
-                            ),
-                            &inverse::views::Job {
-                                seed,
-                                medium: &grey,
-                                ..job
-                            },
-                            false,
-                            pb,
-                        )
-                    })?)
-                })?;
-                v[c] = relative_variance(&l0, &l1, &mask)[c];
-                ts[c] = lt;
-            }
-            row("ceiling (grey)", a.spp, ts, v, &mut csv)?;
+            let (v, ts) = ceiling(*a.seed, &model, job, &mask)?;
+            row("ceiling (grey)", *a.spp, ts, v, &mut csv)?;
         }
         if a.grad_seeds > 0 {
             gradient_noise(
@@ -343,6 +294,87 @@ pub fn run(a: &NoiseBenchArgs) -> Result<()> {
     }
     println!("wrote {}", a.out.join("noise.csv").display());
     Ok(())
+}
+
+/// Renders twice (seeds `seed` and `seed + 1`): both renders' images and the mean seconds per
+/// render.
+fn twice(
+    seed: u64,
+    f: &dyn Fn(u64) -> Result<RenderReport>,
+) -> Result<(Vec<Image>, Vec<Image>, f64)> {
+    let r0 = f(seed)?;
+    let r1 = f(seed + 1)?;
+    let t: f64 = r0
+        .seconds_per_view
+        .iter()
+        .chain(&r1.seconds_per_view)
+        .sum::<f64>()
+        / 2.0;
+    Ok((r0.images, r1.images, t))
+}
+
+/// One row of the table and of `noise.csv`: a renderer's relative variance `v` per channel,
+/// with `ts` the seconds per render behind each channel's variance (one render for all three,
+/// except the ceiling's one render per channel; the table shows their mean), and the
+/// volumetric tracer's variance × time `vol_vt` over this renderer's.
+fn write_row(
+    csv: &mut std::fs::File,
+    case: &str,
+    name: &str,
+    spp: u32,
+    ts: [f64; 3],
+    v: [f64; 3],
+    vol_vt: [f64; 3],
+) -> Result<()> {
+    let ratio: [f64; 3] = std::array::from_fn(|c| vol_vt[c] / (v[c] * ts[c]));
+    let t = ts.iter().sum::<f64>() / 3.0;
+    println!(
+        "{:<22} {:<18} {:>7.2} {:>8.5} {:>8.5} {:>8.5} {:>7.2} {:>7.2} {:>7.2}",
+        case, name, t, v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+    );
+    writeln!(
+        csv,
+        "{case},{name},{spp},{t:.4},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.4}",
+        v[0], v[1], v[2], ratio[0], ratio[1], ratio[2]
+    )?;
+    Ok(())
+}
+
+/// The ceiling of channel sharing (module docs): channel c of the learned renderer on the grey
+/// medium of channel c, where every sample serves c from c's own proposal. Per channel: the
+/// relative variance and the seconds per render.
+fn ceiling(
+    seed: u64,
+    model: &ShapeAdaptiveModel,
+    job: inverse::views::Job,
+    mask: &[Image],
+) -> Result<([f64; 3], [f64; 3])> {
+    let mut v = [0.0; 3];
+    let mut ts = [0.0; 3];
+    for c in 0..3 {
+        let grey = Medium {
+            sigma_t: [job.medium.sigma_t[c]; 3],
+            albedo: [job.medium.albedo[c]; 3],
+            ..*job.medium
+        };
+        let (l0, l1, lt) = twice(seed, &|seed| {
+            Ok(by_rows(job.views, "learned", |pb| {
+                inverse::views::render(
+                    ModelSpec::learned(model, bssrdf::render::LearnedSettings::default(), seed),
+                    &inverse::views::Job {
+                        seed,
+                        medium: &grey,
+                        ..job
+                    },
+                    false,
+                    pb,
+                )
+            })?)
+        })?;
+        v[c] = relative_variance(&l0, &l1, mask)[c];
+        ts[c] = lt;
+    }
+    Ok((v, ts))
 }
 
 fn scheme_name(s: bssrdf::render::PixelSampling) -> &'static str {
@@ -370,7 +402,7 @@ fn gradient_noise(
     for &scheme in schemes {
         let mut config = OptimizeConfig::new(truth);
         config.spp = a.grad_spp;
-        config.seed = a.seed;
+        config.seed = *a.seed;
         config.learned.sampling = scheme;
         let targets = vec![TargetView {
             camera: &view.camera,
@@ -463,10 +495,10 @@ fn volpath_gradient_variance(
     let mut g: Vec<[f64; 6]> = Vec::new();
     let t0 = Instant::now();
     for k in 0..a.grad_seeds as u64 {
-        let da = render(half, hash_key(&[a.seed, k]))?;
+        let da = render(half, hash_key(&[*a.seed, k]))?;
         let db = render(
             a.grad_spp.saturating_sub(half).max(1),
-            hash_key(&[a.seed, k, 0xB]),
+            hash_key(&[*a.seed, k, 0xB]),
         )?;
         let r = inverse::optimize::split_sample_gradient(&da, &db, target, Loss::L2);
         g.push(six(r.d_sigma_t, r.d_albedo));

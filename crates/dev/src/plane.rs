@@ -45,6 +45,7 @@ use volpath::rng::Sampler;
 use cmdline::LearnedArgs;
 
 #[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::default("out/bench-plane")))]
 pub struct PlaneBenchArgs {
     /// Model files to compare (comma-separated; default: the shipped model).
     #[arg(long, value_delimiter = ',')]
@@ -74,15 +75,12 @@ pub struct PlaneBenchArgs {
     /// Decoder samples per case and model.
     #[arg(long, default_value_t = 200_000)]
     pub samples: usize,
-    /// Output folder.
-    #[arg(long, default_value = "out/bench-plane")]
-    pub out: PathBuf,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace existing outputs.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 const BINS: usize = 40;
@@ -285,7 +283,7 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                 "--albedo values must be in (0, 1)"
             );
             let angle = angle_deg.to_radians();
-            let (abs_walk, h_walk) = simulate(&poly, kappa, albedo, angle, a.walks, a.seed);
+            let (abs_walk, h_walk) = simulate(&poly, kappa, albedo, angle, a.walks, *a.seed);
             let p_walk = normalised(&h_walk);
             let centre = |i: usize| (i as f64 + 0.5) * R_MAX / BINS as f64;
             let mut series = vec![Series::new(
@@ -300,7 +298,7 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
             print!("{albedo:>6} {angle_deg:>5} {kappa:>6} | {abs_walk:>9.4} {r_walk:>6.3}");
             for (name, m) in &models {
                 let ModelCase { absorb, hist, miss } =
-                    model_case(m, &poly, kappa, albedo, angle, a.samples, a.seed)?;
+                    model_case(m, &poly, kappa, albedo, angle, a.samples, *a.seed)?;
                 let p = normalised(&hist);
                 let l1: f64 = p.iter().zip(&p_walk).map(|(x, y)| (x - y).abs()).sum();
                 let r = mean_distance(&p);
@@ -332,8 +330,8 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
             });
         }
     }
-    scene::fsutil::atomic_write(&a.out.join("plane.csv"), csv.as_bytes(), a.overwrite)?;
-    Figure::new(panels, a.albedo.len().min(3)).write_png(&a.out.join("plane.png"), a.overwrite)?;
+    scene::fsutil::atomic_write(&a.out.join("plane.csv"), csv.as_bytes(), *a.overwrite)?;
+    Figure::new(panels, a.albedo.len().min(3)).write_png(&a.out.join("plane.png"), *a.overwrite)?;
     println!("wrote {}", a.out.join("plane.csv").display());
     Ok(())
 }

@@ -39,7 +39,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use scene::{Dataset, Image};
+use scene::scene_file::ViewDesc;
+use scene::{Dataset, Image, Medium};
 
 use cmdline::{LearnedArgs, by_rows};
 use inverse::forward::ModelSpec;
@@ -49,6 +50,19 @@ mod cosines;
 use cosines::{CosineBrightness, pixel_geometry};
 
 #[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::default("out/bench-loss-scan")))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the first render (the second uses seed + 1)")
+))]
+#[command(mut_arg(
+    "views",
+    cmdline::groups::default_and_help("12", "Number of views used (the first ones)")
+))]
+#[command(mut_arg(
+    "spp",
+    cmdline::groups::default_and_help("32", "Samples per pixel of each of the two renders")
+))]
 pub struct LossScanArgs {
     /// Dataset folder (ours or a Mitsuba reference folder) whose medium is known.
     #[arg(long)]
@@ -56,20 +70,16 @@ pub struct LossScanArgs {
     /// Factors applied to the true σ_t (all channels).
     #[arg(long, value_delimiter = ',', default_value = "0.8,0.9,1,1.1,1.2")]
     pub scales: Vec<f32>,
-    /// Number of views used (the first ones).
-    #[arg(long, default_value_t = 12)]
-    pub views: usize,
-    /// Samples per pixel of each of the two renders.
-    #[arg(long, default_value_t = 32)]
-    pub spp: u32,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
     #[command(flatten)]
     pub learned: LearnedArgs,
-    /// Output folder.
-    #[arg(long, default_value = "out/bench-loss-scan")]
-    pub out: PathBuf,
-    /// Seed of the first render (the second uses seed + 1).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Also report the loss of rim pixels (|cos| between camera ray and surface normal below
     /// this) and of the other pixels separately.
     #[arg(long)]
@@ -78,9 +88,8 @@ pub struct LossScanArgs {
     /// (`bench_scan::cosines`) and write it to `OUT/loss-scan-cosines.csv`.
     #[arg(long)]
     pub cosine_table: bool,
-    /// Replace existing outputs.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 /// Per channel: Σ (a − t)(b − t) and Σ ½(a + b) / Σ t over the pixels of every image triple.
@@ -213,20 +222,16 @@ pub fn decorrelated_loss_by_class(
     l
 }
 
-pub fn run(a: &LossScanArgs) -> Result<()> {
-    anyhow::ensure!(a.spp > 0, "--spp must be at least 1");
-    anyhow::ensure!(
-        a.scales.iter().all(|s| s.is_finite() && *s > 0.0),
-        "--scales must be positive factors of the true σ_t"
-    );
-    let (path, vpath, cpath) = (
-        a.out.join("loss-scan.csv"),
-        a.out.join("loss-scan-views.csv"),
-        a.out.join("loss-scan-cosines.csv"),
-    );
-    for p in [&path, &vpath, &cpath] {
-        scene::fsutil::check_overwrite(p, a.overwrite)?;
-    }
+/// What the scan reads from its dataset: the truth, the first `--views` targets and views, and
+/// the mesh's BVH.
+struct Scanned {
+    truth: Medium,
+    targets: Vec<Image>,
+    views: Vec<ViewDesc>,
+    accel: geometry::Accel,
+}
+
+fn load(a: &LossScanArgs) -> Result<Scanned> {
     let ds = Dataset::load(&a.dataset)?;
     let Some(truth) = ds.truth else {
         bail!(
@@ -248,6 +253,107 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         .load_mesh()
         .with_context(|| format!("loading the mesh of {}", a.dataset.display()))?;
     let accel = build_accel(mesh, &warnings, &ds.mesh.describe());
+    Ok(Scanned {
+        truth,
+        targets,
+        views,
+        accel,
+    })
+}
+
+/// How many pixels of each class the views hold (printed).
+fn print_class_counts(classes: &[Vec<u8>], grazing_cos: f32) {
+    let count = |k: u8| classes.iter().flatten().filter(|&&x| x == k).count();
+    let counts: Vec<String> = (1..=CLASS_NAMES.len() as u8)
+        .map(|k| format!("{} {}", count(k), CLASS_NAMES[k as usize - 1]))
+        .collect();
+    println!(
+        "pixels (grazing below |cos| {grazing_cos}): {}, {} background",
+        counts.join(", "),
+        count(0)
+    );
+}
+
+/// The header of `loss-scan.csv` (with the per-class columns when the pixels are classed).
+fn csv_header(by_class: bool) -> String {
+    let mut csv = String::from("scale,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b");
+    if by_class {
+        for name in CLASS_NAMES {
+            csv.push_str(&format!(",{name}_r,{name}_g,{name}_b"));
+        }
+    }
+    csv.push('\n');
+    csv
+}
+
+/// The decorrelated loss of two renders (`pair`) per pixel class, summed over the views:
+/// printed and appended to the CSV row.
+fn class_losses(classes: &[Vec<u8>], pair: [&[Image]; 2], targets: &[Image], csv: &mut String) {
+    let mut by = [[0.0f64; 3]; CLASS_NAMES.len()];
+    for (i, k) in classes.iter().enumerate() {
+        let v = decorrelated_loss_by_class(&pair[0][i], &pair[1][i], &targets[i], k);
+        for (acc, x) in by.iter_mut().zip(v) {
+            (0..3).for_each(|c| acc[c] += x[c]);
+        }
+    }
+    for (name, v) in CLASS_NAMES.iter().zip(&by) {
+        println!(
+            "        | {name:>10} {:>9.2} {:>9.2} {:>9.2}",
+            v[0], v[1], v[2]
+        );
+    }
+    for v in by {
+        csv.push_str(&format!(",{},{},{}", v[0], v[1], v[2]));
+    }
+}
+
+/// Each view's decorrelated loss and brightness at σ_t scale `s` (rows of the views' CSV),
+/// and the brightness by phase angle.
+fn view_losses(
+    s: f32,
+    phase: &[f32],
+    pair: [&[Image]; 2],
+    targets: &[Image],
+    views_csv: &mut String,
+) -> PhaseBrightness {
+    let mut bright = PhaseBrightness::default();
+    for (i, t) in targets.iter().enumerate() {
+        let (l, b) = decorrelated_loss(
+            std::slice::from_ref(&pair[0][i]),
+            std::slice::from_ref(&pair[1][i]),
+            std::slice::from_ref(t),
+        );
+        views_csv.push_str(&format!(
+            "{s},{i},{:.2},{},{},{},{},{},{}\n",
+            phase[i], l[0], l[1], l[2], b[0], b[1], b[2]
+        ));
+        let sum = std::array::from_fn(|c| t.data.iter().map(|p| p[c] as f64).sum());
+        bright.add(phase[i], sum, b);
+    }
+    bright
+}
+
+pub fn run(a: &LossScanArgs) -> Result<()> {
+    anyhow::ensure!(*a.spp > 0, "--spp must be at least 1");
+    anyhow::ensure!(
+        a.scales.iter().all(|s| s.is_finite() && *s > 0.0),
+        "--scales must be positive factors of the true σ_t"
+    );
+    let (path, vpath, cpath) = (
+        a.out.join("loss-scan.csv"),
+        a.out.join("loss-scan-views.csv"),
+        a.out.join("loss-scan-cosines.csv"),
+    );
+    for p in [&path, &vpath, &cpath] {
+        scene::fsutil::check_overwrite(p, *a.overwrite)?;
+    }
+    let Scanned {
+        truth,
+        targets,
+        views,
+        accel,
+    } = load(a)?;
+    let n = views.len();
     let model = a.learned.load_model()?;
     if let Some(c) = a.grazing_cos {
         anyhow::ensure!(
@@ -271,29 +377,14 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
         "scale,light_bin,camera_bin,share_r,share_g,share_b,brightness_r,brightness_g,brightness_b\n",
     );
     if let Some(cl) = &classes {
-        let count = |k: u8| cl.iter().flatten().filter(|&&x| x == k).count();
-        let counts: Vec<String> = (1..=CLASS_NAMES.len() as u8)
-            .map(|k| format!("{} {}", count(k), CLASS_NAMES[k as usize - 1]))
-            .collect();
-        println!(
-            "pixels (grazing below |cos| {}): {}, {} background",
-            a.grazing_cos.unwrap_or_default(),
-            counts.join(", "),
-            count(0)
-        );
+        print_class_counts(cl, a.grazing_cos.unwrap_or_default());
     }
-    println!("{}; {n} views, 2 × {} spp", a.learned.describe(), a.spp);
+    println!("{}; {n} views, 2 × {} spp", a.learned.describe(), *a.spp);
     println!(
         "{:>7} | {:>30} | {:>24}",
         "σ_t ×", "decorrelated loss (R, G, B)", "brightness (R, G, B)"
     );
-    let mut csv = String::from("scale,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b");
-    if classes.is_some() {
-        for name in CLASS_NAMES {
-            csv.push_str(&format!(",{name}_r,{name}_g,{name}_b"));
-        }
-    }
-    csv.push('\n');
+    let mut csv = csv_header(classes.is_some());
     let mut views_csv = String::from(
         "scale,view,phase_deg,loss_r,loss_g,loss_b,brightness_r,brightness_g,brightness_b\n",
     );
@@ -315,7 +406,7 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
                         accel: &accel,
                         medium: &m,
                         views: &views,
-                        spp: a.spp,
+                        spp: *a.spp,
                         seed,
                     },
                     false,
@@ -323,7 +414,7 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
                 )
             })
         };
-        let (r1, r2) = (render(a.seed)?, render(a.seed + 1)?);
+        let (r1, r2) = (render(*a.seed)?, render(*a.seed + 1)?);
         let (l, b) = decorrelated_loss(&r1.images, &r2.images, &targets);
         println!(
             "{s:>7.3} | {:>9.2} {:>9.2} {:>9.2} | {:>7.4} {:>7.4} {:>7.4}",
@@ -333,40 +424,12 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
             "{s},{},{},{},{},{},{}",
             l[0], l[1], l[2], b[0], b[1], b[2]
         ));
+        let pair = [&r1.images[..], &r2.images[..]];
         if let Some(cl) = &classes {
-            let mut by = [[0.0f64; 3]; CLASS_NAMES.len()];
-            for (i, k) in cl.iter().enumerate() {
-                let v = decorrelated_loss_by_class(&r1.images[i], &r2.images[i], &targets[i], k);
-                for (acc, x) in by.iter_mut().zip(v) {
-                    (0..3).for_each(|c| acc[c] += x[c]);
-                }
-            }
-            for (name, v) in CLASS_NAMES.iter().zip(&by) {
-                println!(
-                    "        | {name:>10} {:>9.2} {:>9.2} {:>9.2}",
-                    v[0], v[1], v[2]
-                );
-            }
-            for v in by {
-                csv.push_str(&format!(",{},{},{}", v[0], v[1], v[2]));
-            }
+            class_losses(cl, pair, &targets, &mut csv);
         }
         csv.push('\n');
-        let mut bright = PhaseBrightness::default();
-        for i in 0..n {
-            let (l, b) = decorrelated_loss(
-                std::slice::from_ref(&r1.images[i]),
-                std::slice::from_ref(&r2.images[i]),
-                std::slice::from_ref(&targets[i]),
-            );
-            views_csv.push_str(&format!(
-                "{s},{i},{:.2},{},{},{},{},{},{}\n",
-                phase[i], l[0], l[1], l[2], b[0], b[1], b[2]
-            ));
-            let t = std::array::from_fn(|c| targets[i].data.iter().map(|p| p[c] as f64).sum());
-            bright.add(phase[i], t, b);
-        }
-        by_phase.push((s, bright));
+        by_phase.push((s, view_losses(s, &phase, pair, &targets, &mut views_csv)));
         if let Some(g) = &geometry {
             let mut cb = CosineBrightness::default();
             for i in 0..n {
@@ -379,10 +442,10 @@ pub fn run(a: &LossScanArgs) -> Result<()> {
     print_phase_table(&phase, &by_phase);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    scene::fsutil::atomic_write(&path, csv.as_bytes(), a.overwrite)?;
-    scene::fsutil::atomic_write(&vpath, views_csv.as_bytes(), a.overwrite)?;
+    scene::fsutil::atomic_write(&path, csv.as_bytes(), *a.overwrite)?;
+    scene::fsutil::atomic_write(&vpath, views_csv.as_bytes(), *a.overwrite)?;
     if geometry.is_some() {
-        scene::fsutil::atomic_write(&cpath, cosines_csv.as_bytes(), a.overwrite)?;
+        scene::fsutil::atomic_write(&cpath, cosines_csv.as_bytes(), *a.overwrite)?;
         println!("wrote {}", cpath.display());
     }
     println!("wrote {} and {}", path.display(), vpath.display());

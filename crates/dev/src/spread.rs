@@ -38,6 +38,8 @@ use volpath::rng::Sampler;
 use cmdline::LearnedArgs;
 
 #[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::default("out/bench-spread")))]
+#[command(mut_arg("seed", cmdline::groups::help("Seed of the latent samples")))]
 pub struct SpreadBenchArgs {
     /// Samples file (default: the validation set of `train data --out out/train/data`).
     #[arg(long, default_value = "out/train/data/val.tlsamples")]
@@ -60,15 +62,12 @@ pub struct SpreadBenchArgs {
     /// is one (α', κ) bin.
     #[arg(long, value_delimiter = ',', default_value = "0.7,0.9,0.97")]
     pub albedo_bins: Vec<f64>,
-    /// Output folder.
-    #[arg(long, default_value = "out/bench-spread")]
-    pub out: PathBuf,
-    /// Seed of the latent samples.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace existing outputs.
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub overwrite: cmdline::Overwrite,
 }
 
 /// Mean curvature at the origin of the implicit cubic with coefficients `c` (module doc;
@@ -159,6 +158,59 @@ struct Bin {
     absorb: Vec<Vec<f64>>,
 }
 
+/// The table by (albedo, curvature) bin: the training data's exit distances and absorption,
+/// and each model's (`names`) proposals beside them.
+fn print_bins(a: &SpreadBenchArgs, bins: &mut [Bin], names: &[&str]) {
+    let nk = a.bins.len() + 1;
+    for (mi, name) in names.iter().enumerate() {
+        println!("model {mi}: {name}");
+    }
+    println!(
+        "{:>13} {:>13} {:>6} | {:>34} {:>6} | per model: {:>34} {:>6}",
+        "α'",
+        "κ·σ_n",
+        "configs",
+        "exits |x|: mean p25 p50 p90 p99",
+        "P(abs)",
+        "|x̂|: mean p25 p50 p90 p99",
+        "Absorb"
+    );
+    let range = |v: &[f64], i: usize| {
+        let lo = if i == 0 { f64::NEG_INFINITY } else { v[i - 1] };
+        format!(
+            "[{lo:>5},{:>5})",
+            v.get(i).copied().unwrap_or(f64::INFINITY)
+        )
+    };
+    for (i, b) in bins.iter_mut().enumerate() {
+        if b.configs == 0 {
+            continue;
+        }
+        let stats = |v: &mut Vec<f64>| {
+            let m = mean(v);
+            let q = [0.25, 0.5, 0.9, 0.99].map(|f| quantile(v, f));
+            (m, q)
+        };
+        let (m, [p25, p50, p90, p99]) = stats(&mut b.exits);
+        print!(
+            "{} {} {:>6} | {m:>6.3} {p25:>6.3} {p50:>6.3} {p90:>6.3} {p99:>6.3} {:>6.4}",
+            range(&a.albedo_bins, i / nk),
+            range(&a.bins, i % nk),
+            b.configs,
+            mean(&b.absorption)
+        );
+        for mi in 0..names.len() {
+            let (pm, [q25, q50, q90, q99]) = stats(&mut b.proposals[mi]);
+            print!(
+                " | {mi}: {pm:>6.3} {q25:>6.3} {q50:>6.3} {q90:>6.3} {q99:>6.3} {:>6.4} ({:+.1} %)",
+                mean(&b.absorb[mi]),
+                100.0 * (pm / m - 1.0)
+            );
+        }
+        println!();
+    }
+}
+
 pub fn run(a: &SpreadBenchArgs) -> Result<()> {
     let models: Vec<(String, ShapeAdaptiveModel)> = if a.model.is_empty() {
         vec![("shipped".into(), LearnedArgs::shipped_model()?)]
@@ -202,7 +254,7 @@ pub fn run(a: &SpreadBenchArgs) -> Result<()> {
         .map(|(_, m)| {
             configs
                 .par_iter()
-                .map(|c| proposals(m, c, a.proposals, a.seed))
+                .map(|c| proposals(m, c, a.proposals, *a.seed))
                 .collect::<Result<Vec<_>>>()
         })
         .collect::<Result<_>>()?;
@@ -231,56 +283,11 @@ pub fn run(a: &SpreadBenchArgs) -> Result<()> {
         }
         csv.push('\n');
     }
-    for (mi, (name, _)) in models.iter().enumerate() {
-        println!("model {mi}: {name}");
-    }
-    println!(
-        "{:>13} {:>13} {:>6} | {:>34} {:>6} | per model: {:>34} {:>6}",
-        "α'",
-        "κ·σ_n",
-        "configs",
-        "exits |x|: mean p25 p50 p90 p99",
-        "P(abs)",
-        "|x̂|: mean p25 p50 p90 p99",
-        "Absorb"
-    );
-    let range = |v: &[f64], i: usize| {
-        let lo = if i == 0 { f64::NEG_INFINITY } else { v[i - 1] };
-        format!(
-            "[{lo:>5},{:>5})",
-            v.get(i).copied().unwrap_or(f64::INFINITY)
-        )
-    };
-    for (i, b) in bins.iter_mut().enumerate() {
-        if b.configs == 0 {
-            continue;
-        }
-        let stats = |v: &mut Vec<f64>| {
-            let m = mean(v);
-            let q = [0.25, 0.5, 0.9, 0.99].map(|f| quantile(v, f));
-            (m, q)
-        };
-        let (m, [p25, p50, p90, p99]) = stats(&mut b.exits);
-        print!(
-            "{} {} {:>6} | {m:>6.3} {p25:>6.3} {p50:>6.3} {p90:>6.3} {p99:>6.3} {:>6.4}",
-            range(&a.albedo_bins, i / nk),
-            range(&a.bins, i % nk),
-            b.configs,
-            mean(&b.absorption)
-        );
-        for mi in 0..models.len() {
-            let (pm, [q25, q50, q90, q99]) = stats(&mut b.proposals[mi]);
-            print!(
-                " | {mi}: {pm:>6.3} {q25:>6.3} {q50:>6.3} {q90:>6.3} {q99:>6.3} {:>6.4} ({:+.1} %)",
-                mean(&b.absorb[mi]),
-                100.0 * (pm / m - 1.0)
-            );
-        }
-        println!();
-    }
+    let names: Vec<&str> = models.iter().map(|(n, _)| n.as_str()).collect();
+    print_bins(a, &mut bins, &names);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    scene::fsutil::atomic_write(&a.out.join("spread.csv"), csv.as_bytes(), a.overwrite)?;
+    scene::fsutil::atomic_write(&a.out.join("spread.csv"), csv.as_bytes(), *a.overwrite)?;
     println!("wrote {}", a.out.join("spread.csv").display());
     Ok(())
 }

@@ -13,7 +13,7 @@ use clap::Args;
 use geometry::Shape;
 use glam::Vec3;
 use scene::rig::{Rig, RigLight};
-use scene::{Dataset, Medium};
+use scene::{Camera, Dataset, Medium, PointLight};
 use volpath::{
     ChannelSampling, Lit, RenderSettings, ShadowTransmittance, VolpathSettings, render_image,
 };
@@ -21,22 +21,21 @@ use volpath::{
 use inverse::views::build_accel;
 
 #[derive(Args)]
+#[command(mut_arg("spp", cmdline::groups::default("32")))]
 pub struct VolpathBenchArgs {
     /// Mitsuba reference folder to take the scene from (default: the same scene rebuilt).
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 32)]
-    pub spp: u32,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
     /// Image resolutions to time (square).
     #[arg(long, value_delimiter = ',', default_value = "64,128")]
     pub res: Vec<u32>,
     /// Repetitions (the best is reported).
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
-    /// Seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Shadow estimators to time (default: all three; `tracked` is Mitsuba 3's).
     #[arg(long, value_delimiter = ',', value_enum)]
     pub shadow: Vec<ShadowName>,
@@ -68,12 +67,18 @@ pub enum SamplingName {
 /// Mitsuba 3 (llvm_ad_rgb, 2 cores, 32 spp) seconds per view, as measured on the project machine (BENCHMARKS.md, "Speed against Mitsuba 3").
 const MITSUBA_SECONDS: [(u32, f64); 2] = [(64, 0.064), (128, 0.25)];
 
-pub fn run(a: &VolpathBenchArgs) -> Result<()> {
-    anyhow::ensure!(
-        a.spp > 0 && a.repeat > 0,
-        "--spp and --repeat must be at least 1"
-    );
-    let (mesh, warnings, medium, views) = match &a.reference {
+/// The benchmark's scene: a Mitsuba reference folder's mesh, medium and views (`--reference`), or
+/// the built-in sphere (8 views of 64² around a fixed light).
+#[allow(clippy::type_complexity)]
+fn bench_scene(
+    a: &VolpathBenchArgs,
+) -> Result<(
+    geometry::Mesh,
+    Vec<geometry::MeshWarning>,
+    Medium,
+    Vec<(Camera, PointLight)>,
+)> {
+    Ok(match &a.reference {
         Some(dir) => {
             let ds = Dataset::load_reference(dir)?;
             let (m, w) = ds.load_mesh()?;
@@ -119,13 +124,52 @@ pub fn run(a: &VolpathBenchArgs) -> Result<()> {
                 .collect();
             (mesh, Vec::new(), medium, views)
         }
-    };
+    })
+}
+
+/// The best of `--repeat` timings of the views at `res`², in seconds per view. As `render` does,
+/// each light position's shadow-ray lists are built once per timing (`lit`).
+fn best_seconds<'a>(
+    a: &VolpathBenchArgs,
+    lit: impl Fn() -> Lit<'a>,
+    settings: &VolpathSettings,
+    views: &[(Camera, PointLight)],
+    res: u32,
+) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..a.repeat {
+        let t0 = Instant::now();
+        let lit = lit();
+        for (i, (cam, light)) in views.iter().enumerate() {
+            let mut cam = cam.clone();
+            cam.width = res;
+            cam.height = res;
+            let lists = lit.lists(light);
+            let scene = lit.scene(light, &lists);
+            let rs = RenderSettings {
+                spp: *a.spp,
+                seed: *a.seed,
+                view: i as u64,
+            };
+            std::hint::black_box(render_image(&scene, settings, &cam, &rs, None));
+        }
+        best = best.min(t0.elapsed().as_secs_f64() / views.len() as f64);
+    }
+    best
+}
+
+pub fn run(a: &VolpathBenchArgs) -> Result<()> {
+    anyhow::ensure!(
+        *a.spp > 0 && a.repeat > 0,
+        "--spp and --repeat must be at least 1"
+    );
+    let (mesh, warnings, medium, views) = bench_scene(a)?;
     let tris = mesh.triangle_count();
     let accel = build_accel(mesh, &warnings, "bench scene");
     println!(
         "volpath bench: sphere ({tris} triangles), {} views, {} spp, {} thread(s), best of {}",
         views.len(),
-        a.spp,
+        *a.spp,
         rayon::current_num_threads(),
         a.repeat
     );
@@ -166,27 +210,9 @@ pub fn run(a: &VolpathBenchArgs) -> Result<()> {
                 light_lists,
                 ..Default::default()
             };
-            let mut best = f64::INFINITY;
-            for _ in 0..a.repeat {
-                let t0 = Instant::now();
-                // As `render` does: each light position's shadow-ray lists built once.
-                let lit = Lit::new(&accel, medium, settings);
-                for (i, (cam, light)) in views.iter().enumerate() {
-                    let mut cam = cam.clone();
-                    cam.width = res;
-                    cam.height = res;
-                    let lists = lit.lists(light);
-                    let scene = lit.scene(light, &lists);
-                    let rs = RenderSettings {
-                        spp: a.spp,
-                        seed: a.seed,
-                        view: i as u64,
-                    };
-                    std::hint::black_box(render_image(&scene, &settings, &cam, &rs, None));
-                }
-                best = best.min(t0.elapsed().as_secs_f64() / views.len() as f64);
-            }
-            let paths = (res * res * a.spp) as f64 / best / 1e6;
+            let lit = || Lit::new(&accel, medium, settings);
+            let best = best_seconds(a, lit, &settings, &views, res);
+            let paths = (res * res * *a.spp) as f64 / best / 1e6;
             let mitsuba = MITSUBA_SECONDS
                 .iter()
                 .find(|(r, _)| *r == res)

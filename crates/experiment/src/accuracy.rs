@@ -38,10 +38,25 @@ use crate::run::Run;
 use crate::{bail, baseline_model, jobs};
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-accuracy",
+        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the media, the renders and the runs")
+))]
+#[command(mut_arg("views", cmdline::groups::default_and_help("40", "Views per dataset")))]
+#[command(mut_arg(
+    "res",
+    cmdline::groups::default_and_help("256", "Image width and height")
+))]
 pub struct AccuracyArgs {
-    /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
-    #[arg(long, default_value = "out/experiment-accuracy")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob), each with
     /// optional parameters as NAME[:KEY=VALUE]… (the keys of a scene file's `shape` table, e.g.
     /// `blob:amplitude=0.05`; its cases are named `blob-amplitude-0.05-m0`, …).
@@ -50,12 +65,10 @@ pub struct AccuracyArgs {
     /// Hidden media per shape, drawn from the paper's ranges.
     #[arg(long, default_value_t = 2)]
     pub media: u64,
-    /// Views per dataset.
-    #[arg(long, default_value_t = 40)]
-    pub views: usize,
-    /// Image width and height.
-    #[arg(long, default_value_t = 256)]
-    pub res: u32,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
     /// Samples per pixel of the volumetric target renders.
     #[arg(long, default_value_t = 128)]
     pub target_spp: u32,
@@ -77,9 +90,8 @@ pub struct AccuracyArgs {
     /// The case of the random initialisations (e.g. `torus-m0`; default: the first case).
     #[arg(long)]
     pub inits_case: Option<String>,
-    /// Seed of the media, the renders and the runs.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Bias correction (as `optimize --bias-correction`): after each run the case's dataset is
     /// rendered again at the recovered medium and recovered with the same settings; the rows
     /// `<method>+bc` (step 1) and `<method>+bc<k>` report θ_k.
@@ -131,7 +143,7 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     std::fs::create_dir_all(a.out.join("runs"))?;
     let x = Experiment {
         a,
-        rig: paper_rig(a.views, a.res),
+        rig: paper_rig(*a.views, *a.res),
         obs,
     };
     x.rig.validate("experiment")?;
@@ -278,7 +290,7 @@ impl Experiment<'_> {
         let (a, obs) = (self.a, self.obs);
         let mut init_rows = Vec::new();
         let mut init_bc_rows = Vec::new();
-        let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
+        let mut s = Sampler::new(*a.seed, u64::MAX - 1, 0, 0x696e_6974);
         for (i, job) in init_jobs.iter().enumerate() {
             let init = Params {
                 sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
@@ -452,11 +464,11 @@ fn ensure_dataset(
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
         let same = ds.truth == Some(medium)
-            && ds.views.len() == a.views
+            && ds.views.len() == *a.views
             && ds
                 .views
                 .first()
-                .is_some_and(|v| v.camera.width == a.res && v.camera.height == a.res)
+                .is_some_and(|v| v.camera.width == *a.res && v.camera.height == *a.res)
             && ds.render.spp == Some(spp);
         if same {
             obs.say(&format!("dataset {name}: reusing {}", dir.display()));
@@ -466,7 +478,7 @@ fn ensure_dataset(
     }
     obs.say(&format!(
         "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",
-        a.views, a.res, a.res, spp, medium.sigma_t, medium.albedo
+        *a.views, *a.res, *a.res, spp, medium.sigma_t, medium.albedo
     ));
     make_dataset(
         rig,
@@ -474,7 +486,7 @@ fn ensure_dataset(
         medium,
         RenderOpts {
             spp,
-            seed: a.seed,
+            seed: *a.seed,
             max_depth: 32,
             shadow: Default::default(),
         },
@@ -513,7 +525,7 @@ pub fn run_args(
         sigma_t: single(init.sigma_t),
         albedo: single(init.albedo),
     };
-    s.schedule.seed = a.seed;
+    s.schedule.seed = *a.seed;
     s.checks.final_spp = 16;
     // The experiment corrects its runs itself (rows `<method>+bc`), and compares the learned
     // model's estimators on the learned model alone: no volumetric refinement.

@@ -11,7 +11,6 @@
 //! the missing scenes); other settings need another `--out`.
 
 use inverse::recovery::Observer;
-use std::path::PathBuf;
 
 use crate::bail;
 use crate::error::{Context, Result};
@@ -29,22 +28,34 @@ use inverse::views::{RenderOpts, make_dataset};
 use scene::rig::house_rig;
 
 #[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::default("out/experiment-gradients")))]
+#[command(mut_arg("seed", cmdline::groups::help("Seed of the renders")))]
+#[command(mut_arg(
+    "res",
+    cmdline::groups::default_and_help("256", "Image width and height")
+))]
+#[command(mut_arg(
+    "spp",
+    cmdline::groups::default_and_help(
+        "64",
+        "Samples per pixel of the estimators' derivative renders (the differences: four times)"
+    )
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help("A smoke test in seconds (32², 4 spp): not a measurement")
+))]
 pub struct GradientsArgs {
-    /// Output folder.
-    #[arg(long, default_value = "out/experiment-gradients")]
-    pub out: PathBuf,
-    /// Image width and height.
-    #[arg(long, default_value_t = 256)]
-    pub res: u32,
-    /// Samples per pixel of the estimators' derivative renders (the differences: four times).
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
-    /// Seed of the renders.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// A smoke test in seconds (32², 4 spp): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
 }
@@ -68,7 +79,7 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
 }
 
 pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
-    let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
+    let (res, spp) = if *a.quick { (32, 4) } else { (*a.res, *a.spp) };
     let scenes = scenes()?;
     let cases: Vec<String> = scenes.iter().map(|(n, ..)| n.to_string()).collect();
     if a.jobs.listed(&cases, obs)? {
@@ -76,7 +87,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
     }
     let _lock = a.jobs.lock(&a.out)?;
     let model = cmdline::LearnedArgs::shipped_model()?;
-    let settings = format!("{res}² × {spp} spp, seed {}", a.seed);
+    let settings = format!("{res}² × {spp} spp, seed {}", *a.seed);
     let stamp = a.out.join("settings.txt");
     match std::fs::read_to_string(&stamp) {
         Ok(s) if s != settings => {
@@ -123,7 +134,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
                 medium,
                 RenderOpts {
                     spp: 4,
-                    seed: a.seed,
+                    seed: *a.seed,
                     max_depth: 32,
                     shadow: Default::default(),
                 },
@@ -137,13 +148,13 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         let accel = inverse::views::build_accel(mesh, &warnings, name);
         let rs = RenderSettings {
             spp,
-            seed: a.seed,
+            seed: *a.seed,
             view: 0,
         };
         // The differences: an independent render (another seed) at four times the samples.
         let reference = RenderSettings {
             spp: 4 * spp,
-            seed: a.seed ^ 0xFD,
+            seed: *a.seed ^ 0xFD,
             view: 0,
         };
         let results = if finished {
@@ -153,7 +164,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
             let pb = obs.progress(0, &format!("{name}: ours, naive, fd"));
             let r = render_estimators(
                 &accel,
-                LearnedSpec::new(&model, Default::default(), a.seed),
+                LearnedSpec::new(&model, Default::default(), *a.seed),
                 medium,
                 &view.camera,
                 &view.light,
@@ -175,7 +186,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         }
     }
     a.jobs.report_missing(&missing, obs);
-    let (md, csv) = tables(&rows, &settings, a.quick);
+    let (md, csv) = tables(&rows, &settings, *a.quick);
     super::write_tables(
         &a.out,
         "gradients",

@@ -6,7 +6,6 @@
 //! the mean ± one standard deviation and every start's curve (`OUT/inits-band.png` and `.svg`).
 
 use inverse::recovery::Observer;
-use std::path::PathBuf;
 
 use crate::bail;
 use crate::error::Result;
@@ -19,10 +18,26 @@ use cmdline::arg_defaults;
 use cmdline::optimize::IterationArgs;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-inits",
+        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the medium, the renders, the starts and the runs")
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help(
+        "A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement"
+    )
+))]
 pub struct InitsArgs {
-    /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
-    #[arg(long, default_value = "out/experiment-inits")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// The built-in shape of the case (as `experiment accuracy --shapes`).
     #[arg(long, default_value = "blob")]
     pub shape: String,
@@ -31,12 +46,10 @@ pub struct InitsArgs {
     pub inits: u32,
     #[command(flatten)]
     pub budget: IterationArgs,
-    /// Seed of the medium, the renders, the starts and the runs.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
 }
@@ -54,8 +67,8 @@ pub fn run(a: &InitsArgs, obs: &dyn Observer) -> Result<()> {
     acc.methods = vec!["ours".into()];
     acc.inits = a.inits;
     acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
-    if a.quick {
-        (acc.views, acc.res, acc.target_spp, acc.inits) = (4, 32, 4, 3);
+    if *a.quick {
+        (acc.views, acc.res, acc.target_spp, acc.inits) = (4.into(), 32.into(), 4, 3);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();

@@ -27,7 +27,6 @@
 pub mod rerender;
 
 use inverse::recovery::Observer;
-use std::path::PathBuf;
 
 use crate::error::Result;
 use clap::Args;
@@ -39,10 +38,26 @@ use cmdline::arg_defaults;
 use cmdline::optimize::IterationArgs;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-planar",
+        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the media, the renders and the runs")
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help(
+        "A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement"
+    )
+))]
 pub struct PlanarArgs {
-    /// Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run).
-    #[arg(long, default_value = "out/experiment-planar")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Built-in shapes (comma-separated, as `experiment accuracy --shapes`).
     #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
     pub shapes: Vec<String>,
@@ -51,12 +66,10 @@ pub struct PlanarArgs {
     pub media: u64,
     #[command(flatten)]
     pub budget: IterationArgs,
-    /// Seed of the media, the renders and the runs.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     /// Samples per pixel of the re-renders of the first view (truth and each estimate, by the
     /// volumetric path tracer; module docs).
     #[arg(long, default_value_t = 512)]
@@ -79,8 +92,8 @@ pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
     acc.inits = 0;
     // The paper compares the plain methods.
     acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
-    if a.quick {
-        (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
+    if *a.quick {
+        (acc.views, acc.res, acc.target_spp, acc.media) = (4.into(), 32.into(), 4, 1);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();
@@ -90,14 +103,14 @@ pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
     }
     let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
     cases.dedup();
-    let spp = if a.quick { 4 } else { a.rerender_spp };
+    let spp = if *a.quick { 4 } else { a.rerender_spp };
     let mut compared = Vec::new();
     for case in cases {
         let of_case: Vec<&Row> = rows.iter().filter(|r| r.case == case).collect();
         let fig = error_figure(case, &of_case)?;
         fig.write_png(&a.out.join(format!("planar-{case}.png")), true)?;
         fig.write_svg(&a.out.join(format!("planar-{case}.svg")), true)?;
-        let r = rerender::case(&a.out, case, &of_case, spp, a.seed, obs)?;
+        let r = rerender::case(&a.out, case, &of_case, spp, *a.seed, obs)?;
         r.figure
             .write_png(&a.out.join(format!("renders-{case}.png")), r.exposure, true)?;
         compared.extend(r.rows);

@@ -23,22 +23,36 @@ use crate::run::Run;
 use inverse::views::random_medium;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-prb",
+        "Output folder (the dataset in OUT/data, runs in OUT/runs)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::default_and_help("1", "Seed of the medium, the renders and the runs")
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help(
+        "A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement"
+    )
+))]
 pub struct PrbArgs {
-    /// Output folder (the dataset in OUT/data, runs in OUT/runs).
-    #[arg(long, default_value = "out/experiment-prb")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Iterations per run.
     #[arg(long, default_value_t = 300)]
     pub iterations: u32,
-    /// Seed of the medium, the renders and the runs.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB run.
     #[arg(long)]
     pub mitsuba_python: Option<PathBuf>,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
 }
@@ -46,8 +60,88 @@ pub struct PrbArgs {
 /// σ_t within this relative error (RMS over the channels) counts as converged.
 const CONVERGED: f64 = 0.10;
 
+/// A run's row of the table and the CSV: its final errors, seconds per iteration, and the first
+/// iteration from which every later one has σ_t within [`CONVERGED`].
+fn table_row(
+    name: &str,
+    steps: &[Step],
+    err_t: &dyn Fn(&Step) -> f64,
+    err_a: &dyn Fn(&Step) -> f64,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
+    let last = steps.last().context("a run without iterations")?;
+    // The first iteration from which every later one is within the bound.
+    let from = steps
+        .iter()
+        .rposition(|p| err_t(p) > CONVERGED)
+        .map_or(Some(0), |i| (i + 1 < steps.len()).then_some(i + 1));
+    let spi = if steps.len() > 1 {
+        (last.seconds - steps[0].seconds) / (steps.len() - 1) as f64
+    } else {
+        last.seconds
+    };
+    let (it, secs) = match from {
+        Some(i) => (
+            format!("{}", steps[i].iteration),
+            format!("{:.0}", steps[i].seconds),
+        ),
+        None => ("not reached".into(), "—".into()),
+    };
+    md.push_str(&format!(
+        "| {name} | {:.1} % | {:.4} | {spi:.3} | {it} | {secs} |\n",
+        100.0 * err_t(last),
+        err_a(last)
+    ));
+    csv.push_str(&format!(
+        "{name},{},{},{spi},{it},{secs}\n",
+        err_t(last),
+        err_a(last)
+    ));
+    Ok(())
+}
+
+/// The runs' σ_t and α errors by iteration and by time.
+fn figure(
+    runs: &[(String, Vec<Step>)],
+    err_t: &dyn Fn(&Step) -> f64,
+    err_a: &dyn Fn(&Step) -> f64,
+) -> Figure {
+    let panel = |title: &str, x: &str, y: &str, f: &dyn Fn(&Step) -> f64, by_time: bool| Panel {
+        title: title.into(),
+        x_label: x.into(),
+        y_label: y.into(),
+        log_y: true,
+        series: runs
+            .iter()
+            .map(|(name, steps)| {
+                let at = |p: &Step| if by_time { p.seconds } else { p.iteration };
+                Series::new(name.clone(), steps.iter().map(|p| (at(p), f(p))).collect())
+            })
+            .collect(),
+        reference_lines: Vec::new(),
+        bands: Vec::new(),
+    };
+    let pct = |p: &Step| 100.0 * err_t(p);
+    Figure::new(
+        vec![
+            panel(
+                "σ_t error",
+                "iteration",
+                "RMS over channels, %",
+                &pct,
+                false,
+            ),
+            panel("σ_t error", "seconds", "RMS over channels, %", &pct, true),
+            panel("α error", "iteration", "RMS over channels", &err_a, false),
+            panel("α error", "seconds", "RMS over channels", &err_a, true),
+        ],
+        2,
+    )
+}
+
 pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (views, res, target_spp, iterations, spp) = super::workload(*a.quick, a.iterations);
     let mut cases = vec!["ours".to_string(), "volumetric".to_string()];
     if a.mitsuba_python.is_some() {
         cases.push("mitsuba-prb".into());
@@ -57,9 +151,9 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    let truth = random_medium(a.seed);
+    let truth = random_medium(*a.seed);
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, truth, target_spp, a.seed, obs)
+        super::blob_dataset(&data, views, res, truth, target_spp, *a.seed, obs)
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();
@@ -69,7 +163,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
         let s = &mut o.settings;
         s.model.kind = model.unwrap_or_default();
         (s.schedule.iterations, s.schedule.spp) = (iterations, spp);
-        s.schedule.seed = a.seed;
+        s.schedule.seed = *a.seed;
         s.checks.final_spp = 16;
         s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.
@@ -88,7 +182,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
             if prb_finished(&dir, iterations, spp) {
                 obs.say(&format!("run Mitsuba PRB: reusing {}", dir.display()));
             } else {
-                super::run_prb(py, &data, &dir, iterations, spp, a.seed)?;
+                super::run_prb(py, &data, &dir, iterations, spp, *a.seed)?;
             }
         }
         if prb_finished(&dir, iterations, spp) {
@@ -109,7 +203,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
          | s/it | σ_t within 10 % from iteration | seconds to that |\n|---|---|---|---|---|---|\n",
         truth.sigma_t,
         truth.albedo,
-        if a.quick {
+        if *a.quick {
             " — QUICK: a smoke test, not a measurement"
         } else {
             ""
@@ -119,66 +213,9 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
         "run,sigma_t_rms_error,albedo_rms_error,seconds_per_iteration,converged_iteration,converged_seconds\n",
     );
     for (name, steps) in &runs {
-        let last = steps.last().context("a run without iterations")?;
-        // The first iteration from which every later one is within the bound.
-        let from = steps
-            .iter()
-            .rposition(|p| err_t(p) > CONVERGED)
-            .map_or(Some(0), |i| (i + 1 < steps.len()).then_some(i + 1));
-        let spi = if steps.len() > 1 {
-            (last.seconds - steps[0].seconds) / (steps.len() - 1) as f64
-        } else {
-            last.seconds
-        };
-        let (it, secs) = match from {
-            Some(i) => (
-                format!("{}", steps[i].iteration),
-                format!("{:.0}", steps[i].seconds),
-            ),
-            None => ("not reached".into(), "—".into()),
-        };
-        md.push_str(&format!(
-            "| {name} | {:.1} % | {:.4} | {spi:.3} | {it} | {secs} |\n",
-            100.0 * err_t(last),
-            err_a(last)
-        ));
-        csv.push_str(&format!(
-            "{name},{},{},{spi},{it},{secs}\n",
-            err_t(last),
-            err_a(last)
-        ));
+        table_row(name, steps, &err_t, &err_a, &mut md, &mut csv)?;
     }
-    let panel = |title: &str, x: &str, y: &str, f: &dyn Fn(&Step) -> f64, by_time: bool| Panel {
-        title: title.into(),
-        x_label: x.into(),
-        y_label: y.into(),
-        log_y: true,
-        series: runs
-            .iter()
-            .map(|(name, steps)| {
-                let at = |p: &Step| if by_time { p.seconds } else { p.iteration };
-                Series::new(name.clone(), steps.iter().map(|p| (at(p), f(p))).collect())
-            })
-            .collect(),
-        reference_lines: Vec::new(),
-        bands: Vec::new(),
-    };
-    let pct = |p: &Step| 100.0 * err_t(p);
-    let fig = Figure::new(
-        vec![
-            panel(
-                "σ_t error",
-                "iteration",
-                "RMS over channels, %",
-                &pct,
-                false,
-            ),
-            panel("σ_t error", "seconds", "RMS over channels, %", &pct, true),
-            panel("α error", "iteration", "RMS over channels", &err_a, false),
-            panel("α error", "seconds", "RMS over channels", &err_a, true),
-        ],
-        2,
-    );
+    let fig = figure(&runs, &err_t, &err_a);
     fig.write_png(&a.out.join("prb.png"), true)?;
     fig.write_svg(&a.out.join("prb.svg"), true)?;
     super::write_tables(&a.out, "prb", &md, &csv, ", prb.png/.svg", obs)

@@ -57,9 +57,9 @@ pub fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row], init_bc_rows: &
     let _ = writeln!(
         s,
         "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s){}, {}, α first for {} iterations, seed {}; {}\n",
-        a.views,
-        a.res,
-        a.res,
+        *a.views,
+        *a.res,
+        *a.res,
         a.target_spp,
         a.budget.iterations,
         a.budget.spp,
@@ -73,7 +73,7 @@ pub fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row], init_bc_rows: &
             "Adam on ln σ_t"
         },
         a.albedo_warmup,
-        a.seed,
+        *a.seed,
         a.learned.describe()
     );
     let _ = writeln!(

@@ -56,16 +56,32 @@ use report::report;
 use targets::{ensure_dataset, target_renderers};
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help("out/robustness", "Output folder (datasets, runs, tables)")
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::help("Seed of the media (renders and runs use seed + repetition)")
+))]
+#[command(mut_arg("views", cmdline::groups::default_and_help("24", "Views per dataset")))]
+#[command(mut_arg(
+    "res",
+    cmdline::groups::default_and_help("128", "Image width and height")
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help(
+        "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations): a smoke test of the pipeline, not a measurement"
+    )
+))]
 pub struct RobustnessArgs {
-    /// Output folder (datasets, runs, tables).
-    #[arg(long, default_value = "out/robustness")]
-    pub out: PathBuf,
-    /// Views per dataset.
-    #[arg(long, default_value_t = 24)]
-    pub views: usize,
-    /// Image width and height.
-    #[arg(long, default_value_t = 128)]
-    pub res: u32,
+    #[command(flatten)]
+    pub out: cmdline::Output,
+    #[command(flatten)]
+    pub views: cmdline::Views,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
     /// Samples per pixel of the volumetric target renders.
     #[arg(long, default_value_t = 128)]
     pub target_spp: u32,
@@ -96,13 +112,10 @@ pub struct RobustnessArgs {
     /// The mesh file of the third shape.
     #[arg(long, default_value = "data/meshes/spot.obj")]
     pub mesh: PathBuf,
-    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
-    /// a smoke test of the pipeline, not a measurement.
-    #[arg(long)]
-    pub quick: bool,
-    /// Seed of the media (renders and runs use seed + repetition).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// Who renders the targets: `volpath` (ours), `mitsuba` (Mitsuba 3's volpath through
     /// `--mitsuba-script`, an independent renderer), or both (`volpath,mitsuba`). Default: ours,
     /// and Mitsuba's too when the script finds Mitsuba 3 (not with `--quick`).
@@ -311,11 +324,11 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     let s = &mut r.settings;
     s.model.kind = a.model;
     a.budget.apply(&mut s.schedule);
-    s.schedule.seed = a.seed + rep;
+    s.schedule.seed = *a.seed + rep;
     s.checks.final_spp = 16;
     s.tracer.refine = a.refine;
     s.tracer.refine_spp = a.refine_spp;
-    if a.quick {
+    if *a.quick {
         s.schedule.iterations = 12;
         s.schedule.spp = 4;
         s.checks.uncertainty.views = 3;
@@ -328,7 +341,7 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
 }
 
 pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
-    let mut all = a.suite.cases(a.seed);
+    let mut all = a.suite.cases(*a.seed);
     if let Some(want) = &a.cases {
         for w in want {
             if !all.iter().any(|c| &c.name == w) {
@@ -388,7 +401,7 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
         }
         let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
         out.model_ratio = if run {
-            model_ratio(&o, &data, &run_dir, a.quick, obs)?
+            model_ratio(&o, &data, &run_dir, *a.quick, obs)?
         } else {
             // A finished job measured it; a table assembled here only reads it.
             read_json(&run_dir.join("model-ratio.json")).map_or([f64::NAN; 3], |v| rgb(&v["ratio"]))

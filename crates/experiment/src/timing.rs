@@ -22,28 +22,46 @@ use serde::{Deserialize, Serialize};
 use inverse::views::random_medium;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-timing",
+        "Output folder (the dataset in OUT/data; timing.json, timing.md, timing.csv)"
+    )
+))]
+#[command(mut_arg(
+    "seed",
+    cmdline::groups::default_and_help("3", "Seed of the medium, the targets and the runs")
+))]
+#[command(mut_arg(
+    "spp",
+    cmdline::groups::default_and_help("32", "Samples per pixel per iteration (the paper: 32)")
+))]
+#[command(mut_arg(
+    "res",
+    cmdline::groups::default_and_help("256", "Image width and height (the paper: 256)")
+))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help("A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement")
+))]
 pub struct TimingArgs {
-    /// Output folder (the dataset in OUT/data; timing.json, timing.md, timing.csv).
-    #[arg(long, default_value = "out/experiment-timing")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Iterations per model × estimator (the first is not counted).
     #[arg(long, default_value_t = 16)]
     pub iterations: u32,
-    /// Samples per pixel per iteration (the paper: 32).
-    #[arg(long, default_value_t = 32)]
-    pub spp: u32,
-    /// Image width and height (the paper: 256).
-    #[arg(long, default_value_t = 256)]
-    pub res: u32,
-    /// Seed of the medium, the targets and the runs.
-    #[arg(long, default_value_t = 3)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub spp: cmdline::Spp,
+    #[command(flatten)]
+    pub res: cmdline::Resolution,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
     /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB row.
     #[arg(long)]
     pub mitsuba_python: Option<PathBuf>,
-    /// A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     /// All rows are one case (`timing`): their times compare only when measured on one machine.
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
@@ -71,10 +89,10 @@ fn paper_figure(model: ModelKind, method: &str, spp_factor: u32) -> &'static str
 }
 
 pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
-    let (res, spp, iterations, views, target_spp) = if a.quick {
+    let (res, spp, iterations, views, target_spp) = if *a.quick {
         (32, 4, 3, 2, 4)
     } else {
-        (a.res, a.spp, a.iterations, 4, 8)
+        (*a.res, *a.spp, a.iterations, 4, 8)
     };
     if iterations < 2 {
         bail!("--iterations must be at least 2 (the first iteration is not counted)");
@@ -90,7 +108,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         };
         let record: Record = serde_json::from_slice(&bytes)
             .with_context(|| format!("{}: not a timing record", path.display()))?;
-        let (md, csv) = tables(&record, a.quick);
+        let (md, csv) = tables(&record, *a.quick);
         return super::write_tables(&a.out, "timing", &md, &csv, "", obs);
     }
     let _lock = a.jobs.lock(&a.out)?;
@@ -99,9 +117,9 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         &data,
         views,
         res,
-        random_medium(a.seed),
+        random_medium(*a.seed),
         target_spp,
-        a.seed,
+        *a.seed,
         obs,
     )?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {
@@ -113,7 +131,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
     let settings = TimingSettings {
         iterations,
         spp,
-        seed: a.seed,
+        seed: *a.seed,
         volpath_max_depth: ds.render.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH),
     };
     let path = a.out.join("timing.json");
@@ -183,7 +201,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         )?);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
-    let (md, csv) = tables(&record, a.quick);
+    let (md, csv) = tables(&record, *a.quick);
     super::write_tables(&a.out, "timing", &md, &csv, "", obs)
 }
 

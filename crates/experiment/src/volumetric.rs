@@ -11,7 +11,6 @@
 
 use inverse::forward::ModelKind;
 use inverse::recovery::Observer;
-use std::path::PathBuf;
 
 use crate::error::Result;
 use clap::Args;
@@ -24,19 +23,30 @@ use crate::run::Run;
 use inverse::params::Params;
 
 #[derive(Args)]
+#[command(mut_arg(
+    "out",
+    cmdline::groups::default_and_help(
+        "out/experiment-volumetric",
+        "Output folder (the dataset in OUT/data, runs in OUT/runs)"
+    )
+))]
+#[command(mut_arg("seed", cmdline::groups::help("Seed of the renders and the runs")))]
+#[command(mut_arg(
+    "quick",
+    cmdline::groups::help(
+        "A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement"
+    )
+))]
 pub struct VolumetricArgs {
-    /// Output folder (the dataset in OUT/data, runs in OUT/runs).
-    #[arg(long, default_value = "out/experiment-volumetric")]
-    pub out: PathBuf,
+    #[command(flatten)]
+    pub out: cmdline::Output,
     /// Iterations per run.
     #[arg(long, default_value_t = 300)]
     pub iterations: u32,
-    /// Seed of the renders and the runs.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement.
-    #[arg(long)]
-    pub quick: bool,
+    #[command(flatten)]
+    pub seed: cmdline::Seed,
+    #[command(flatten)]
+    pub quick: cmdline::Quick,
     #[command(flatten)]
     pub jobs: super::jobs::JobArgs,
 }
@@ -76,7 +86,7 @@ const VARIANTS: [Variant; 3] = [
 ];
 
 pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (views, res, target_spp, iterations, spp) = super::workload(*a.quick, a.iterations);
     let case = |v: &Variant| format!("{}-{}spp", v.name, spp * v.spp_factor);
     let cases: Vec<String> = VARIANTS.iter().map(case).collect();
     if a.jobs.listed(&cases, obs)? {
@@ -85,14 +95,14 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed, obs)
+        super::blob_dataset(&data, views, res, TRUTH, target_spp, *a.seed, obs)
     })?;
     let mut missing = Vec::new();
     let mut curves = Vec::new();
     let mut md = format!(
         "σ_t alone, α fixed at 0.9, grey medium (σ_t = 80), {views} views {res}², {iterations} \
          iterations from σ_t = 50{}\n\n| run | final σ_t | error % | s/it | seconds |\n|---|---|---|---|---|\n",
-        if a.quick {
+        if *a.quick {
             " — QUICK: a smoke test, not a measurement"
         } else {
             ""
@@ -112,7 +122,7 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
         };
         s.schedule.params.fix_albedo = true;
         s.schedule.params.monochrome = true;
-        s.schedule.seed = a.seed;
+        s.schedule.seed = *a.seed;
         s.checks.final_spp = 16;
         s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.

@@ -80,6 +80,51 @@ fn load_set(path: &Path) -> Result<(SampleFileHeader, Vec<crate::sample::Sample>
 }
 
 /// Runs (or resumes) the training `run`; `pb` follows its steps.
+/// A model to fine-tune (`run.init`) must have been fitted with the data's c_19 setting.
+fn check_quirk(run: &FitRun, model: &ShapeAdaptiveModel, quirk: bool) -> Result<(), FitError> {
+    if model.info().c19_quirk == quirk {
+        return Ok(());
+    }
+    let path = run.init.as_ref().expect("the model of run.init is loaded");
+    let with = |b: bool| if b { "with" } else { "without" };
+    Err(FitError::Invalid(format!(
+        "{} {}: the model was fitted {} VKJ19's c_19 = 0 quirk and the data \
+         in {} {} it; fine-tune on data made with the same setting ({} when \
+         making the data)",
+        Setting::Init,
+        path.display(),
+        with(model.info().c19_quirk),
+        run.data.display(),
+        with(quirk),
+        Setting::NoC19Quirk,
+    )))
+}
+
+/// The provenance stored in the fitted model and in `train.json`: the data, the training
+/// configuration, the starting model, the steps and seconds, and the last validation.
+fn provenance(
+    run: &FitRun,
+    train_file: &Path,
+    header: &SampleFileHeader,
+    trainer: &Trainer,
+) -> serde_json::Value {
+    serde_json::json!({
+        "source": "translucent train fit",
+        "data": {
+            "train_file": train_file.display().to_string(),
+            "train_samples": header.sample_count,
+            "generator": header.generator,
+            "seed": header.seed,
+            "config": header.config,
+        },
+        "training": trainer.config(),
+        "init": run.init.as_ref().map(|p| p.display().to_string()),
+        "steps": trainer.step(),
+        "training_seconds": trainer.seconds(),
+        "validation": trainer.history().last().map(|r| &r.val),
+    })
+}
+
 pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
     let invalid = |m: String| Err(FitError::Invalid(m));
     let train_file = run.data.join("train.tlsamples");
@@ -155,21 +200,7 @@ pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
         let config = run.config.clone();
         match init {
             Some(model) => {
-                let path = run.init.as_ref().expect("the model of run.init is loaded");
-                if model.info().c19_quirk != quirk {
-                    let with = |b: bool| if b { "with" } else { "without" };
-                    return invalid(format!(
-                        "{} {}: the model was fitted {} VKJ19's c_19 = 0 quirk and the data \
-                         in {} {} it; fine-tune on data made with the same setting ({} when \
-                         making the data)",
-                        Setting::Init,
-                        path.display(),
-                        with(model.info().c19_quirk),
-                        run.data.display(),
-                        with(quirk),
-                        Setting::NoC19Quirk,
-                    ));
-                }
+                check_quirk(run, &model, quirk)?;
                 Trainer::from_model(config, model, train_p, val_p)?
             }
             None => Trainer::new(config, norm, info, train_p, val_p)?,
@@ -190,21 +221,7 @@ pub fn run(run: &FitRun, pb: &ProgressBar) -> Result<FitOutcome, FitError> {
     pb.finish_and_clear();
     let seconds = t0.elapsed().as_secs_f64();
     let last = trainer.history().last().cloned();
-    let provenance = serde_json::json!({
-        "source": "translucent train fit",
-        "data": {
-            "train_file": train_file.display().to_string(),
-            "train_samples": train_header.sample_count,
-            "generator": train_header.generator,
-            "seed": train_header.seed,
-            "config": train_header.config,
-        },
-        "training": trainer.config(),
-        "init": run.init.as_ref().map(|p| p.display().to_string()),
-        "steps": trainer.step(),
-        "training_seconds": trainer.seconds(),
-        "validation": last.as_ref().map(|r| &r.val),
-    });
+    let provenance = provenance(run, &train_file, &train_header, &trainer);
     trainer.model_info_mut().provenance = provenance.clone();
     trainer.model().save(&model_path)?;
     crate::plot::write_history(trainer.history(), &run.out, true)?;

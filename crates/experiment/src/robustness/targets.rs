@@ -22,8 +22,12 @@ pub(super) fn ensure_dataset(
     dir: &Path,
     obs: &dyn Observer,
 ) -> Result<()> {
-    let spp = if a.quick { 8 } else { a.target_spp };
-    let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
+    let spp = if *a.quick { 8 } else { a.target_spp };
+    let (views, res) = if *a.quick {
+        (6, 24)
+    } else {
+        (*a.views, *a.res)
+    };
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
         let by_mitsuba = ds
@@ -62,7 +66,7 @@ pub(super) fn ensure_dataset(
                 case.medium,
                 RenderOpts {
                     spp,
-                    seed: a.seed + rep,
+                    seed: *a.seed + rep,
                     max_depth: MAX_DEPTH,
                     shadow: Default::default(),
                 },
@@ -73,7 +77,7 @@ pub(super) fn ensure_dataset(
         }
         Targets::Mitsuba => {
             let mesh = mesh_source(case, &a.mesh, &mesh_dir, true)?;
-            render_with_mitsuba(a, case, mesh, (views, res, spp), a.seed + rep, dir)?;
+            render_with_mitsuba(a, case, mesh, (views, res, spp), *a.seed + rep, dir)?;
         }
     }
     Ok(())
@@ -182,7 +186,7 @@ pub(super) fn target_renderers(a: &RobustnessArgs, obs: &dyn Observer) -> Result
         }
         return Ok(t.clone());
     }
-    if a.quick {
+    if *a.quick {
         return Ok(vec![Targets::Volpath]);
     }
     // A list of jobs is only the commands.
