@@ -107,60 +107,90 @@ impl<'a> Consts<'a> {
                 c.k_a[ch][j] = ka[ch];
             }
         }
-        let perturbed = |med: scene::Medium| {
-            LearnedScene::new(
-                scene.accel,
-                scene.model,
-                scene.features,
-                med,
-                scene.settings,
-            )
-        };
         if ds.estimator == Estimator::OursAlphaOffsets {
-            for ch in 0..3 {
-                let make = |sign: f64| {
-                    let mut med = scene.medium;
-                    med.albedo[ch] = (m.albedo[ch] as f64 + sign * steps_a[ch]) as f32;
-                    perturbed(med)
-                };
-                let pair = [make(1.0)?, make(-1.0)?];
-                // The actual f32 albedo difference.
-                let diff = pair[0].medium.albedo[ch] as f64 - pair[1].medium.albedo[ch] as f64;
-                c.inv_2da[ch] = (1.0 / diff) as f32;
-                c.sn_a[ch] = [pair[0].sigma_n[ch], pair[1].sigma_n[ch]];
-                c.k_a[ch] = [pair[0].descriptor_scale[ch], pair[1].descriptor_scale[ch]];
-                c.alpha.push(pair);
-            }
+            c.alpha_offsets(scene, steps_a)?;
         }
         if ds.estimator == Estimator::Fd {
-            for param in 0..6 {
-                let ch = param % 3;
-                let step = if param < 3 { steps_t[ch] } else { steps_a[ch] };
-                let make = |sign: f64| -> Result<LearnedScene<'a>, RenderError> {
-                    let mut med = scene.medium;
-                    if param < 3 {
-                        med.sigma_t[ch] = (m.sigma_t[ch] as f64 + sign * step) as f32;
-                    } else {
-                        med.albedo[ch] = (m.albedo[ch] as f64 + sign * step) as f32;
-                    }
-                    let mut s = perturbed(med)?;
-                    if ds.fd_fixed_sigma_n {
-                        s.sigma_n = scene.sigma_n;
-                        s.descriptor_scale = scene.descriptor_scale;
-                    }
-                    Ok(s)
-                };
-                // The actual f32 parameter difference (σ_t ± Δ is rounded to f32).
-                let hi = make(1.0)?;
-                let lo = make(-1.0)?;
-                let diff = if param < 3 {
-                    hi.medium.sigma_t[ch] as f64 - lo.medium.sigma_t[ch] as f64
-                } else {
-                    hi.medium.albedo[ch] as f64 - lo.medium.albedo[ch] as f64
-                };
-                c.fd.push((hi, lo, 1.0 / diff));
-            }
+            c.fd_scenes(scene, ds, steps_t, steps_a)?;
         }
         Ok(c)
     }
+
+    /// `ours-alpha-offsets`: per channel c, the scenes at α_c ± Δα, with the step, σ_n and
+    /// descriptor scale they actually have (the albedo rounded to f32).
+    fn alpha_offsets(
+        &mut self,
+        scene: &LearnedScene<'a>,
+        steps_a: [f64; 3],
+    ) -> Result<(), RenderError> {
+        for ch in 0..3 {
+            let make = |sign: f64| {
+                let mut med = scene.medium;
+                med.albedo[ch] = (scene.medium.albedo[ch] as f64 + sign * steps_a[ch]) as f32;
+                perturbed(scene, med)
+            };
+            let pair = [make(1.0)?, make(-1.0)?];
+            // The actual f32 albedo difference.
+            let diff = pair[0].medium.albedo[ch] as f64 - pair[1].medium.albedo[ch] as f64;
+            self.inv_2da[ch] = (1.0 / diff) as f32;
+            self.sn_a[ch] = [pair[0].sigma_n[ch], pair[1].sigma_n[ch]];
+            self.k_a[ch] = [pair[0].descriptor_scale[ch], pair[1].descriptor_scale[ch]];
+            self.alpha.push(pair);
+        }
+        Ok(())
+    }
+
+    /// `fd`: the scenes at θ ± Δ for σ_t,R..B then α_R..B, with 1/(2Δ) of the actual f32
+    /// parameter difference.
+    fn fd_scenes(
+        &mut self,
+        scene: &LearnedScene<'a>,
+        ds: &DiffSettings,
+        steps_t: [f64; 3],
+        steps_a: [f64; 3],
+    ) -> Result<(), RenderError> {
+        let m = &scene.medium;
+        for param in 0..6 {
+            let ch = param % 3;
+            let step = if param < 3 { steps_t[ch] } else { steps_a[ch] };
+            let make = |sign: f64| -> Result<LearnedScene<'a>, RenderError> {
+                let mut med = scene.medium;
+                if param < 3 {
+                    med.sigma_t[ch] = (m.sigma_t[ch] as f64 + sign * step) as f32;
+                } else {
+                    med.albedo[ch] = (m.albedo[ch] as f64 + sign * step) as f32;
+                }
+                let mut s = perturbed(scene, med)?;
+                if ds.fd_fixed_sigma_n {
+                    s.sigma_n = scene.sigma_n;
+                    s.descriptor_scale = scene.descriptor_scale;
+                }
+                Ok(s)
+            };
+            // The actual f32 parameter difference (σ_t ± Δ is rounded to f32).
+            let hi = make(1.0)?;
+            let lo = make(-1.0)?;
+            let diff = if param < 3 {
+                hi.medium.sigma_t[ch] as f64 - lo.medium.sigma_t[ch] as f64
+            } else {
+                hi.medium.albedo[ch] as f64 - lo.medium.albedo[ch] as f64
+            };
+            self.fd.push((hi, lo, 1.0 / diff));
+        }
+        Ok(())
+    }
+}
+
+/// `scene` with another medium (its features, model and settings).
+fn perturbed<'a>(
+    scene: &LearnedScene<'a>,
+    med: scene::Medium,
+) -> Result<LearnedScene<'a>, RenderError> {
+    LearnedScene::new(
+        scene.accel,
+        scene.model,
+        scene.features,
+        med,
+        scene.settings,
+    )
 }
