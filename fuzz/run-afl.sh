@@ -15,7 +15,7 @@ seconds="${1:-600}"
 shift || true
 readers=("$@")
 if [ ${#readers[@]} -eq 0 ]; then
-    readers=(ply obj scene-toml scene-json dataset reference exr model optimize-checkpoint
+    readers=(ply obj scene-toml scene-json scene-xml dataset reference exr model optimize-checkpoint
              train-checkpoint samples tables son24-bin)
 fi
 cargo afl build --release

@@ -37,8 +37,9 @@ use inverse::views::build_accel;
     cmdline::groups::help("Replace existing images in the output folder")
 ))]
 pub struct RenderArgs {
-    /// Scene file (.toml or .json; format in SCENE.md), or a dataset folder (dataset.json or a
-    /// Mitsuba reference folder with scene.json: its truth medium is rendered).
+    /// Scene file (.toml, .json, or a Mitsuba 3 scene .xml; format in SCENE.md), or a dataset
+    /// folder (dataset.json or a Mitsuba reference folder with scene.json: its truth medium is
+    /// rendered).
     pub scene: PathBuf,
     #[command(flatten)]
     pub out: cmdline::Output,

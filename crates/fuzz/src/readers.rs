@@ -24,6 +24,8 @@ pub enum Reader {
     SceneToml,
     /// Scene files in JSON (`scene::SceneDesc::load`).
     SceneJson,
+    /// Mitsuba 3 scene files (`scene::SceneDesc::load` of a `.xml`).
+    SceneXml,
     /// `dataset.json` of a dataset folder, with its views' EXRs (`scene::Dataset::load`).
     Dataset,
     /// `scene.json` of a Mitsuba reference-render folder (`scene::Dataset::load_reference`).
@@ -48,11 +50,12 @@ pub enum Reader {
 
 impl Reader {
     /// All readers.
-    pub const ALL: [Reader; 13] = [
+    pub const ALL: [Reader; 14] = [
         Reader::Ply,
         Reader::Obj,
         Reader::SceneToml,
         Reader::SceneJson,
+        Reader::SceneXml,
         Reader::Dataset,
         Reader::Reference,
         Reader::Exr,
@@ -72,6 +75,7 @@ impl Reader {
             Reader::Obj => "obj",
             Reader::SceneToml => "scene-toml",
             Reader::SceneJson => "scene-json",
+            Reader::SceneXml => "scene-xml",
             Reader::Dataset => "dataset",
             Reader::Reference => "reference",
             Reader::Exr => "exr",
@@ -97,6 +101,7 @@ impl Reader {
             Reader::Obj => "mesh.obj",
             Reader::SceneToml => "scene.toml",
             Reader::SceneJson => "scene.json",
+            Reader::SceneXml => "scene.xml",
             Reader::Dataset => "dataset.json",
             Reader::Reference => "scene.json",
             Reader::Exr => "image.exr",
@@ -260,7 +265,9 @@ impl Target {
         let input = &self.input;
         match self.reader {
             Reader::Ply | Reader::Obj => text(geometry::io::load_mesh(input)),
-            Reader::SceneToml | Reader::SceneJson => text(scene::SceneDesc::load(input)),
+            Reader::SceneToml | Reader::SceneJson | Reader::SceneXml => {
+                text(scene::SceneDesc::load(input))
+            }
             Reader::Dataset => text(scene::Dataset::load(&self.dir)),
             Reader::Reference => text(scene::Dataset::load_reference(&self.dir)),
             Reader::Exr => text(scene::Image::read_exr(input)),

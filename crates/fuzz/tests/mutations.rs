@@ -80,6 +80,11 @@ fn scene_json() {
 }
 
 #[test]
+fn scene_xml() {
+    pass(Reader::SceneXml);
+}
+
+#[test]
 fn dataset() {
     pass(Reader::Dataset);
 }

@@ -11,6 +11,7 @@
 //! | `OUT/result.json` | the estimate, its 95 % intervals, the checks and the status |
 //! | `OUT/convergence.png`/`.svg` | the parameters over the iterations |
 //! | `OUT/final/` | re-renders beside the targets, false-colour differences, a contact sheet |
+//! | `OUT/mitsuba/` | the reported medium as Mitsuba 3 XML: `medium.xml` (boundary and interior), the dataset's scene with it, `object.ply` |
 //!
 //! After the loop: the intervals ([`crate::uncertainty`]), the bias correction of a learned-model
 //! run without refinement ([`bias_correction`]), the consistency check by the volumetric path

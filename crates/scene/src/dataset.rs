@@ -33,6 +33,7 @@ mod save;
 #[cfg(test)]
 #[allow(clippy::type_complexity)]
 mod tests;
+mod xml;
 
 pub use reference::load_reference_folder;
 
@@ -44,6 +45,8 @@ pub const DATASET_VERSION: u32 = 1;
 pub const DATASET_FILE: &str = "dataset.json";
 /// File name of the description in a Mitsuba reference-render folder.
 pub const REFERENCE_FILE: &str = "scene.json";
+/// File name of the scene in a Mitsuba 3 scene folder (the scene file and an image per sensor).
+pub const MITSUBA_SCENE_FILE: &str = "scene.xml";
 
 const UNITS_NOTE: &str = "lengths in scene units; sigma_t in 1/unit; light intensity = radiant \
                           intensity in W/sr per RGB channel (irradiance I/r^2 facing the light); \
@@ -82,6 +85,8 @@ pub enum DatasetKind {
     Native,
     /// A Mitsuba reference-render folder (`scene.json`).
     MitsubaReference,
+    /// A Mitsuba 3 scene folder (`scene.xml` and an image per sensor).
+    MitsubaScene,
 }
 
 /// Informational fields of a dataset.
@@ -159,6 +164,7 @@ impl Dataset {
             path: self.root.join(match self.kind {
                 DatasetKind::Native => DATASET_FILE,
                 DatasetKind::MitsubaReference => REFERENCE_FILE,
+                DatasetKind::MitsubaScene => MITSUBA_SCENE_FILE,
             }),
         }
     }
@@ -175,6 +181,7 @@ impl Dataset {
             let dir = base_dir(path);
             return match path.file_name().and_then(|n| n.to_str()) {
                 Some(REFERENCE_FILE) => load_reference_folder(&dir),
+                Some(MITSUBA_SCENE_FILE) => xml::load_scene_folder(&dir),
                 _ => Self::load_dataset_json(path),
             };
         }
@@ -191,12 +198,15 @@ impl Dataset {
             Self::load_dataset_json(&path.join(DATASET_FILE))
         } else if path.join(REFERENCE_FILE).is_file() {
             load_reference_folder(path)
+        } else if path.join(MITSUBA_SCENE_FILE).is_file() {
+            xml::load_scene_folder(path)
         } else {
             Err(SceneError::Invalid {
                 location: path.display().to_string(),
                 reason: format!(
-                    "no {DATASET_FILE} (translucent dataset) and no {REFERENCE_FILE} (Mitsuba \
-                     reference folder) here; fix: point to a dataset folder (see DATASET.md), \
+                    "no {DATASET_FILE} (translucent dataset), no {REFERENCE_FILE} (Mitsuba \
+                     reference folder) and no {MITSUBA_SCENE_FILE} (Mitsuba 3 scene with an \
+                     image per sensor) here; fix: point to a dataset folder (see DATASET.md), \
                      or create one with `translucent dataset`"
                 ),
             })
@@ -252,7 +262,7 @@ fn load_view_image(
 
 /// A camera from a row-major 4×4 Mitsuba to_world, validated (finite, last row [0, 0, 0, 1],
 /// orthonormal right-handed rotation, resolution, fov).
-fn camera_from_matrix(
+pub(crate) fn camera_from_matrix(
     m: &[[f64; 4]; 4],
     fov: f32,
     width: u32,

@@ -23,6 +23,7 @@ pub mod image;
 pub mod light;
 pub mod loss;
 pub mod medium;
+pub mod mitsuba_xml;
 pub mod object;
 pub mod rig;
 pub mod scene_file;

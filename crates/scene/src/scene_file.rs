@@ -35,6 +35,9 @@ pub enum MeshSource {
     File(PathBuf),
     /// A built-in shape.
     Shape(geometry::Shape),
+    /// A mesh file placed in the world by an affine transform (a Mitsuba shape's `to_world`:
+    /// p_world = M·p_file).
+    Placed { path: PathBuf, to_world: glam::Mat4 },
 }
 
 impl MeshSource {
@@ -54,6 +57,15 @@ impl MeshSource {
                 Ok(geometry::io::load_mesh(path)?)
             }
             MeshSource::Shape(shape) => Ok((shape.build()?, Vec::new())),
+            MeshSource::Placed { path, to_world } => {
+                let (mut mesh, mut warnings) = MeshSource::File(path.clone()).load()?;
+                mesh.transform(*to_world);
+                warnings.extend(geometry::mesh::validate(
+                    &mut mesh,
+                    &format!("{} (to_world applied)", path.display()),
+                )?);
+                Ok((mesh, warnings))
+            }
         }
     }
 
@@ -62,6 +74,7 @@ impl MeshSource {
         match self {
             MeshSource::File(p) => p.display().to_string(),
             MeshSource::Shape(s) => format!("built-in shape '{}'", s.name()),
+            MeshSource::Placed { path, .. } => format!("{} (to_world applied)", path.display()),
         }
     }
 }
@@ -137,6 +150,12 @@ impl SceneDesc {
     /// Parse and validate scene text as if read from `path`: the extension (`.toml` / `.json`)
     /// chooses the syntax and a relative mesh path is resolved from `path`'s folder.
     pub fn parse(text: &str, path: &Path) -> Result<SceneDesc, SceneError> {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+        {
+            return crate::mitsuba_xml::parse(text, path);
+        }
         let raw: RawScene = parse_by_extension(text, path)?;
         raw.validate(path)
     }

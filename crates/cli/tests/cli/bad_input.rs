@@ -422,3 +422,27 @@ fn model_is_a_kind_and_model_file_a_learned_model_s_weights() {
     let r = render(&["--model", "learned", "--model-file", "missing.safetensors"]);
     assert_stderr_has(&r, &["missing.safetensors"]);
 }
+
+#[test]
+fn bad_mitsuba_scene_names_the_line() {
+    let t = tmp();
+    write(
+        &t.path().join("scene.xml"),
+        r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/></sensor>
+    <emitter type="point"><point name="position" x="1" y="1" z="1"/></emitter>
+    <shape type="ply">
+        <string name="filename" value="object.ply"/>
+        <bsdf type="roughdielectric"><float name="alpha" value="0.2"/></bsdf>
+        <medium type="homogeneous" name="interior"/>
+    </shape>
+</scene>"#,
+    );
+    let r = fails(
+        t.path(),
+        &["-q", "render", "scene.xml", "--out", "out", "--spp", "2"],
+    );
+    // Mitsuba's default distribution is Beckmann; the rough boundary is GGX.
+    assert_stderr_has(&r, &["scene.xml:6 <bsdf>", "beckmann", "ggx"]);
+    assert!(!t.path().join("out").exists());
+}

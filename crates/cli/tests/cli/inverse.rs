@@ -75,6 +75,34 @@ fn optimize_writes_results_resumes_and_gradcheck_runs() {
     ] {
         assert!(d.join("o").join(f).exists(), "missing {f}");
     }
+    // The estimate as Mitsuba 3 XML, which reads back as the estimate and renders.
+    let xml: Vec<_> = std::fs::read_dir(d.join("o/mitsuba"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml") && !p.ends_with("medium.xml"))
+        .collect();
+    assert!(!xml.is_empty() && d.join("o/mitsuba/medium.xml").exists());
+    let back = scene::SceneDesc::load(&xml[0]).unwrap();
+    for c in 0..3 {
+        let want = res["estimate"]["sigma_t"][c].as_f64().unwrap();
+        assert!(
+            (back.medium.sigma_t[c] as f64 / want - 1.0).abs() < 1e-5,
+            "{back:?}"
+        );
+    }
+    let r = ok(
+        d,
+        &[
+            "render",
+            xml[0].to_str().unwrap(),
+            "--spp",
+            "1",
+            "--out",
+            "rx",
+        ],
+    );
+    assert_stdout_has(&r, &["rendered"]);
+    assert!(d.join("rx/view_000.exr").exists());
     let again = fails(d, &opt);
     assert_stderr_has(&again, &["--resume", "--overwrite"]);
     let mut resume: Vec<&str> = opt.to_vec();

@@ -144,6 +144,7 @@ fn meshes() -> Res {
     for r in [
         Reader::SceneToml,
         Reader::SceneJson,
+        Reader::SceneXml,
         Reader::Dataset,
         Reader::Reference,
     ] {
@@ -215,6 +216,70 @@ const SCENE_RIG_JSON: &str = r#"{
 }
 "#;
 
+const SCENE_XML_ROUGH: &str = r#"<scene version="3.0.0">
+    <integrator type="volpath"><integer name="max_depth" value="32"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0.5, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <emitter type="point">
+        <point name="position" x="1" y="1.5" z="0.5"/>
+        <rgb name="intensity" value="4, 4, 4"/>
+    </emitter>
+    <shape type="ply">
+        <string name="filename" value="mesh.ply"/>
+        <transform name="to_world"><rotate y="1" angle="30"/><scale value="0.5"/></transform>
+        <bsdf type="roughdielectric">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.3"/>
+            <float name="int_ior" value="1.4"/>
+            <float name="ext_ior" value="1"/>
+        </bsdf>
+        <medium type="homogeneous" name="interior">
+            <rgb name="sigma_t" value="0.5, 0.6, 0.7"/>
+            <float name="scale" value="100"/>
+            <rgb name="albedo" value="0.95, 0.9, 0.85"/>
+            <phase type="hg"><float name="g" value="0.6"/></phase>
+        </medium>
+    </shape>
+</scene>
+"#;
+
+const SCENE_XML_REFS: &str = r#"<scene version="3.0.0">
+    <default name="res" value="8"/>
+    <default name="ior" value="water"/>
+    <bsdf type="dielectric" id="surface"><string name="int_ior" value="$ior"/></bsdf>
+    <medium type="homogeneous" id="milk">
+        <float name="sigma_t" value="60"/>
+        <spectrum name="albedo" value="0.9"/>
+    </medium>
+    <sensor type="perspective">
+        <string name="focal_length" value="35mm"/>
+        <transform name="to_world">
+            <matrix value="1 0 0 0  0 1 0 0  0 0 1 -2  0 0 0 1"/>
+        </transform>
+        <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/></film>
+    </sensor>
+    <sensor type="perspective">
+        <float name="fov" value="30"/>
+        <string name="fov_axis" value="smaller"/>
+        <transform name="to_world"><lookat origin="2, 0, 0" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <emitter type="point">
+        <transform name="to_world"><translate value="0.5, 1, -1.5"/></transform>
+        <spectrum name="intensity" value="3"/>
+    </emitter>
+    <shape type="ply">
+        <string name="filename" value="mesh.ply"/>
+        <ref id="surface"/>
+        <ref name="interior" id="milk"/>
+    </shape>
+</scene>
+"#;
+
 fn scenes() -> Res {
     let small_example = scene::scene_file::EXAMPLE_SCENE_TOML
         .replace("width = 128", "width = 8")
@@ -225,6 +290,8 @@ fn scenes() -> Res {
         (Reader::SceneToml, "rig-torus.toml", SCENE_RIG_TOML),
         (Reader::SceneJson, "views-mesh.json", SCENE_VIEWS_JSON),
         (Reader::SceneJson, "rig-box.json", SCENE_RIG_JSON),
+        (Reader::SceneXml, "rough-hg.xml", SCENE_XML_ROUGH),
+        (Reader::SceneXml, "refs-defaults.xml", SCENE_XML_REFS),
     ] {
         std::fs::write(corpus(r, name), text)?;
     }

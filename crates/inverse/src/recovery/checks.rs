@@ -102,6 +102,7 @@ pub(super) fn check(
     }
     result["complete"] = json!(true);
     write_result(&cfg.out, &result)?;
+    super::outputs::mitsuba(cfg, &p.ds, &shown.medium(&p.base), obs)?;
     let summary = Summary {
         shown: &shown,
         shown_u: shown_u.as_ref(),

@@ -1,11 +1,13 @@
 //! The re-renders of a finished run: every view (at most [`RERENDER_VIEWS`], evenly spread) at
 //! the estimate by the run's final model, beside its target with a false-colour difference, an
-//! overview of the first four and a contact sheet of them all (`OUT/final/`).
+//! overview of the first four and a contact sheet of them all (`OUT/final/`); and the reported
+//! medium as Mitsuba 3 XML (`OUT/mitsuba/`, [`scene::mitsuba_xml`]).
 
 use std::path::Path;
 
 use bssrdf::render::RenderSettings;
-use scene::{Dataset, Image};
+use scene::mitsuba_xml::MitsubaExport;
+use scene::{Dataset, Image, Medium};
 
 use super::{Observer, RecoveryConfig, RecoveryError};
 use crate::optimize::Optimizer;
@@ -89,5 +91,27 @@ fn write_view(
         1.0,
         true,
     )?;
+    Ok(())
+}
+
+/// `OUT/mitsuba/`: the reported medium `medium` as Mitsuba 3 XML: `medium.xml` (the object's
+/// boundary and interior, to paste into a shape), the dataset's scene with it (`scene.xml`, or
+/// one file per view when the views' lights differ) and the mesh they name (`object.ply`).
+pub(super) fn mitsuba(
+    cfg: &RecoveryConfig,
+    ds: &Dataset,
+    medium: &Medium,
+    obs: &dyn Observer,
+) -> Result<(), RecoveryError> {
+    let desc = ds.scene(*medium);
+    let spp = ds.render.spp.unwrap_or(64);
+    let depth = ds.render.max_depth.unwrap_or(32);
+    let dir = cfg.out.join("mitsuba");
+    MitsubaExport::of(&desc, spp, depth)?.write(&dir, medium, true)?;
+    obs.say(&format!(
+        "wrote {} (the estimate as Mitsuba 3 XML: medium.xml to paste into a shape, and the \
+         dataset's scene with it)",
+        dir.display()
+    ));
     Ok(())
 }

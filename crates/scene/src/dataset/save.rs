@@ -69,6 +69,18 @@ impl Dataset {
         let (mesh, shape) = match &self.mesh {
             MeshSource::Shape(s) => (None, Some(ShapeSpec::from_shape(s))),
             MeshSource::File(p) => (Some(place_mesh(p, dir, overwrite)?), None),
+            MeshSource::Placed { .. } => {
+                // The mesh as placed in the world, written beside the dataset.
+                let (mesh, _) = self.mesh.load()?;
+                let name = PathBuf::from("object.ply");
+                if !overwrite && dir.join(&name).exists() {
+                    return Err(SceneError::Exists {
+                        path: dir.join(&name),
+                    });
+                }
+                geometry::io::save_ply(&mesh, &dir.join(&name))?;
+                (Some(name), None)
+            }
         };
 
         let images: Vec<Image> = self.views.iter().filter_map(|v| v.image.clone()).collect();

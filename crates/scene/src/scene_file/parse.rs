@@ -63,7 +63,7 @@ pub(crate) fn parse_by_extension<T: serde::de::DeserializeOwned>(
         }),
         _ => Err(SceneError::Parse {
             path: path.to_path_buf(),
-            reason: "unknown file type; fix: name the file *.toml or *.json".into(),
+            reason: "unknown file type; fix: name the file *.toml or *.json (or *.xml for a Mitsuba 3 scene)".into(),
         }),
     }
 }
