@@ -1155,3 +1155,50 @@ fn experiment_prb_quick_compares_ours_with_the_volumetric_baseline() {
         again.stdout
     );
 }
+
+/// A Mitsuba 3 scene folder (the scene file `optimize` exported, with the dataset's images) is a
+/// dataset: a recovery from it renders with the boundary and phase function the scene states.
+#[test]
+fn a_mitsuba_scene_folder_is_recovered_with_its_stated_physics() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(
+        d,
+        "ds",
+        "2",
+        "12",
+        &[
+            "--light",
+            "fixed",
+            "--eta",
+            "1.3",
+            "--roughness",
+            "0.1",
+            "--g",
+            "0.5",
+        ],
+    );
+    // The tracer as the model: the learned model's tables for this g and η would be simulated
+    // first (tens of seconds), which is not what this test is about.
+    let first = [&TINY_OPTIMIZE[..], &["--model", "volpath"]].concat();
+    ok(d, &first);
+    let mx = d.join("mx");
+    std::fs::create_dir(&mx).unwrap();
+    for f in ["scene.xml", "object.ply"] {
+        std::fs::copy(d.join("o/mitsuba").join(f), mx.join(f)).unwrap();
+    }
+    for n in exr_names(2) {
+        std::fs::copy(d.join("ds").join(&n), mx.join(&n)).unwrap();
+    }
+    let mut opt = first.clone();
+    (opt[2], opt[4]) = ("mx", "o2");
+    ok(d, &opt);
+    let r = read_json(&d.join("o2/result.json"));
+    let o = &r["object"];
+    assert_eq!(o["source"], "dataset", "{o}");
+    assert_eq!(o["boundary"]["eta"], 1.3, "{o}");
+    assert_eq!(o["boundary"]["roughness"], 0.1, "{o}");
+    assert_eq!(o["phase"]["g"], 0.5, "{o}");
+    // The scene states no truth: the images are what σ_t and α come from.
+    assert!(r.get("truth").is_none_or(|t| t.is_null()), "{r}");
+}
