@@ -112,8 +112,12 @@ pub fn add_assessment(
     }
 }
 
-/// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel, and in plain words what the
-/// images leave open and which capture would settle it.
+/// A σ_t interval reaching this factor beyond the estimate on a side is printed in words.
+const WIDE: f64 = 100.0;
+
+/// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel (in words where it spans orders
+/// of magnitude: `anything above 20.0 fits these images`), and in plain words what the images
+/// leave open and which capture would settle it.
 pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<String> {
     const CH: [&str; 3] = ["R", "G", "B"];
     // A bound too large or too small for `p` decimals reads in scientific notation: an interval
@@ -130,12 +134,30 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
         Some([lo, hi]) => format!("{v:.p$} [{}, {}]", num(lo, p), num(hi, p)),
         None => format!("{v:.p$} [no finite interval]"),
     };
+    // An interval of σ_t that reaches orders of magnitude beyond the estimate says no more than
+    // which side the images bound: it is printed as that, in words.
+    let sigma_t = |v: f64, i: Option<[f64; 2]>| match i {
+        Some([lo, hi]) if !u.fixed[0] && (hi >= WIDE * v || lo <= v / WIDE) => {
+            match (lo <= v / WIDE, hi >= WIDE * v) {
+                (true, true) => format!("{v:.1} [not determined: any value fits these images]"),
+                (false, _) => format!(
+                    "{v:.1} [not determined: anything above {} fits these images]",
+                    num(lo, 1)
+                ),
+                (true, false) => format!(
+                    "{v:.1} [not determined: anything below {} fits these images]",
+                    num(hi, 1)
+                ),
+            }
+        }
+        _ => fmt(v, i, u.fixed[0], 1),
+    };
     let mut out = vec!["95 % intervals (from the images):".to_string()];
     for c in 0..3 {
         out.push(format!(
             "  {}: σ_t = {}  α = {}",
             CH[c],
-            fmt(est.sigma_t[c], u.sigma_t[c], u.fixed[0], 1),
+            sigma_t(est.sigma_t[c], u.sigma_t[c]),
             fmt(est.albedo[c], u.albedo[c], u.fixed[1], 4)
         ));
     }
@@ -414,10 +436,10 @@ mod tests {
         assert!(!text.contains("trades σ_t against α"), "{text}");
     }
 
-    /// An interval spanning many decades prints its bounds in scientific notation, not as
-    /// "[0.0, 358671928.4]".
+    /// An interval spanning orders of magnitude prints as what it means, not as
+    /// "[0.0, 358671928.4]"; bounds of moderately wide ones in scientific notation when small.
     #[test]
-    fn a_decades_wide_interval_prints_in_scientific_notation() {
+    fn a_decades_wide_interval_prints_as_what_it_means() {
         use crate::uncertainty::Uncertainty;
         let narrow = Some([0.1f64.powi(2), 0.0, 1e-4]);
         let flat = Some([3.9f64.powi(2), 0.0, 1e-4]);
@@ -429,7 +451,29 @@ mod tests {
         let lines = interval_lines(&est, &u);
         assert!(lines[1].contains("σ_t = 70.3 [57.8, 85.5]"), "{}", lines[1]);
         assert!(
-            lines[2].contains("σ_t = 70.3 [3.4e-2, 1.5e5]"),
+            lines[2].contains("σ_t = 70.3 [not determined: any value fits these images]"),
+            "{}",
+            lines[2]
+        );
+        let mut one_sided = u.clone();
+        one_sided.sigma_t[1] = Some([20.0, 3.6e8]);
+        one_sided.sigma_t[2] = Some([1.4e-5, 95.0]);
+        let lines = interval_lines(&est, &one_sided);
+        assert!(
+            lines[2].contains("σ_t = 70.3 [not determined: anything above 20.0 fits"),
+            "{}",
+            lines[2]
+        );
+        assert!(
+            lines[3].contains("σ_t = 70.3 [not determined: anything below 95.0 fits"),
+            "{}",
+            lines[3]
+        );
+        // Wide but within a factor 100 of the estimate: the numbers.
+        one_sided.sigma_t[1] = Some([0.9, 5000.0]);
+        let lines = interval_lines(&est, &one_sided);
+        assert!(
+            lines[2].contains("σ_t = 70.3 [0.9, 5000.0]"),
             "{}",
             lines[2]
         );
