@@ -66,22 +66,7 @@ impl Dataset {
             source,
         })?;
 
-        let (mesh, shape) = match &self.mesh {
-            MeshSource::Shape(s) => (None, Some(ShapeSpec::from_shape(s))),
-            MeshSource::File(p) => (Some(place_mesh(p, dir, overwrite)?), None),
-            MeshSource::Placed { .. } => {
-                // The mesh as placed in the world, written beside the dataset.
-                let (mesh, _) = self.mesh.load()?;
-                let name = PathBuf::from("object.ply");
-                if !overwrite && dir.join(&name).exists() {
-                    return Err(SceneError::Exists {
-                        path: dir.join(&name),
-                    });
-                }
-                geometry::io::save_ply(&mesh, &dir.join(&name))?;
-                (Some(name), None)
-            }
-        };
+        let (mesh, shape) = self.saved_mesh(dir, overwrite)?;
 
         let images: Vec<Image> = self.views.iter().filter_map(|v| v.image.clone()).collect();
         let exposure = auto_exposure(&images);
@@ -148,6 +133,31 @@ impl Dataset {
         let mut text = compact_number_arrays(&pretty);
         text.push('\n');
         atomic_write(&json_path, text.as_bytes(), overwrite)
+    }
+
+    /// The mesh as the saved dataset names it: a file in `dir` (copied in when it lies outside;
+    /// a placed mesh written as `object.ply` in world coordinates), or a built-in shape's spec.
+    fn saved_mesh(
+        &self,
+        dir: &Path,
+        overwrite: bool,
+    ) -> Result<(Option<PathBuf>, Option<ShapeSpec>), SceneError> {
+        Ok(match &self.mesh {
+            MeshSource::Shape(s) => (None, Some(ShapeSpec::from_shape(s))),
+            MeshSource::File(p) => (Some(place_mesh(p, dir, overwrite)?), None),
+            MeshSource::Placed { .. } => {
+                // The mesh as placed in the world, written beside the dataset.
+                let (mesh, _) = self.mesh.load()?;
+                let name = PathBuf::from("object.ply");
+                if !overwrite && dir.join(&name).exists() {
+                    return Err(SceneError::Exists {
+                        path: dir.join(&name),
+                    });
+                }
+                geometry::io::save_ply(&mesh, &dir.join(&name))?;
+                (Some(name), None)
+            }
+        })
     }
 }
 

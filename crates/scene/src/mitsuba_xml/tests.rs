@@ -256,4 +256,14 @@ fn a_scene_folder_with_an_image_per_sensor_is_a_dataset() {
     // A folder's scene.xml named directly reads the same.
     let again = crate::Dataset::load(&d.path().join("scene.xml")).unwrap();
     assert_eq!(again.views.len(), 2);
+    // Saved as our own dataset, the placed mesh is written in world coordinates.
+    let out = tempfile::tempdir().unwrap();
+    ds.save(out.path(), false).unwrap();
+    let saved = crate::Dataset::load(out.path()).unwrap();
+    assert_eq!(saved.mesh, MeshSource::File(out.path().join("object.ply")));
+    assert_eq!(
+        saved.load_mesh().unwrap().0.bounds(),
+        ds.load_mesh().unwrap().0.bounds()
+    );
+    assert_eq!(saved.object, Some(o));
 }
