@@ -22,7 +22,7 @@ cargo afl build --release
 export AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1 AFL_AUTORESUME=1
 for r in "${readers[@]}"; do
     corpus="corpus/$r"
-    [ "$r" = tables ] && corpus="../crates/bssrdf/data"
+    [ "$r" = tables ] && corpus="../crates/tables/data"
     mkdir -p "out/$r"
     cargo afl fuzz -i "$corpus" -o "out/$r" -t 2000 -m none -V "$seconds" \
         -- target/release/readers "$r" > "out/$r/afl.log" 2>&1 || true

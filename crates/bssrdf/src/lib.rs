@@ -14,12 +14,10 @@
 //! * [`projection`]: the projection Π of proposed points onto the mesh (§7, A5).
 //! * the boundary factors (Fresnel transmittance, FM1, the light-side factor Sw, §1) are
 //!   `base::boundary`, shared with the dipole.
-//! * [`exit`]: the light-side exit law from half-space walks, conditioned on the camera side
-//!   (replaces the cosine law of Sw by default).
-//! * [`incidence`]: the light-side incidence factor: where obliquely entering light leaves,
-//!   relative to its direction, from half-space walks.
-//! * [`curvature`]: the light side's curvature correction: exact walks with next-event estimation
-//!   in balls against the half-space light factors, tabulated and applied at the camera point.
+//! * [`exit`], [`incidence`], [`curvature`] (the `tables` crate, re-exported): the light-side
+//!   exit law from half-space walks, conditioned on the camera side (replaces the cosine law of
+//!   Sw by default); where obliquely entering light leaves, relative to its direction; and the
+//!   curvature correction from exact walks in balls, applied at the camera point.
 //! * [`render`]: the forward renderer with the learned BSSRDF (§7.3).
 //! * [`diff`]: the differentiable renderer: values and ∂/∂σ_t, ∂/∂α by the paper's estimators
 //!   (`ours`, `ours-alpha-offsets`, `naive`, `fd`) and the loss gradient (§8; Son et al. eq. 15–17).
@@ -27,12 +25,9 @@
 //! * [`son24`]: the importer of the reference weights of Son et al. (a yardstick, never a runtime
 //!   dependency).
 
-pub mod curvature;
 pub mod diff;
-pub mod exit;
 pub mod fit;
 pub mod gaussian;
-pub mod incidence;
 pub mod medium;
 pub mod model;
 pub mod nn;
@@ -41,3 +36,5 @@ pub mod projection;
 pub mod render;
 pub mod son24;
 pub mod walk;
+
+pub use tables::{curvature, exit, incidence};

@@ -4,9 +4,7 @@
 
 mod common;
 mod diff;
-mod exit;
 mod fit;
-mod incidence;
 mod model;
 mod nn;
 mod polynomial;

@@ -7,12 +7,12 @@
 //! * `info FILE`: architecture, parameter counts per block, normalisation, conventions,
 //!   provenance, and the plane-case outputs.
 //! * `exit-table OUT`: simulate the light-side exit law of a medium ([`bssrdf::exit`]); with
-//!   the defaults it writes the table shipped in `crates/bssrdf/data/exit-g0-eta1.json`.
+//!   the defaults it writes the table shipped in `crates/tables/data/exit-g0-eta1.json`.
 //! * `curvature-table OUT`: simulate the light side's curvature correction on balls
 //!   ([`bssrdf::curvature`]).
 //! * `incidence-table OUT`: simulate the light-side incidence factor of a medium
 //!   ([`bssrdf::incidence`]); with the defaults it writes the table shipped in
-//!   `crates/bssrdf/data/incidence-g0-eta1.json`.
+//!   `crates/tables/data/incidence-g0-eta1.json`.
 
 use std::path::{Path, PathBuf};
 
@@ -44,18 +44,18 @@ pub enum ModelCommand {
     },
     /// Simulate the light-side exit law f(α; μ_cam, μ_l) of a medium from half-space random
     /// walks (bssrdf::exit) and write it as JSON. The defaults reproduce the table built into
-    /// the binary for g = 0, η = 1 (crates/bssrdf/data/exit-g0-eta1.json).
+    /// the binary for g = 0, η = 1 (crates/tables/data/exit-g0-eta1.json).
     #[command(name = "exit-table")]
     ExitTable(WalkTableArgs),
     /// Simulate the light-side incidence factor A(α; μ_l, ρ, ψ) of a medium (where light that
     /// entered obliquely leaves, relative to its direction; bssrdf::incidence) from half-space
     /// random walks and write it as JSON. The defaults reproduce the table built into the binary
-    /// for g = 0, η = 1 (crates/bssrdf/data/incidence-g0-eta1.json).
+    /// for g = 0, η = 1 (crates/tables/data/incidence-g0-eta1.json).
     #[command(name = "incidence-table")]
     IncidenceTable(WalkTableArgs),
     /// Simulate the light side's curvature correction C = exact/model on balls of the paper's
     /// media (g = 0, η = 1; bssrdf::curvature) and write it as JSON. The defaults reproduce the
-    /// table built into the binary (crates/bssrdf/data/curvature-g0-eta1.json).
+    /// table built into the binary (crates/tables/data/curvature-g0-eta1.json).
     #[command(name = "curvature-table")]
     CurvatureTable {
         /// Output file (.json).

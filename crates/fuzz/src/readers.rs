@@ -42,7 +42,7 @@ pub enum Reader {
     /// Training sample files (`learn::samplefile::read_samples`).
     Samples,
     /// The exit, incidence and curvature tables (`bssrdf::exit::TableFile::from_json`, the
-    /// reader of the shipped `crates/bssrdf/data/*.json`).
+    /// reader of the shipped `crates/tables/data/*.json`).
     Tables,
     /// Tensors of the reference weights of Son et al. (`bssrdf::son24::read_bin`).
     Son24Bin,
@@ -141,11 +141,11 @@ impl Reader {
     }
 
     /// The corpus folder: `fuzz/corpus/<name>/`, except for the tables, whose corpus is the
-    /// folder of the shipped tables themselves (`crates/bssrdf/data/`, 700 KB not worth a copy
+    /// folder of the shipped tables themselves (`crates/tables/data/`, 700 KB not worth a copy
     /// that could go stale).
     pub fn corpus_dir(self) -> PathBuf {
         match self {
-            Reader::Tables => fuzz_dir().join("../crates/bssrdf/data"),
+            Reader::Tables => fuzz_dir().join("../crates/tables/data"),
             _ => fuzz_dir().join("corpus").join(self.name()),
         }
     }

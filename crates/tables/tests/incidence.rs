@@ -1,12 +1,12 @@
-//! The light-side incidence factor (`bssrdf::incidence`): the shipped table against its
+//! The light-side incidence factor (`tables::incidence`): the shipped table against its
 //! generator, its normalisations, the α-interpolation with its derivative, and the physics it
 //! encodes (light entering obliquely leaves ahead of its entry point).
 
-use bssrdf::exit::{MU_BINS, ONE_MINUS_ALBEDO};
-use bssrdf::incidence::{
+use glam::Vec3;
+use tables::exit::{MU_BINS, ONE_MINUS_ALBEDO};
+use tables::incidence::{
     IncidenceSettings, IncidenceTable, MIN_CELL, PHI_BINS, PSI_BINS, RHO_BINS,
 };
-use glam::Vec3;
 
 const CELLS: usize = 16 * MU_BINS * RHO_BINS;
 
@@ -41,9 +41,9 @@ fn a_is_an_angular_density_relative_to_uniform() {
     for i in [1usize, 7, 14] {
         for r in [0usize, 4, 9] {
             let mu = (i as f32 + 0.5) / MU_BINS as f32;
-            let top = (1.0 + bssrdf::incidence::RHO_MAX / bssrdf::incidence::RHO_0).ln();
+            let top = (1.0 + tables::incidence::RHO_MAX / tables::incidence::RHO_0).ln();
             let rho =
-                bssrdf::incidence::RHO_0 * (((r as f32 + 0.5) / RHO_BINS as f32 * top).exp() - 1.0);
+                tables::incidence::RHO_0 * (((r as f32 + 0.5) / RHO_BINS as f32 * top).exp() - 1.0);
             let mean: f32 = (0..PSI_BINS)
                 .map(|k| {
                     let psi = (k as f32 + 0.5) / PSI_BINS as f32 * std::f32::consts::PI;
@@ -192,11 +192,11 @@ fn slices_at_grid_albedos_are_the_table_rows() {
     let t = IncidenceTable::index_matched_isotropic();
     let alb = 5;
     let s = t.slice(1.0 - ONE_MINUS_ALBEDO[alb]);
-    let top = (1.0 + bssrdf::incidence::RHO_MAX / bssrdf::incidence::RHO_0).ln();
+    let top = (1.0 + tables::incidence::RHO_MAX / tables::incidence::RHO_0).ln();
     for (i, r, k) in [(2usize, 3usize, 0usize), (9, 6, 5), (13, 1, 11)] {
         let mu = (i as f32 + 0.5) / MU_BINS as f32;
         let rho =
-            bssrdf::incidence::RHO_0 * (((r as f32 + 0.5) / RHO_BINS as f32 * top).exp() - 1.0);
+            tables::incidence::RHO_0 * (((r as f32 + 0.5) / RHO_BINS as f32 * top).exp() - 1.0);
         let psi = (k as f32 + 0.5) / PSI_BINS as f32 * std::f32::consts::PI;
         let (v, _) = s.eval(mu, rho, psi.cos());
         let stored = t.a[((alb * MU_BINS + i) * RHO_BINS + r) * PSI_BINS + k];
@@ -213,7 +213,7 @@ fn fast_acos_is_within_its_bound() {
     let mut worst = 0.0f64;
     for k in 0..=200_000 {
         let x = -1.0 + 2.0 * k as f64 / 200_000.0;
-        let e = (bssrdf::incidence::fast_acos(x as f32) as f64 - x.acos()).abs();
+        let e = (tables::incidence::fast_acos(x as f32) as f64 - x.acos()).abs();
         worst = worst.max(e);
     }
     assert!(worst < 7e-5, "largest error {worst}");

@@ -1,7 +1,7 @@
-//! The light-side exit law (`bssrdf::exit`): the shipped table against its generator, its
+//! The light-side exit law (`tables::exit`): the shipped table against its generator, its
 //! normalisation, and the α-interpolation with its derivative.
 
-use bssrdf::exit::{ExitTable, ExitTableSettings, MU_BINS, ONE_MINUS_ALBEDO};
+use tables::exit::{ExitTable, ExitTableSettings, MU_BINS, ONE_MINUS_ALBEDO};
 
 fn lambert_mass(j: usize) -> f64 {
     let (lo, hi) = (j as f64 / MU_BINS as f64, (j + 1) as f64 / MU_BINS as f64);
@@ -103,9 +103,9 @@ fn slices_interpolate_with_their_derivative() {
 /// out-of-bounds lookup during rendering).
 #[test]
 fn table_files_are_checked_against_the_grid() {
-    use bssrdf::curvature::CurvatureTable;
-    use bssrdf::exit::TableFile;
-    use bssrdf::incidence::IncidenceTable;
+    use tables::curvature::CurvatureTable;
+    use tables::exit::TableFile;
+    use tables::incidence::IncidenceTable;
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
     let read = |name: &str| std::fs::read_to_string(data.join(name)).unwrap();
     let exit = read("exit-g0-eta1.json");
