@@ -230,12 +230,14 @@ fn run(
         loss_channels: [0.0; 3],
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
+        d_g: None,
         images: None,
     };
     let mut images = keep_images.then(|| DiffImages {
         value: Image::new(w, h),
         d_sigma_t: Image::new(w, h),
         d_albedo: Image::new(w, h),
+        d_g: None,
     });
     for (y, r) in rows.into_iter().enumerate() {
         for c in 0..3 {

@@ -43,6 +43,7 @@ mod tests {
         let init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
+            g: None,
         };
         // The estimator comparison runs the learned model alone (`--refine 0`), the rest as
         // the defaults.

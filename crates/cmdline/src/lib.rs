@@ -451,6 +451,8 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::BiasCorrectionSteps => "--bias-correction-steps",
         Setting::InitSigmaT => "--init-sigma-t",
         Setting::InitAlbedo => "--init-albedo",
+        Setting::FreeG => "--free g",
+        Setting::InitG => "--init-g",
         Setting::EntrySampler => "--entry-sampler",
         Setting::Estimator => "--estimator",
         Setting::Widths => "--widths",

@@ -22,6 +22,13 @@ mod bias_correction;
 
 pub use bias_correction::BiasCorrectionArgs;
 
+/// A parameter that `optimize` can recover besides σ_t and α.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FreeParam {
+    /// The phase function's Henyey–Greenstein g.
+    G,
+}
+
 #[derive(Args, Clone)]
 #[command(mut_arg("out", crate::groups::default("out/optimize")))]
 #[command(mut_arg("overwrite", crate::groups::help("Replace an existing run in --out")))]
@@ -86,6 +93,18 @@ pub struct OptimizeArgs {
     /// Initial albedo (one value or R,G,B).
     #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
+    /// Recover these besides σ_t and α: `g`, the Henyey–Greenstein anisotropy (one value for
+    /// all channels), with its own 95 % interval. It starts at the dataset's stated g (or
+    /// --init-g) and moves where the volumetric path tracer renders: the refinement of the
+    /// default recovery (the learned model holds it during its fit) or --model volpath.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
+    pub free: Vec<FreeParam>,
+    /// Initial g with --free g (default: the dataset's stated g).
+    #[arg(long, allow_negative_numbers = true)]
+    pub init_g: Option<f64>,
+    /// Learning rate on g with --free g.
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_g)]
+    pub lr_g: f32,
     /// Learning rate on ln σ_t (or on σ_t/100 with --scaled-sigma-t).
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_sigma_t)]
     pub lr_sigma_t: f32,
@@ -226,6 +245,7 @@ impl OptimizeArgs {
                 init: Params {
                     sigma_t: rgb(self.init_sigma_t),
                     albedo: rgb(self.init_albedo),
+                    g: self.init_g,
                 },
                 starts: self.starts,
             },
@@ -234,6 +254,7 @@ impl OptimizeArgs {
                 seed: *self.seed,
                 lr_sigma_t: self.lr_sigma_t,
                 lr_albedo: self.lr_albedo,
+                lr_g: self.lr_g,
                 decay: self.decay,
                 decay_every: self.decay_every,
                 albedo_warmup: self.albedo_warmup,
@@ -246,6 +267,7 @@ impl OptimizeArgs {
                     monochrome: self.monochrome,
                     fix_sigma_t: self.fix_sigma_t,
                     fix_albedo: self.fix_albedo,
+                    free_g: self.free.contains(&FreeParam::G),
                 },
                 loss: self.loss,
                 single_render: self.single_render,

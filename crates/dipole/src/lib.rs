@@ -155,6 +155,7 @@ fn render(
         value: Image::new(w, h),
         d_sigma_t: Image::new(w, h),
         d_albedo: Image::new(w, h),
+        d_g: None,
     };
     let inv = 1.0 / rs.spp.max(1) as f64;
     let rows = out.value.data.par_chunks_mut(w as usize);

@@ -237,6 +237,7 @@ impl Experiment<'_> {
         let default_init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
+            g: None,
         };
         let mut rows = Vec::new();
         for (name, dir, medium, shape) in cases {
@@ -295,6 +296,7 @@ impl Experiment<'_> {
             let init = Params {
                 sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
                 albedo: [0; 3].map(|_| 0.3 + 0.65 * s.next_f32() as f64),
+                g: None,
             };
             let run = a.jobs.runs(job);
             if run && !a.jobs.runs(name) {
@@ -524,6 +526,7 @@ pub fn run_args(
     s.start.init = Params {
         sigma_t: single(init.sigma_t),
         albedo: single(init.albedo),
+        g: None,
     };
     s.schedule.seed = *a.seed;
     s.checks.final_spp = 16;

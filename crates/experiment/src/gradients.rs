@@ -210,6 +210,7 @@ fn reread(dir: &std::path::Path) -> Result<Vec<(Estimator, bssrdf::diff::DiffIma
                 value: Image::new(d_sigma_t.width, d_sigma_t.height),
                 d_albedo: read("d_albedo")?,
                 d_sigma_t,
+                d_g: None,
             };
             Ok((m, images, f64::NAN))
         })

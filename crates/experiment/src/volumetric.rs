@@ -119,6 +119,7 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
         s.start.init = Params {
             sigma_t: [50.0; 3],
             albedo: TRUTH.albedo.map(f64::from),
+            g: None,
         };
         s.schedule.params.fix_albedo = true;
         s.schedule.params.monochrome = true;

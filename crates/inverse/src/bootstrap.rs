@@ -78,7 +78,11 @@ pub fn bootstrap_step(current: &Params, estimate: &Params, refit: &Params) -> Op
         (current.albedo[c] + estimate.albedo[c] - refit.albedo[c])
             .clamp(ALBEDO_RANGE.0, ALBEDO_RANGE.1)
     });
-    Some(Params { sigma_t, albedo })
+    Some(Params {
+        sigma_t,
+        albedo,
+        g: current.g,
+    })
 }
 
 /// The estimated bias b̂ = θ̂₂ − θ̂ of the recovery at θ̂: relative for σ_t (σ̂_t,₂/σ̂_t − 1),
@@ -96,7 +100,7 @@ mod tests {
     use super::*;
 
     fn p(sigma_t: [f64; 3], albedo: [f64; 3]) -> Params {
-        Params { sigma_t, albedo }
+        Params::new(sigma_t, albedo)
     }
 
     /// A recovery whose bias is constant in (ln σ_t, α) is corrected exactly.
@@ -156,6 +160,7 @@ mod tests {
                 .sigma_t
                 .map(|x| ((1.0 + s) * x.ln() + c0 - s * 60f64.ln()).exp()),
             albedo: t.albedo.map(|a| a + ca + sa * (a - 0.85)),
+            g: None,
         };
         let est = recover(&truth);
         let mut cur = est;

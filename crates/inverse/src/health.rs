@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::consistency::Consistency;
 use crate::optimize::IterationRecord;
-use crate::params::{ALBEDO_MAX, ALBEDO_MIN, ParamSpec, Params, SIGMA_T_MIN};
+use crate::params::{ALBEDO_MAX, ALBEDO_MIN, G_MAX, ParamSpec, Params, SIGMA_T_MIN};
 
 /// The smallest rise of the loss, as a fraction per [`RISE_SPAN`] iterations, that fails a run.
 pub const RISE_FLOOR: f64 = 0.05;
@@ -57,6 +57,8 @@ pub enum Problem {
         iterations: u32,
         of: TrendOf,
     },
+    /// A recovered g ends at its bound, ±[`G_MAX`].
+    GAtBound { value: f64 },
     /// The estimate lies outside the learned model's training range.
     OutsideTrainingRange { channel: usize, albedo_red: f64 },
     /// The volumetric path tracer's render of the estimate does not match the targets.
@@ -105,6 +107,12 @@ impl Problem {
                 },
                 100.0 * rise
             ),
+            Problem::GAtBound { value } => format!(
+                "g ended at its bound ({value}): the optimiser ran into the edge of the range \
+                 ±{G_MAX} it allows, so the value is not a minimum of the loss; the images may \
+                 not determine g (start elsewhere with {init}, or state g in the dataset)",
+                init = Setting::InitG,
+            ),
             Problem::OutsideTrainingRange {
                 channel,
                 albedo_red,
@@ -141,7 +149,8 @@ impl Problem {
 
 /// The problems of a run with history `history` (whose final forward model begins at record
 /// `final_from`: the refinement's first iteration, else 0), final `estimate`, parameter spec
-/// `spec`, phase-function asymmetry `g` and, when checked, its consistency (module docs).
+/// `spec`, phase-function asymmetry `g` (the object's; a recovered g is the estimate's) and,
+/// when checked, its consistency (module docs).
 pub fn assess(
     history: &[IterationRecord],
     final_from: usize,
@@ -151,12 +160,20 @@ pub fn assess(
     consistency: Option<&Consistency>,
 ) -> Vec<Problem> {
     let mut out = Vec::new();
-    let values = estimate.sigma_t.iter().chain(&estimate.albedo);
+    let values = estimate
+        .sigma_t
+        .iter()
+        .chain(&estimate.albedo)
+        .chain(&estimate.g);
     if values.clone().any(|v| !v.is_finite()) {
         out.push(Problem::NonFinite {
             detail: format!("σ_t {:?}, α {:?}", estimate.sigma_t, estimate.albedo),
         });
         return out;
+    }
+    let g = estimate.g.unwrap_or(g);
+    if spec.free_g && g.abs() >= G_MAX - 1e-7 {
+        out.push(Problem::GAtBound { value: g });
     }
     for c in 0..3 {
         let a = estimate.albedo[c];

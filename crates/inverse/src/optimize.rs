@@ -113,6 +113,10 @@ pub struct IterationRecord {
     pub d_sigma_t: [f64; 3],
     /// ∂ℓ/∂α per channel.
     pub d_albedo: [f64; 3],
+    /// ∂ℓ/∂g where the run recovers g and the iteration's model differentiates it (left out
+    /// of the JSON otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d_g: Option<f64>,
     /// Views used.
     pub views: Vec<usize>,
     /// Top-left pixel (x0, y0) of each view's crop window (`--crop`; empty without crops).
@@ -135,6 +139,8 @@ pub struct IterationGradient {
     pub d_sigma_t: [f64; 3],
     /// ∂ℓ/∂α per channel.
     pub d_albedo: [f64; 3],
+    /// ∂ℓ/∂g, where every view's derivative images had ∂I/∂g.
+    pub d_g: Option<f64>,
     /// Views used.
     pub views: Vec<usize>,
     /// Crop origins (empty without crops).
@@ -202,6 +208,11 @@ impl<'a> Optimizer<'a> {
             return Err(InverseError::Invalid("no target views".into()));
         }
         config.check().map_err(InverseError::Invalid)?;
+        let mut config = config;
+        if config.params.free_g && config.init.g.is_none() {
+            // A free g starts at the object's stated value.
+            config.init.g = Some(base.g as f64);
+        }
         let init_medium = config.init.medium(&base);
         init_medium
             .validate("initial parameters")
@@ -313,7 +324,7 @@ impl<'a> Optimizer<'a> {
             })
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
-        let mut misfit = Some(0.0);
+        let (mut misfit, mut d_g) = (Some(0.0), Some(0.0));
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
             let t = match crop {
@@ -386,6 +397,11 @@ impl<'a> Optimizer<'a> {
                 ds_t[ch] += w[ch] * g.d_sigma_t[ch] / views.len() as f64;
                 da[ch] += w[ch] * g.d_albedo[ch] / views.len() as f64;
             }
+            d_g = d_g.zip(g.d_g).map(|(sum, d)| {
+                sum + (0..3)
+                    .map(|ch| w[ch] * d[ch] / views.len() as f64)
+                    .sum::<f64>()
+            });
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -399,6 +415,7 @@ impl<'a> Optimizer<'a> {
             misfit,
             d_sigma_t: ds_t,
             d_albedo: da,
+            d_g,
             views,
             crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
         })
@@ -429,25 +446,40 @@ impl<'a> Optimizer<'a> {
             misfit,
             d_sigma_t: ds_t,
             d_albedo: da,
+            d_g,
             views,
             crop_origins,
         } = self.gradient(k, &p)?;
         let c = &self.config;
-        let mut g = c.params.chain(&p, ds_t, da);
+        // A free g moves where the iteration's model differentiates it, after the α-first
+        // iterations; elsewhere it keeps its value (zero gradient, no Adam moment).
+        let moves_g = c.params.free_g && k >= c.effective_albedo_warmup();
+        let d_g = d_g.filter(|_| moves_g);
+        let mut g = c.params.chain(&p, ds_t, da, d_g.unwrap_or(0.0));
         let lr_t = if k < c.effective_albedo_warmup() {
             g[..3].fill(0.0);
             0.0
         } else {
             c.lr_sigma_t
         };
-        let scale = [lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
+        let lr_g = if d_g.is_some() { c.lr_g } else { 0.0 };
+        let scale = [
+            lr_t,
+            lr_t,
+            lr_t,
+            c.lr_albedo,
+            c.lr_albedo,
+            c.lr_albedo,
+            lr_g,
+        ];
+        let scale = &scale[..g.len()];
         // The step is taken on copies and kept only when it is finite, so that a failure
         // leaves the optimiser (and a checkpoint written after it) at the last good state.
         let (mut adam, mut u) = (self.adam.clone(), self.u.clone());
         if restart_moments {
             adam.restart_moments();
         }
-        adam.step_scaled(&mut u, &mut g, &scale);
+        adam.step_scaled(&mut u, &mut g, scale);
         c.params.clamp(&mut u);
         if let Some(i) = u.iter().position(|x| !x.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -463,6 +495,7 @@ impl<'a> Optimizer<'a> {
             params: p,
             d_sigma_t: ds_t,
             d_albedo: da,
+            d_g,
             views,
             crop_origins,
             seconds: t0.elapsed().as_secs_f64(),

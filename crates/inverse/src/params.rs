@@ -8,9 +8,13 @@
 //!   dσ_t/du_σ = 100 or σ_t;
 //! * α = u_α;
 //!
+//! * g = u_g, a seventh variable when the run recovers the phase function's g
+//!   ([`ParamSpec::free_g`]; one g for all channels, as the Henyey–Greenstein medium has);
+//!
 //! then clamped after every step: α ∈ [ALBEDO_MIN, ALBEDO_MAX] (the paper's (0, 0.99995)),
-//! σ_t ≥ SIGMA_T_MIN. A monochrome run shares one value per kind over the channels (the gradient is
-//! the channel mean, docs/model.md A13); a fixed parameter keeps its value (zero gradient).
+//! σ_t ≥ SIGMA_T_MIN, g ∈ [−G_MAX, G_MAX]. A monochrome run shares one value per kind over the
+//! channels (the gradient is the channel mean, docs/model.md A13); a fixed parameter keeps its
+//! value (zero gradient). Without a free g, g is the object's ([`Params::medium`]'s `base`).
 
 use scene::Medium;
 use serde::{Deserialize, Serialize};
@@ -21,6 +25,9 @@ pub const ALBEDO_MIN: f64 = 1e-4;
 pub const ALBEDO_MAX: f64 = 0.99995;
 /// Smallest extinction after clamping (1/unit).
 pub const SIGMA_T_MIN: f64 = 1e-3;
+/// Largest |g| after clamping: HG lobes narrower than this are beyond what a recovery's
+/// images resolve, and g → ±1 is a delta.
+pub const G_MAX: f64 = 0.95;
 
 /// How σ_t is represented for the optimiser.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -44,6 +51,10 @@ pub struct ParamSpec {
     pub fix_sigma_t: bool,
     /// Keep α at its initial value.
     pub fix_albedo: bool,
+    /// Recover the phase function's g (one value for all channels) as a seventh variable.
+    /// (Left out of the JSON when off, so runs written before the option compare equal.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub free_g: bool,
 }
 
 impl Default for ParamSpec {
@@ -53,34 +64,46 @@ impl Default for ParamSpec {
             monochrome: false,
             fix_sigma_t: false,
             fix_albedo: false,
+            free_g: false,
         }
     }
 }
 
-/// σ_t and α per channel.
+/// σ_t and α per channel, and g where the run recovers it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Params {
     /// Extinction per channel (1/unit).
     pub sigma_t: [f64; 3],
     /// Single-scattering albedo per channel.
     pub albedo: [f64; 3],
+    /// The Henyey–Greenstein g, where the run recovers it ([`ParamSpec::free_g`]); `None`:
+    /// the object's own. (Left out of the JSON when `None`.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub g: Option<f64>,
 }
 
 impl Params {
-    /// The parameters of a medium.
-    pub fn of(m: &Medium) -> Self {
+    /// σ_t and α per channel, with the object's g.
+    pub fn new(sigma_t: [f64; 3], albedo: [f64; 3]) -> Self {
         Self {
-            sigma_t: m.sigma_t.map(|v| v as f64),
-            albedo: m.albedo.map(|v| v as f64),
+            sigma_t,
+            albedo,
+            g: None,
         }
     }
 
-    /// A medium with these parameters and `base`'s g and η.
+    /// The parameters of a medium (its g is the object's, not a parameter).
+    pub fn of(m: &Medium) -> Self {
+        Self::new(m.sigma_t.map(|v| v as f64), m.albedo.map(|v| v as f64))
+    }
+
+    /// A medium with these parameters, this g where it has one, and `base`'s g otherwise,
+    /// η and roughness.
     pub fn medium(&self, base: &Medium) -> Medium {
         Medium {
             sigma_t: self.sigma_t.map(|v| v as f32),
             albedo: self.albedo.map(|v| v as f32),
-            g: base.g,
+            g: self.g.map_or(base.g, |g| g as f32),
             eta: base.eta,
             roughness: base.roughness,
         }
@@ -88,9 +111,19 @@ impl Params {
 }
 
 impl ParamSpec {
-    /// The optimiser's vector for `p`.
+    /// The number of the optimiser's variables: six, seven with a free g.
+    pub fn len(&self) -> usize {
+        if self.free_g { 7 } else { 6 }
+    }
+
+    /// Always false: the optimiser has at least six variables.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The optimiser's vector for `p` (a free g that `p` lacks starts at 0).
     pub fn encode(&self, p: &Params) -> Vec<f32> {
-        let mut u = Vec::with_capacity(6);
+        let mut u = Vec::with_capacity(self.len());
         for &s in &p.sigma_t {
             u.push(match self.parameterisation {
                 Parameterisation::Scaled => (s / 100.0) as f32,
@@ -98,6 +131,9 @@ impl ParamSpec {
             });
         }
         u.extend(p.albedo.iter().map(|&a| a as f32));
+        if self.free_g {
+            u.push(p.g.unwrap_or(0.0) as f32);
+        }
         u
     }
 
@@ -110,6 +146,7 @@ impl ParamSpec {
         Params {
             sigma_t: std::array::from_fn(|c| sigma(u[c]).max(SIGMA_T_MIN)),
             albedo: std::array::from_fn(|c| (u[3 + c] as f64).clamp(ALBEDO_MIN, ALBEDO_MAX)),
+            g: self.free_g.then(|| (u[6] as f64).clamp(-G_MAX, G_MAX)),
         }
     }
 
@@ -120,8 +157,9 @@ impl ParamSpec {
         u.copy_from_slice(&e);
     }
 
-    /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied).
-    pub fn chain(&self, p: &Params, d_sigma_t: [f64; 3], d_albedo: [f64; 3]) -> Vec<f32> {
+    /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied), and
+    /// ∂ℓ/∂g (`d_g`) as the seventh entry with a free g.
+    pub fn chain(&self, p: &Params, d_sigma_t: [f64; 3], d_albedo: [f64; 3], d_g: f64) -> Vec<f32> {
         let mut gs: [f64; 3] = std::array::from_fn(|c| {
             d_sigma_t[c]
                 * match self.parameterisation {
@@ -142,7 +180,8 @@ impl ParamSpec {
         if self.fix_albedo {
             ga = [0.0; 3];
         }
-        gs.iter().chain(&ga).map(|&g| g as f32).collect()
+        let dg = self.free_g.then_some(d_g);
+        gs.iter().chain(&ga).chain(&dg).map(|&g| g as f32).collect()
     }
 }
 
@@ -160,6 +199,7 @@ mod tests {
             let p = Params {
                 sigma_t: [30.0, 55.5, 100.0],
                 albedo: [0.8, 0.9, 0.98],
+                g: None,
             };
             let q = spec.decode(&spec.encode(&p));
             for c in 0..3 {
@@ -179,6 +219,7 @@ mod tests {
         let p = Params {
             sigma_t: [40.0, 60.0, 80.0],
             albedo: [0.9; 3],
+            g: None,
         };
         // ℓ(σ) = Σ σ_c² ⇒ ∂ℓ/∂σ_c = 2σ_c; check ∂ℓ/∂u by FD through decode.
         for parameterisation in [Parameterisation::Scaled, Parameterisation::Log] {
@@ -186,7 +227,7 @@ mod tests {
                 parameterisation,
                 ..Default::default()
             };
-            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3]);
+            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], 0.0);
             let u = spec.encode(&p);
             for c in 0..3 {
                 let h = 1e-3f32;
@@ -204,7 +245,42 @@ mod tests {
             fix_albedo: true,
             ..Default::default()
         };
-        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0]);
+        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], 5.0);
         assert_eq!(g, vec![200.0, 200.0, 200.0, 0.0, 0.0, 0.0]);
+    }
+
+    /// A free g is the seventh variable: encoded as itself, clamped to ±G_MAX, its gradient
+    /// passed through; without it the vector has six and the medium takes the object's g.
+    #[test]
+    fn a_free_g_is_the_seventh_variable() {
+        let spec = ParamSpec {
+            free_g: true,
+            ..Default::default()
+        };
+        let p = Params {
+            g: Some(0.7),
+            ..Params::new([40.0; 3], [0.9; 3])
+        };
+        let u = spec.encode(&p);
+        assert_eq!((u.len(), spec.len()), (7, 7));
+        assert!((spec.decode(&u).g.unwrap() - 0.7).abs() < 1e-6);
+        let mut v = u.clone();
+        v[6] = 1.5;
+        spec.clamp(&mut v);
+        assert!((v[6] as f64 - G_MAX).abs() < 1e-6);
+        let g = spec.chain(&p, [0.0; 3], [0.0; 3], -2.5);
+        assert_eq!(g[6], -2.5);
+        let base = Medium {
+            sigma_t: [1.0; 3],
+            albedo: [0.5; 3],
+            g: 0.3,
+            eta: 1.4,
+            roughness: 0.1,
+        };
+        assert_eq!(p.medium(&base).g, 0.7);
+        assert_eq!(Params::new([40.0; 3], [0.9; 3]).medium(&base).g, 0.3);
+        let fixed = ParamSpec::default();
+        assert_eq!(fixed.encode(&p).len(), 6);
+        assert_eq!(fixed.decode(&fixed.encode(&p)).g, None);
     }
 }

@@ -323,6 +323,7 @@ fn run_starts(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryEr
     b.optimize.init = Params {
         sigma_t: starts[best].estimate.sigma_t.map(|v| v as f32 as f64),
         albedo: starts[best].estimate.albedo.map(|v| v as f32 as f64),
+        g: starts[best].estimate.g.map(|v| v as f32 as f64),
     };
     run(&b, obs)?;
     // The starts go into the run's record.
@@ -344,21 +345,29 @@ pub fn write_result(out: &Path, result: &serde_json::Value) -> Result<(), Recove
 /// The estimate, and the truth and the errors when known, as the summary's lines.
 pub fn estimate_lines(est: &Params, truth: Option<&Params>) -> Vec<String> {
     let f3 = |v: [f64; 3], p: usize| format!("({:.p$}, {:.p$}, {:.p$})", v[0], v[1], v[2], p = p);
+    // A recovered g, printed after α.
+    let g = |p: &Params| p.g.map(|g| format!("  g = {g:.3}")).unwrap_or_default();
     let mut out = vec![format!(
-        "  estimate  σ_t = {}  α = {}",
+        "  estimate  σ_t = {}  α = {}{}",
         f3(est.sigma_t, 2),
-        f3(est.albedo, 4)
+        f3(est.albedo, 4),
+        g(est)
     )];
     if let Some(t) = truth {
         out.push(format!(
-            "  truth     σ_t = {}  α = {}",
+            "  truth     σ_t = {}  α = {}{}",
             f3(t.sigma_t, 2),
-            f3(t.albedo, 4)
+            f3(t.albedo, 4),
+            g(t)
         ));
         let rel: [f64; 3] = std::array::from_fn(|c| 100.0 * (est.sigma_t[c] / t.sigma_t[c] - 1.0));
         let abs: [f64; 3] = std::array::from_fn(|c| est.albedo[c] - t.albedo[c]);
+        let g_err = match (est.g, t.g) {
+            (Some(e), Some(t)) => format!("  g {:+.3}", e - t),
+            _ => String::new(),
+        };
         out.push(format!(
-            "  error     σ_t {} %  α {}",
+            "  error     σ_t {} %  α {}{g_err}",
             f3(rel, 1),
             f3(abs, 4)
         ));

@@ -13,11 +13,15 @@ use crate::params::Params;
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// `iterations.csv`: one row per iteration (parameters before the step, loss, gradient).
+/// A run that recovers g has two more columns at the end: g and ∂ℓ/∂g (empty in the
+/// iterations whose model holds g).
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
+    let free_g = history.iter().any(|r| r.params.g.is_some());
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
-         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit\n",
+         d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit",
     );
+    s.push_str(if free_g { ",g,d_g\n" } else { "\n" });
     for r in history {
         let _ = write!(s, "{},{:.6e}", r.iteration, r.loss);
         for v in r.params.sigma_t.iter().chain(&r.params.albedo) {
@@ -35,13 +39,19 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             .collect();
         // The noise-free misfit (empty where the run's gradient has none).
         let misfit = r.misfit.map(|m| format!("{m:.6e}")).unwrap_or_default();
-        let _ = writeln!(
+        let _ = write!(
             s,
             ",{},{:.4},{},{misfit}",
             views.join(" "),
             r.seconds,
             crops.join(" ")
         );
+        if free_g {
+            let g = r.params.g.map(|g| format!("{g:.6}")).unwrap_or_default();
+            let d_g = r.d_g.map(|d| format!("{d:.6e}")).unwrap_or_default();
+            let _ = write!(s, ",{g},{d_g}");
+        }
+        s.push('\n');
     }
     scene::fsutil::atomic_write(path, s.as_bytes(), true)?;
     Ok(())
@@ -58,13 +68,17 @@ pub fn errors(est: &Params, truth: &Params) -> serde_json::Value {
     let d100: Vec<f64> = (0..3)
         .map(|c| (est.sigma_t[c] - truth.sigma_t[c]) / 100.0)
         .collect();
-    json!({
+    let mut out = json!({
         "sigma_t_relative": rel,
         "albedo_absolute": abs,
         "sigma_t_rmse_units_of_100": rmse(&d100),
         "sigma_t_rmse": 100.0 * rmse(&d100),
         "albedo_rmse": rmse(&abs),
-    })
+    });
+    if let (Some(e), Some(t)) = (est.g, truth.g) {
+        out["g_absolute"] = json!(e - t);
+    }
+    out
 }
 
 /// `result.json`: estimate, truth and errors, the run's settings and timings.
@@ -78,10 +92,10 @@ pub fn result_json(
     let iters = history.len().max(1) as f64;
     let per_iter: f64 = history.iter().map(|r| r.seconds).sum::<f64>() / iters;
     json!({
-        "estimate": { "sigma_t": estimate.sigma_t, "albedo": estimate.albedo },
-        "truth": truth.map(|t| json!({ "sigma_t": t.sigma_t, "albedo": t.albedo })),
+        "estimate": estimate,
+        "truth": truth,
         "errors": truth.map(|t| errors(estimate, t)),
-        "initial": { "sigma_t": config.init.sigma_t, "albedo": config.init.albedo },
+        "initial": config.init,
         "iterations": history.len(),
         "spp": config.spp,
         "views_per_iteration": config.views_per_iter,
@@ -161,6 +175,9 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
             fmt(est.albedo[c], u.albedo[c], u.fixed[1], 4)
         ));
     }
+    if let (Some(gu), Some(g)) = (&u.g, est.g) {
+        out.push(format!("  g = {}", fmt(g, gu.interval, false, 3)));
+    }
     let open_t: Vec<&str> = (0..3)
         .filter(|&c| !u.fixed[0] && !u.determined_sigma_t[c])
         .map(|c| CH[c])
@@ -193,6 +210,15 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
             "α is NOT determined by these images in {} (its interval is wider than ±{}).",
             open_a.join(", "),
             crate::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
+        ));
+    }
+    if u.g.is_some_and(|g| !g.determined) {
+        out.push(format!(
+            "g is NOT determined by these images (its interval is wider than ±{}): where light \
+             scatters many times only the reduced scattering σ_t·α·(1 − g) shows, so g trades \
+             against σ_t and α. Views whose light crossed little of the object (thin parts, \
+             grazing or back light) carry the single scattering that sets g.",
+            crate::uncertainty::DETERMINED_G_HALF_WIDTH
         ));
     }
     out
@@ -253,38 +279,64 @@ pub fn write_plots(
     };
     let sig = |p: &Params, c: usize| p.sigma_t[c];
     let alb = |p: &Params, c: usize| p.albedo[c];
-    let fig = Figure::new(
-        vec![
+    let mut panels = vec![
+        Panel {
+            title: "extinction σ_t".into(),
+            x_label: "iteration".into(),
+            y_label: "σ_t (1/unit)".into(),
+            log_y: false,
+            series: series(&sig),
+            reference_lines: refs(&sig),
+            bands: bands(uncertainty.map(|u| u.sigma_t)),
+        },
+        Panel {
+            title: "albedo α".into(),
+            x_label: "iteration".into(),
+            y_label: "α".into(),
+            log_y: false,
+            series: series(&alb),
+            reference_lines: refs(&alb),
+            bands: bands(uncertainty.map(|u| u.albedo)),
+        },
+        Panel {
+            title: "loss ÷ the view's final level (1: converged)".into(),
+            x_label: "iteration".into(),
+            y_label: "relative loss".into(),
+            log_y: true,
+            series: relative_loss_series(history),
+            reference_lines: vec![("final level".into(), 1.0)],
+            bands: Vec::new(),
+        },
+    ];
+    if let Some(g) = final_params.g {
+        // A recovered g: one series (the channels share it).
+        let mut pts: Vec<(f64, f64)> = history
+            .iter()
+            .filter_map(|r| r.params.g.map(|v| (r.iteration as f64, v)))
+            .collect();
+        pts.push((n as f64, g));
+        let band = uncertainty
+            .and_then(|u| u.g)
+            .and_then(|u| u.interval)
+            .map(|[lo, hi]| Band::constant("95 % interval of this fit", 0.0, n as f64, lo, hi));
+        panels.insert(
+            2,
             Panel {
-                title: "extinction σ_t".into(),
+                title: "phase function g".into(),
                 x_label: "iteration".into(),
-                y_label: "σ_t (1/unit)".into(),
+                y_label: "g".into(),
                 log_y: false,
-                series: series(&sig),
-                reference_lines: refs(&sig),
-                bands: bands(uncertainty.map(|u| u.sigma_t)),
+                series: vec![Series::new("estimate", pts)],
+                reference_lines: truth
+                    .and_then(|t| t.g)
+                    .map(|t| vec![("truth".to_string(), t)])
+                    .unwrap_or_default(),
+                bands: band.into_iter().collect(),
             },
-            Panel {
-                title: "albedo α".into(),
-                x_label: "iteration".into(),
-                y_label: "α".into(),
-                log_y: false,
-                series: series(&alb),
-                reference_lines: refs(&alb),
-                bands: bands(uncertainty.map(|u| u.albedo)),
-            },
-            Panel {
-                title: "loss ÷ the view's final level (1: converged)".into(),
-                x_label: "iteration".into(),
-                y_label: "relative loss".into(),
-                log_y: true,
-                series: relative_loss_series(history),
-                reference_lines: vec![("final level".into(), 1.0)],
-                bands: Vec::new(),
-            },
-        ],
-        3,
-    );
+        );
+    }
+    let columns = if panels.len() == 4 { 2 } else { 3 };
+    let fig = Figure::new(panels, columns);
     let draw_err = |e: plot::PlotError| InverseError::Invalid(e.to_string());
     fig.write_png(path, true).map_err(draw_err)?;
     fig.write_svg(&path.with_extension("svg"), true)
@@ -407,9 +459,11 @@ mod tests {
             params: Params {
                 sigma_t: [50.0; 3],
                 albedo: [0.5; 3],
+                g: None,
             },
             d_sigma_t: [0.0; 3],
             d_albedo: [0.0; 3],
+            d_g: None,
             views: vec![view],
             crop_origins: vec![],
             seconds: 0.0,
@@ -428,6 +482,7 @@ mod tests {
         let est = Params {
             sigma_t: [72.0; 3],
             albedo: [0.9; 3],
+            g: None,
         };
         let text = interval_lines(&est, &u).join("\n");
         assert!(text.contains("α = 0.9000 (fixed)"), "{text}");
@@ -447,6 +502,7 @@ mod tests {
         let est = Params {
             sigma_t: [70.3; 3],
             albedo: [0.9; 3],
+            g: None,
         };
         let lines = interval_lines(&est, &u);
         assert!(lines[1].contains("σ_t = 70.3 [57.8, 85.5]"), "{}", lines[1]);

@@ -95,6 +95,7 @@ pub fn measure(
     let mut c = OptimizeConfig::new(Params {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
+        g: None,
     });
     c.model = model;
     c.spp = spp;

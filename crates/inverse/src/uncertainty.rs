@@ -45,6 +45,10 @@
 //! curved along the σ_t–α valley than the images are, [`Uncertainty::with_sensitivity`]
 //! widens the intervals by the volumetric path tracer's measured curvature along that valley
 //! ([`crate::sensitivity`]); *determined* is decided after that widening.
+//!
+//! A run that also recovers g takes the sandwich over all seven variables at once ([`joint`]);
+//! g's interval is g ± 1.96·sd clamped to (−1, 1), and g is *determined* where its half-width
+//! from the images alone is at most [`DETERMINED_G_HALF_WIDTH`].
 
 use crate::sensitivity::Sensitivity;
 use scene::Image;
@@ -59,6 +63,39 @@ pub const DETERMINED_SIGMA_T_RATIO: f64 = 1.2;
 pub const WIDEST_SD_LN_SIGMA_T: f64 = std::f64::consts::LN_10 / Z95;
 /// α counts as determined when the half-width of its 95 % interval is at most this.
 pub const DETERMINED_ALBEDO_HALF_WIDTH: f64 = 0.02;
+/// g counts as determined when the half-width of its 95 % interval is at most this.
+pub const DETERMINED_G_HALF_WIDTH: f64 = 0.05;
+
+pub mod joint;
+
+/// The interval of a recovered g.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GUncertainty {
+    /// [lo, hi] of the 95 % interval, within (−1, 1) (`None`: no finite interval).
+    pub interval: Option<[f64; 2]>,
+    /// Its standard deviation.
+    pub sd: Option<f64>,
+    /// g is determined by the images (half-width from the images alone at most
+    /// [`DETERMINED_G_HALF_WIDTH`]).
+    pub determined: bool,
+}
+
+impl GUncertainty {
+    /// The interval around `g` of variance `var` (images, optimiser and model error) whose
+    /// part from the images and the optimiser alone is `images_var`.
+    pub fn new(g: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
+        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
+        let limit = 1.0 - 1e-6;
+        GUncertainty {
+            interval: sd.map(|s| [(g - Z95 * s).max(-limit), (g + Z95 * s).min(limit)]),
+            sd,
+            determined: sd.is_some()
+                && images_var
+                    .map(f64::sqrt)
+                    .is_some_and(|s| Z95 * s <= DETERMINED_G_HALF_WIDTH),
+        }
+    }
+}
 
 /// Settings of the uncertainty estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -312,6 +349,9 @@ pub struct Uncertainty {
     /// "undetermined".
     #[serde(skip)]
     pub fixed: [bool; 2],
+    /// g's interval where the run recovers g.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub g: Option<GUncertainty>,
 }
 
 impl Uncertainty {
@@ -369,6 +409,7 @@ impl Uncertainty {
             images,
             view_bread: Vec::new(),
             fixed: [false, false],
+            g: None,
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
                      error, the spread and drift of the last iterates"
                 .into(),
@@ -468,6 +509,7 @@ impl Uncertainty {
     /// fixed, and its views' breads.
     fn keep_from(&mut self, from: &Self) {
         self.fixed = from.fixed;
+        self.g = from.g;
         for c in 0..3 {
             if from.sigma_t[c].is_none() {
                 self.sigma_t[c] = None;
@@ -485,7 +527,7 @@ impl Uncertainty {
 
     /// `result.json`'s `interval95` and `determined` fields.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut j = serde_json::json!({
             "interval95": {
                 "sigma_t": self.sigma_t,
                 "albedo": self.albedo,
@@ -501,7 +543,13 @@ impl Uncertainty {
                 "views": self.views,
                 "method": self.method,
             },
-        })
+        });
+        if let Some(g) = &self.g {
+            j["interval95"]["g"] = serde_json::json!(g.interval);
+            j["determined"]["g"] = serde_json::json!(g.determined);
+            j["uncertainty"]["sd_g"] = serde_json::json!(g.sd);
+        }
+        j
     }
 }
 

@@ -88,6 +88,7 @@ fn config(iterations: u32) -> OptimizeConfig {
     let mut c = OptimizeConfig::new(Params {
         sigma_t: [60.0; 3],
         albedo: [0.5; 3],
+        g: None,
     });
     c.iterations = iterations;
     c.refine_iterations = 0;
@@ -492,6 +493,7 @@ fn split_sample_gradient_has_the_two_render_expectation() {
     let at = Params {
         sigma_t: [72.0, 66.0, 54.0],
         albedo: [0.86, 0.82, 0.83],
+        g: None,
     };
     let grads = |split: bool| -> Vec<[f64; 6]> {
         let mut c = OptimizeConfig::new(at);

@@ -64,6 +64,7 @@ fn config() -> impl Strategy<Value = OptimizeConfig> {
             o.init = Params {
                 sigma_t: c.0,
                 albedo: c.1,
+                g: None,
             };
             let (log, mono, fix_t, fix_a) = c.2;
             o.params.parameterisation = if log {

@@ -1,16 +1,19 @@
 //! What a differentiable render of one view returns, whatever the model: the value image and
-//! its two derivative images ([`DiffImages`]); the image loss against a target ([`Loss`],
+//! its derivative images ([`DiffImages`]); the image loss against a target ([`Loss`],
 //! averaged over the 3·W·H pixel channels) and its gradient with respect to the six medium
-//! parameters ([`LossGradient`]).
+//! parameters and, where the model differentiates it, the phase function's g ([`LossGradient`]).
 
 use crate::Image;
 
-/// The value image and the two derivative images (channel c: ∂I_c/∂σ_t,c and ∂I_c/∂α_c).
+/// The value image and the derivative images (channel c: ∂I_c/∂σ_t,c and ∂I_c/∂α_c; and
+/// ∂I_c/∂g for the one g that all channels share, from the models that differentiate it).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiffImages {
     pub value: Image,
     pub d_sigma_t: Image,
     pub d_albedo: Image,
+    /// ∂I_c/∂g, or `None` from a model that does not differentiate the phase function.
+    pub d_g: Option<Image>,
 }
 
 /// Image loss, averaged over the 3·W·H pixel channels.
@@ -49,7 +52,7 @@ impl Loss {
     }
 }
 
-/// The loss, its gradient with respect to (σ_t,R, σ_t,G, σ_t,B) and (α_R, α_G, α_B), and the
+/// The loss, its gradient with respect to (σ_t,R, σ_t,G, σ_t,B), (α_R, α_G, α_B) and g, and the
 /// images when asked for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LossGradient {
@@ -60,5 +63,8 @@ pub struct LossGradient {
     pub loss_channels: [f64; 3],
     pub d_sigma_t: [f64; 3],
     pub d_albedo: [f64; 3],
+    /// Each colour channel's share of ∂ℓ/∂g (g is one value for all channels: ∂ℓ/∂g is their
+    /// sum); `None` where the derivative images have no ∂I/∂g.
+    pub d_g: Option<[f64; 3]>,
     pub images: Option<DiffImages>,
 }

@@ -53,6 +53,10 @@ pub enum Setting {
     InitSigmaT,
     /// The starting albedo.
     InitAlbedo,
+    /// Recovering the phase function's g besides σ_t and α.
+    FreeG,
+    /// The starting g of a recovery that frees it.
+    InitG,
     /// The learned renderer's entry-point sampler.
     EntrySampler,
     /// The gradient estimator.
@@ -94,6 +98,8 @@ impl Setting {
             Setting::BiasCorrectionSteps => "bias_correction_steps",
             Setting::InitSigmaT => "init_sigma_t",
             Setting::InitAlbedo => "init_albedo",
+            Setting::FreeG => "free_g",
+            Setting::InitG => "init_g",
             Setting::EntrySampler => "entry_sampler",
             Setting::Estimator => "estimator",
             Setting::Widths => "widths",

@@ -1202,3 +1202,24 @@ fn a_mitsuba_scene_folder_is_recovered_with_its_stated_physics() {
     // The scene states no truth: the images are what σ_t and α come from.
     assert!(r.get("truth").is_none_or(|t| t.is_null()), "{r}");
 }
+
+/// `--free g` needs the tracer in the run's last iterations and says so with the flags to
+/// change; `--init-g` needs `--free g`.
+#[test]
+fn optimize_free_g_is_refused_where_no_model_differentiates_g() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let learned = [&TINY_OPTIMIZE[..], &["--free", "g", "--refine", "0"]].concat();
+    assert_stderr_has(
+        &fails(d, &learned),
+        &["--free g with model learned", "fix: keep the refinement (--refine above 0)"],
+    );
+    let dipole = [&TINY_OPTIMIZE[..], &["--free", "g", "--model", "dipole"]].concat();
+    assert_stderr_has(&fails(d, &dipole), &["the dipole does not differentiate g"]);
+    let start = [&TINY_OPTIMIZE[..], &["--init-g", "0.5"]].concat();
+    assert_stderr_has(
+        &fails(d, &start),
+        &["--init-g 0.5 without --free g", "fix: add --free g or drop --init-g"],
+    );
+}

@@ -22,7 +22,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The CSV's columns: one row per case, repetition and channel.
-const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g\n";
+const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g";
+
+/// The CSV's columns of a recovered g (in runs that free it; the same on the three channel rows).
+const CSV_G: &str = ",g_est,g_lo,g_hi,g_covered,g_determined";
 
 /// The Markdown header, then a table with its summary per set of cases (index-matched or
 /// dielectric; a heading each when both ran), and the CSV.
@@ -66,7 +69,20 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             ""
         }
     );
+    let free_g = outcomes.iter().any(|o| o.g.is_some());
+    if free_g {
+        let _ = writeln!(
+            md,
+            "g is recovered in every run (`--free g`), from {}.\n",
+            a.init_g
+                .map_or("the dataset's stated g (the case's own)".to_string(), |g| {
+                    format!("g = {g}")
+                })
+        );
+    }
     let mut csv = String::from(CSV_HEADER);
+    csv.push_str(if free_g { CSV_G } else { "" });
+    csv.push('\n');
     let (index_matched, dielectric): (Vec<Outcome>, Vec<Outcome>) = outcomes
         .iter()
         .cloned()
@@ -85,13 +101,62 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
         if both {
             let _ = writeln!(md, "### {title}\n");
         }
-        table(&mut md, &mut csv, &set);
+        table(&mut md, &mut csv, &set, free_g);
+        if free_g {
+            g_table(&mut md, &set);
+        }
     }
     (md, csv)
 }
 
+/// The recovered g of each run and their summary.
+fn g_table(md: &mut String, outcomes: &[Outcome]) {
+    let _ = writeln!(
+        md,
+        "\n| case | targets | rep | g truth | g estimate [95 % interval] | error | in interval | determined |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let mut det_err = Vec::new();
+    let (mut covered, mut n) = (0, 0);
+    for o in outcomes {
+        let Some(g) = o.g else { continue };
+        let truth = o.case.medium.g;
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {truth} | {:.3} [{:.3}, {:.3}] | {:+.3} | {} | {} |",
+            o.case.name,
+            o.targets.name(),
+            o.rep,
+            g.estimate,
+            g.interval[0],
+            g.interval[1],
+            g.error(truth),
+            if g.covers(truth) { "y" } else { "n" },
+            if g.determined { "y" } else { "n" }
+        );
+        n += 1;
+        covered += g.covers(truth) as usize;
+        if g.determined {
+            det_err.push(g.error(truth).abs());
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\n- g: the truth inside the 95 % interval in {covered} of {n} runs; determined in {} of {n}{}\n",
+        det_err.len(),
+        if det_err.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", where the largest |error| is {:.3} (goal ≤ 0.05)",
+                det_err.iter().copied().fold(0.0, f64::max)
+            )
+        }
+    );
+}
+
 /// The table of `outcomes` with its summary (Markdown), and their CSV rows.
-fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome]) {
+fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free_g: bool) {
     let _ = writeln!(
         md,
         "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
@@ -141,7 +206,7 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome]) {
         );
         for c in 0..3 {
             let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
-            let _ = writeln!(
+            let _ = write!(
                 csv,
                 "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4},{},{},{}",
                 o.case.name,
@@ -175,6 +240,23 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome]) {
                 o.case.medium.roughness,
                 o.case.medium.g
             );
+            if free_g {
+                match o.g {
+                    Some(g) => {
+                        let _ = write!(
+                            csv,
+                            ",{:.5},{:.5},{:.5},{},{}",
+                            g.estimate,
+                            g.interval[0],
+                            g.interval[1],
+                            g.covers(o.case.medium.g),
+                            g.determined
+                        );
+                    }
+                    None => csv.push_str(",,,,,"),
+                }
+            }
+            csv.push('\n');
         }
     }
     let _ = writeln!(md);

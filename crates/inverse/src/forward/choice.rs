@@ -74,6 +74,13 @@ impl ModelChoice {
         })
     }
 
+    /// Whether this estimator gives ∂I/∂g (the phase function's g): the tracer's `ad`, which
+    /// differentiates each path's phase-function factors. The learned model was trained at
+    /// g = 0; the dipole and the `fd` estimators do not difference g.
+    pub fn differentiates_g(self) -> bool {
+        self == ModelChoice::Volpath(TracerEstimator::Ad)
+    }
+
     /// `model` with its default estimator.
     pub fn default_of(model: ModelKind) -> Self {
         Self::new(model, None).expect("a model's first estimator is its own")

@@ -8,7 +8,8 @@
 //! parameters, so the moves of the others add noise but no bias. Four renders besides the value,
 //! each with the same seed, view and pixel streams as the value. Δα_c is reduced where needed to
 //! keep α ± Δα_c in [0, 1). The truncation error is O(Δ²); the estimate is a reference, not a
-//! fast estimator.
+//! fast estimator. It does not difference g (no ∂I/∂g images): a run that frees g renders with
+//! `ad`.
 
 use bssrdf::diff::{DiffImages, DiffSettings};
 use scene::{Image, Medium};
@@ -101,6 +102,7 @@ pub fn central_differences(
     Ok(DiffImages {
         d_sigma_t: difference(true, h_sigma)?,
         d_albedo: difference(false, h_albedo)?,
+        d_g: None,
         value,
     })
 }

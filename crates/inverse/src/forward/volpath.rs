@@ -117,6 +117,7 @@ impl ViewRenderer for VolpathView<'_> {
                     value: d.value,
                     d_sigma_t: d.d_sigma_t,
                     d_albedo: d.d_albedo,
+                    d_g: Some(d.d_g),
                 })
             },
         )

@@ -11,9 +11,11 @@ fn record_view(k: u32, loss: f64, view: usize) -> IterationRecord {
         params: Params {
             sigma_t: [50.0; 3],
             albedo: [0.9; 3],
+            g: None,
         },
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
+        d_g: None,
         views: vec![view],
         crop_origins: Vec::new(),
         seconds: 0.1,
@@ -25,6 +27,7 @@ fn params(sigma_t: f64, albedo: f64) -> Params {
     Params {
         sigma_t: [sigma_t; 3],
         albedo: [albedo; 3],
+        g: None,
     }
 }
 
@@ -89,6 +92,19 @@ fn each_failure_is_detected() {
     let r = assess(&flat, 0, &params(60.0, 0.9), &spec, 0.0, Some(&off));
     assert_eq!(kinds(&r), ["inconsistent"]);
     assert!(r[0].message().contains(" G "));
+    // A recovered g at its bound; the object's g is not a parameter.
+    let free_g = ParamSpec {
+        free_g: true,
+        ..ParamSpec::default()
+    };
+    let edge = Params {
+        g: Some(crate::params::G_MAX),
+        ..params(60.0, 0.9)
+    };
+    let r = assess(&flat, 0, &edge, &free_g, 0.0, None);
+    assert_eq!(kinds(&r), ["g-at-bound"]);
+    assert!(r[0].message().contains("init_g"), "{}", r[0].message());
+    assert!(assess(&flat, 0, &params(60.0, 0.9), &spec, 0.95, None).is_empty());
 }
 
 /// Gaussian noise from the workspace's sampler (Box–Muller).

@@ -64,7 +64,7 @@ impl Checkpoint {
             ));
         }
         let n = c.u.len();
-        if n != 6 || c.adam_m.len() != n || c.adam_v.len() != n {
+        if n != c.config.params.len() || c.adam_m.len() != n || c.adam_v.len() != n {
             return Err(err(path, "wrong number of variables; the file is damaged"));
         }
         if c.u.iter().any(|v| !v.is_finite()) {

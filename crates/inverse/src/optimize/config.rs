@@ -76,6 +76,10 @@ pub struct OptimizeConfig {
     pub lr_sigma_t: f32,
     /// Learning rate of α.
     pub lr_albedo: f32,
+    /// Learning rate of g where the run recovers it ([`ParamSpec::free_g`]). (Left out of the
+    /// JSON at its default, so runs written before the option compare equal.)
+    #[serde(default = "default_lr_g", skip_serializing_if = "is_default_lr_g")]
+    pub lr_g: f32,
     /// Step decay factor.
     pub decay: f32,
     /// Iterations between decays.
@@ -136,6 +140,19 @@ fn is_false(v: &bool) -> bool {
     !*v
 }
 
+/// The default learning rate of g: Adam moves a variable by about its learning rate per
+/// iteration, so g crosses its range [0, 0.9] in about 100 of the refinement's iterations and
+/// then settles as the steps decay.
+pub const DEFAULT_LR_G: f32 = 0.01;
+
+fn default_lr_g() -> f32 {
+    DEFAULT_LR_G
+}
+
+fn is_default_lr_g(v: &f32) -> bool {
+    *v == DEFAULT_LR_G
+}
+
 fn default_view_weight_floor() -> f64 {
     0.01
 }
@@ -168,6 +185,7 @@ impl Default for OptimizeConfig {
         Self::new(Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
+            g: None,
         })
     }
 }
@@ -234,6 +252,7 @@ impl OptimizeConfig {
         for (name, v) in [
             ("lr_sigma_t", self.lr_sigma_t),
             ("lr_albedo", self.lr_albedo),
+            ("lr_g", self.lr_g),
             ("decay", self.decay),
         ] {
             if !v.is_finite() {
@@ -252,6 +271,25 @@ impl OptimizeConfig {
         }
         if let Some(a) = p.albedo.iter().find(|a| !(0.0..=1.0).contains(*a)) {
             return Err(format!("init.albedo holds {a}, α must be in [0, 1]"));
+        }
+        if let Some(g) = p.g.filter(|g| !(g.is_finite() && g.abs() < 1.0)) {
+            return Err(format!(
+                "init.g = {g}, the phase function's g must be in (-1, 1)"
+            ));
+        }
+        if self.params.free_g
+            && !self
+                .model_at(self.iterations.saturating_sub(1))
+                .differentiates_g()
+        {
+            return Err(format!(
+                "a free g needs a model that differentiates g (the volumetric path tracer with \
+                 its estimator ad, as the model or in a refinement); this run ends with {} \
+                 ({})",
+                self.final_model(),
+                self.model_at(self.iterations.saturating_sub(1))
+                    .estimator_name()
+            ));
         }
         if let Some(subset) = &self.view_subset {
             if subset.is_empty() {
@@ -348,6 +386,7 @@ impl OptimizeConfig {
             split_samples: true,
             lr_sigma_t: 0.015,
             lr_albedo: 0.02,
+            lr_g: DEFAULT_LR_G,
             decay: 0.85,
             decay_every: 50,
             refit_every: 0,

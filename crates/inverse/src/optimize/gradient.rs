@@ -50,6 +50,9 @@ pub(crate) fn non_finite_part(g: &LossGradient) -> Option<String> {
         return Some(format!("the loss ({})", g.loss));
     }
     let rgb = ["R", "G", "B"];
+    if let Some(d) = g.d_g.filter(|d| d.iter().any(|v| !v.is_finite())) {
+        return Some(format!("∂ℓ/∂g ({})", d.iter().sum::<f64>()));
+    }
     (0..3).find_map(|c| {
         if !g.d_sigma_t[c].is_finite() {
             Some(format!("∂ℓ/∂σ_t {} ({})", rgb[c], g.d_sigma_t[c]))
@@ -81,6 +84,10 @@ pub fn split_sample_gradient(
         }),
         d_sigma_t: std::array::from_fn(|ch| 0.5 * (ab.d_sigma_t[ch] + ba.d_sigma_t[ch])),
         d_albedo: std::array::from_fn(|ch| 0.5 * (ab.d_albedo[ch] + ba.d_albedo[ch])),
+        d_g: ab
+            .d_g
+            .zip(ba.d_g)
+            .map(|(x, y)| std::array::from_fn(|ch| 0.5 * (x[ch] + y[ch]))),
         images: None,
     }
 }
@@ -103,7 +110,8 @@ pub fn cross_misfit(a: &Image, b: &Image, target: &Image) -> [f64; 3] {
 }
 
 /// The decorrelated loss gradient: ℓ and ∂ℓ/∂I from the render `i1`, ∂I/∂θ from the derivative
-/// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ.
+/// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ (θ: σ_t, α
+/// and, where `d2` has ∂I/∂g, g's share per channel).
 pub(crate) fn decorrelated_gradient(
     i1: &Image,
     d2: &DiffImages,
@@ -115,15 +123,20 @@ pub(crate) fn decorrelated_gradient(
         loss_channels: [0.0; 3],
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
+        d_g: d2.d_g.as_ref().map(|_| [0.0; 3]),
         images: None,
     };
     let pixels = i1.data.iter().zip(&target.data);
-    for ((a, t), (dt, da)) in pixels.zip(d2.d_sigma_t.data.iter().zip(&d2.d_albedo.data)) {
+    let derivatives = d2.d_sigma_t.data.iter().zip(&d2.d_albedo.data);
+    for (p, ((a, t), (dt, da))) in pixels.zip(derivatives).enumerate() {
         for ch in 0..3 {
             let (l, dl) = loss.element(a[ch], t[ch]);
             g.loss_channels[ch] += l;
             g.d_sigma_t[ch] += dl * dt[ch] as f64;
             g.d_albedo[ch] += dl * da[ch] as f64;
+            if let (Some(sum), Some(img)) = (g.d_g.as_mut(), d2.d_g.as_ref()) {
+                sum[ch] += dl * img.data[p][ch] as f64;
+            }
         }
     }
     let n_inv = 1.0 / (3 * i1.data.len()).max(1) as f64;
@@ -131,6 +144,7 @@ pub(crate) fn decorrelated_gradient(
     g.loss = g.loss_channels.iter().sum();
     g.d_sigma_t = g.d_sigma_t.map(|v| v * n_inv);
     g.d_albedo = g.d_albedo.map(|v| v * n_inv);
+    g.d_g = g.d_g.map(|d| d.map(|v| v * n_inv));
     g
 }
 
@@ -180,11 +194,13 @@ mod tests {
                 value: a.clone(),
                 d_sigma_t: a.clone(),
                 d_albedo: a.clone(),
+                d_g: None,
             },
             &DiffImages {
                 value: b.clone(),
                 d_sigma_t: b.clone(),
                 d_albedo: b.clone(),
+                d_g: None,
             },
             &t,
             Loss::L2,

@@ -7,8 +7,8 @@ use bssrdf::render::RenderSettings;
 
 use super::{InverseError, Optimizer};
 use crate::uncertainty::{
-    Accumulator, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
-    iterate_covariance, iterate_drift,
+    Accumulator, GUncertainty, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
+    iterate_covariance, iterate_drift, joint,
 };
 
 impl Optimizer<'_> {
@@ -23,6 +23,8 @@ impl Optimizer<'_> {
         let n = self.targets.len();
         let k = s.views.clamp(1, n);
         let mut acc = Accumulator::default();
+        // With a free g, the sandwich over all seven variables ([`joint`]).
+        let mut acc_g = c.params.free_g.then(joint::JointAccumulator::default);
         for i in 0..k {
             let v = i * n / k;
             let t = &self.targets[v];
@@ -36,15 +38,23 @@ impl Optimizer<'_> {
                 view.derivatives(&rs, None)
             };
             let (a, b) = (render(1)?, render(2)?);
-            acc.add_view(
-                &ViewRenders {
-                    value: [&a.value, &b.value],
-                    d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
-                    d_albedo: [&a.d_albedo, &b.d_albedo],
-                    target: t.image,
-                },
-                p.sigma_t,
-            );
+            let renders = ViewRenders {
+                value: [&a.value, &b.value],
+                d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
+                d_albedo: [&a.d_albedo, &b.d_albedo],
+                target: t.image,
+            };
+            acc.add_view(&renders, p.sigma_t);
+            if let Some(j) = acc_g.as_mut() {
+                let (Some(ga), Some(gb)) = (&a.d_g, &b.d_g) else {
+                    return Err(InverseError::Invalid(
+                        "the intervals of a free g need ∂I/∂g, which the run's final model \
+                         does not render"
+                            .into(),
+                    ));
+                };
+                j.add_view(&renders, [ga, gb], p.sigma_t);
+            }
         }
         let tail = ((self.history.len() as f64 * s.tail_fraction).ceil() as usize)
             .clamp(2.min(self.history.len()), self.history.len());
@@ -57,9 +67,41 @@ impl Optimizer<'_> {
         let spread: [[f64; 3]; 3] =
             std::array::from_fn(|c| std::array::from_fn(|k| walk[c][k] + drift[c][k]));
         let fixed = [c.params.fix_sigma_t, c.params.fix_albedo];
-        let cov = add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread);
-        let images = add_covariances(acc.covariance_fixed(0.0, fixed), spread);
+        let (cov, images, g) = match &acc_g {
+            None => (
+                add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread),
+                add_covariances(acc.covariance_fixed(0.0, fixed), spread),
+                None,
+            ),
+            Some(j) => {
+                let tail: Vec<_> = self.history[self.history.len() - tail..]
+                    .iter()
+                    .map(|r| r.params)
+                    .chain(std::iter::once(p))
+                    .collect();
+                let spread = joint::add(
+                    &joint::iterate_covariance(&tail),
+                    &joint::iterate_drift(&tail),
+                );
+                let part = |sd: f64| {
+                    j.covariance(sd, fixed)
+                        .map(|m| joint::blocks(&joint::add(&m, &spread)))
+                };
+                let (all, img) = (part(s.model_brightness_sd), part(0.0));
+                let g = GUncertainty::new(
+                    p.g.unwrap_or(self.base.g as f64),
+                    all.map(|x| x.1),
+                    img.map(|x| x.1),
+                );
+                (
+                    all.map_or([None; 3], |x| x.0.map(Some)),
+                    img.map_or([None; 3], |x| x.0.map(Some)),
+                    Some(g),
+                )
+            }
+        };
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
+        u.g = g;
         u.view_bread = (0..k)
             .map(|i| i * n / k)
             .zip(acc.view_breads().iter().copied())

@@ -108,7 +108,11 @@ pub(super) fn intervals(
                 "roughness": short(object.roughness),
             })
         },
-        "phase": json!({ "type": "hg", "g": short(object.g) }),
+        "phase": if opt.config().params.free_g {
+            json!({ "type": "hg", "g": "recovered", "stated_g": short(object.g) })
+        } else {
+            json!({ "type": "hg", "g": short(object.g) })
+        },
         "source": if stated { "dataset" } else { "assumed: the dataset states none" },
         "not_modelled": p.gaps,
     });

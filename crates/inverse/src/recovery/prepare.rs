@@ -124,7 +124,30 @@ pub(super) fn prepare(
         }
     }
     let base = object.medium([50.0; 3], [0.5; 3]);
-    let truth = ds.truth.as_ref().map(Params::of);
+    // A recovered g is reported against the truth's g (the truth stays report-only).
+    let truth = ds.truth.as_ref().map(|m| Params {
+        g: cfg.optimize.params.free_g.then_some(m.g as f64),
+        ..Params::of(m)
+    });
+    if cfg.optimize.params.free_g {
+        let start = cfg.optimize.init.g.unwrap_or(object.g as f64);
+        let from = if cfg.optimize.init.g.is_some() {
+            "as asked"
+        } else if stated {
+            "the dataset's stated g"
+        } else {
+            "the assumed g"
+        };
+        let c = &cfg.optimize;
+        let moves = (c.effective_albedo_warmup()..c.iterations)
+            .filter(|&k| c.model_at(k).differentiates_g())
+            .count();
+        tracing::info!(
+            "g is recovered: it starts at {start} ({from}) and moves in the iterations the \
+             volumetric path tracer renders ({moves} of {})",
+            c.iterations
+        );
+    }
     std::fs::create_dir_all(&cfg.out).map_err(|source| RecoveryError::CreateDir {
         path: cfg.out.clone(),
         source,

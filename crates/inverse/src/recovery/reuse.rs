@@ -148,7 +148,7 @@ pub fn differing_settings(
     out
 }
 
-/// `{"sigma_t": [3], "albedo": [3]}` as parameters.
+/// `{"sigma_t": [3], "albedo": [3]}` (and `"g"` where the run recovered it) as parameters.
 pub fn params_of(v: &serde_json::Value) -> Option<Params> {
     let rgb = |field: &str| -> Option<[f64; 3]> {
         let a = v[field].as_array().filter(|a| a.len() == 3)?;
@@ -158,6 +158,7 @@ pub fn params_of(v: &serde_json::Value) -> Option<Params> {
     Some(Params {
         sigma_t: rgb("sigma_t")?,
         albedo: rgb("albedo")?,
+        g: v["g"].as_f64(),
     })
 }
 

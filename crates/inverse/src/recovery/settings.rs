@@ -80,6 +80,7 @@ pub struct Schedule {
     pub seed: u64,
     pub lr_sigma_t: f32,
     pub lr_albedo: f32,
+    pub lr_g: f32,
     pub decay: f32,
     pub decay_every: u32,
     pub albedo_warmup: u32,
@@ -162,6 +163,7 @@ impl Default for RecoverySettings {
                 seed: c.seed,
                 lr_sigma_t: c.lr_sigma_t,
                 lr_albedo: c.lr_albedo,
+                lr_g: c.lr_g,
                 decay: c.decay,
                 decay_every: c.decay_every,
                 albedo_warmup: c.albedo_warmup,
@@ -328,6 +330,7 @@ impl RecoverySettings {
         c.crop = s.crop;
         c.lr_sigma_t = s.lr_sigma_t;
         c.lr_albedo = s.lr_albedo;
+        c.lr_g = s.lr_g;
         c.decay = s.decay;
         c.decay_every = s.decay_every;
         let l = &self.learned;
@@ -339,7 +342,59 @@ impl RecoverySettings {
         c.seed = s.seed;
         c.albedo_warmup = s.albedo_warmup;
         c.params = s.params.clone();
+        self.check_free_g(&c)?;
         Ok(c)
+    }
+
+    /// A free g needs a model that differentiates g in the run's last iterations (the tracer
+    /// with `ad`: the model, or the refinement after the learned fit, which holds g at its
+    /// start); a starting g needs a free g.
+    fn check_free_g(&self, c: &OptimizeConfig) -> Result<(), RecoveryError> {
+        let invalid = RecoveryError::Invalid;
+        if let Some(g) = self.start.init.g {
+            if !c.params.free_g {
+                return Err(invalid(format!(
+                    "{} {g} without {}: g is the dataset's own unless it is recovered; fix: add \
+                     {} or drop {}",
+                    Setting::InitG,
+                    Setting::FreeG,
+                    Setting::FreeG,
+                    Setting::InitG
+                )));
+            }
+            if !(g.is_finite() && g.abs() < 1.0) {
+                return Err(invalid(format!(
+                    "{} {g}: the phase function's g must be in (-1, 1)",
+                    Setting::InitG
+                )));
+            }
+        }
+        let last = c.model_at(c.iterations.saturating_sub(1));
+        if c.params.free_g && !last.differentiates_g() {
+            let fix = match last.kind() {
+                ModelKind::Learned => format!(
+                    "the learned model was trained at g = 0 and does not differentiate g; fix: \
+                     keep the refinement ({} above 0), which frees g after the learned fit",
+                    Setting::Refine
+                ),
+                ModelKind::Dipole => format!(
+                    "the dipole does not differentiate g; fix: {} volpath or the learned model \
+                     with its refinement",
+                    Setting::Model
+                ),
+                ModelKind::Volpath => format!(
+                    "the tracer's estimator {} does not difference g; fix: {} ad",
+                    last.estimator_name(),
+                    Setting::Estimator
+                ),
+            };
+            return Err(invalid(format!(
+                "{} with model {}: {fix}",
+                Setting::FreeG,
+                c.model.kind()
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -419,5 +474,44 @@ mod tests {
         s.schedule.view_weight_floor = 0.0;
         let e = s.optimize_config(no_depth).unwrap_err().to_string();
         assert!(e.contains("view_weight_floor must be in (0, 1]"), "{e}");
+    }
+
+    /// A free g runs where the tracer renders its last iterations (the refinement, or the
+    /// tracer as the model) and is refused elsewhere with the fix; a starting g needs it.
+    #[test]
+    fn a_free_g_needs_the_tracer_at_the_end() {
+        let mut s = RecoverySettings::default();
+        s.schedule.params.free_g = true;
+        let c = s.optimize_config(no_depth).unwrap();
+        assert!(c.params.free_g && c.refine_iterations > 0);
+        s.model.kind = ModelKind::Volpath;
+        assert!(s.optimize_config(no_depth).is_ok());
+        s.model.estimator = Some("fd".into());
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(
+            e.contains("free_g with model volpath") && e.contains("estimator ad"),
+            "{e}"
+        );
+        s.model = ModelSettings::default();
+        s.tracer.refine = Some(0);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(
+            e.contains("free_g with model learned") && e.contains("refine"),
+            "{e}"
+        );
+        s.model.kind = ModelKind::Dipole;
+        s.tracer.refine = None;
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("the dipole does not differentiate g"), "{e}");
+
+        let mut s = RecoverySettings::default();
+        s.start.init.g = Some(0.5);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("init_g 0.5 without free_g"), "{e}");
+        s.schedule.params.free_g = true;
+        assert_eq!(s.optimize_config(no_depth).unwrap().init.g, Some(0.5));
+        s.start.init.g = Some(1.5);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("must be in (-1, 1)"), "{e}");
     }
 }

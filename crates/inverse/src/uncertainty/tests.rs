@@ -254,6 +254,7 @@ fn widening_along_the_valley() {
     let at = crate::params::Params {
         sigma_t: [50.0; 3],
         albedo: [0.95; 3],
+        g: None,
     };
     let s = Sensitivity {
         slope: [0.0; 3],
@@ -301,6 +302,7 @@ fn a_fixed_parameter_stays_fixed_through_widening_and_correction() {
     let at = crate::params::Params {
         sigma_t: [80.0; 3],
         albedo: [0.9; 3],
+        g: None,
     };
     let mut u = Uncertainty::new(at.sigma_t, at.albedo, [narrow; 3], [narrow; 3], 8);
     u.albedo = [None; 3];

@@ -84,6 +84,7 @@ pub(super) fn optimize_checkpoints(work: &Path) -> Res {
     let init = Params {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
+        g: None,
     };
     let mut plain = OptimizeConfig::new(init);
     plain.iterations = 2;
