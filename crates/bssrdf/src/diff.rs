@@ -231,6 +231,7 @@ fn run(
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
         d_g: None,
+        d_ln_light_scale: None,
         images: None,
     };
     let mut images = keep_images.then(|| DiffImages {

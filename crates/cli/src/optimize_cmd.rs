@@ -44,6 +44,7 @@ mod tests {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
             g: None,
+            light_scale: None,
         };
         // The estimator comparison runs the learned model alone (`--refine 0`), the rest as
         // the defaults.

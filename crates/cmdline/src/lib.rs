@@ -453,6 +453,8 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::InitAlbedo => "--init-albedo",
         Setting::FreeG => "--free g",
         Setting::InitG => "--init-g",
+        Setting::FreeLightScale => "--free light-scale",
+        Setting::InitLightScale => "--init-light-scale",
         Setting::EntrySampler => "--entry-sampler",
         Setting::Estimator => "--estimator",
         Setting::Widths => "--widths",

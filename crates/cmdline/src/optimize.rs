@@ -27,6 +27,8 @@ pub use bias_correction::BiasCorrectionArgs;
 pub enum FreeParam {
     /// The phase function's Henyey–Greenstein g.
     G,
+    /// A factor on every light's stated intensity (one for all lights and channels).
+    LightScale,
 }
 
 #[derive(Args, Clone)]
@@ -93,15 +95,23 @@ pub struct OptimizeArgs {
     /// Initial albedo (one value or R,G,B).
     #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
-    /// Recover these besides σ_t and α: `g`, the Henyey–Greenstein anisotropy (one value for
-    /// all channels), with its own 95 % interval. It starts at the dataset's stated g (or
-    /// --init-g) and moves where the volumetric path tracer renders: the refinement of the
-    /// default recovery (the learned model holds it during its fit) or --model volpath.
+    /// Recover these besides σ_t and α, each with its own 95 % interval: `g`, the
+    /// Henyey–Greenstein anisotropy (one value for all channels; it starts at the dataset's
+    /// stated g or --init-g and moves where the volumetric path tracer renders: the refinement
+    /// of the default recovery, the learned model holding it during its fit, or --model
+    /// volpath); `light-scale`, a factor k on every light's stated intensity, for a light of
+    /// unknown strength (one for all lights and channels, from 1 or --init-light-scale).
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<FreeParam>,
     /// Initial g with --free g (default: the dataset's stated g).
     #[arg(long, allow_negative_numbers = true)]
     pub init_g: Option<f64>,
+    /// Initial light scale with --free light-scale (default 1: the lights as stated).
+    #[arg(long)]
+    pub init_light_scale: Option<f64>,
+    /// Learning rate on ln k with --free light-scale.
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_light_scale)]
+    pub lr_light_scale: f32,
     /// Learning rate on g with --free g.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_g)]
     pub lr_g: f32,
@@ -246,6 +256,7 @@ impl OptimizeArgs {
                     sigma_t: rgb(self.init_sigma_t),
                     albedo: rgb(self.init_albedo),
                     g: self.init_g,
+                    light_scale: self.init_light_scale,
                 },
                 starts: self.starts,
             },
@@ -255,6 +266,7 @@ impl OptimizeArgs {
                 lr_sigma_t: self.lr_sigma_t,
                 lr_albedo: self.lr_albedo,
                 lr_g: self.lr_g,
+                lr_light_scale: self.lr_light_scale,
                 decay: self.decay,
                 decay_every: self.decay_every,
                 albedo_warmup: self.albedo_warmup,
@@ -268,6 +280,7 @@ impl OptimizeArgs {
                     fix_sigma_t: self.fix_sigma_t,
                     fix_albedo: self.fix_albedo,
                     free_g: self.free.contains(&FreeParam::G),
+                    free_light_scale: self.free.contains(&FreeParam::LightScale),
                 },
                 loss: self.loss,
                 single_render: self.single_render,

@@ -238,6 +238,7 @@ impl Experiment<'_> {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
             g: None,
+            light_scale: None,
         };
         let mut rows = Vec::new();
         for (name, dir, medium, shape) in cases {
@@ -297,6 +298,7 @@ impl Experiment<'_> {
                 sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
                 albedo: [0; 3].map(|_| 0.3 + 0.65 * s.next_f32() as f64),
                 g: None,
+                light_scale: None,
             };
             let run = a.jobs.runs(job);
             if run && !a.jobs.runs(name) {
@@ -527,6 +529,7 @@ pub fn run_args(
         sigma_t: single(init.sigma_t),
         albedo: single(init.albedo),
         g: None,
+        light_scale: None,
     };
     s.schedule.seed = *a.seed;
     s.checks.final_spp = 16;

@@ -100,13 +100,18 @@ pub struct RobustnessArgs {
     #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub refine_spp: Option<u32>,
     /// Recover these besides σ_t and α in every run (`optimize --free`): `g`, the phase
-    /// function's anisotropy, with its own columns in the table.
+    /// function's anisotropy; `light-scale`, a factor on the lights (whose truth here is 1:
+    /// the datasets state their lights). Each gets its own table.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<cmdline::optimize::FreeParam>,
     /// The starting g of runs that free it (`optimize --init-g`). Default: the dataset's
     /// stated g, which here is the case's own.
     #[arg(long, allow_negative_numbers = true, requires = "free")]
     pub init_g: Option<f64>,
+    /// The starting light scale of runs that free it (`optimize --init-light-scale`; default
+    /// 1, the truth).
+    #[arg(long, requires = "free")]
+    pub init_light_scale: Option<f64>,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = 1)]
     pub seeds: u64,
@@ -162,28 +167,45 @@ pub struct Outcome {
     /// targets, pooled brightness ratio per channel (`model_ratio`).
     pub model_ratio: [f64; 3],
     /// The recovered g, its 95 % interval and whether it is determined, in runs that free g.
-    pub g: Option<RecoveredG>,
+    pub g: Option<Recovered>,
+    /// The recovered light scale likewise (its truth is 1).
+    pub light_scale: Option<Recovered>,
 }
 
-/// A run's recovered g.
+/// A run's recovered g or light scale.
 #[derive(Clone, Copy, Debug)]
-pub struct RecoveredG {
+pub struct Recovered {
     pub estimate: f64,
-    /// The 95 % interval (the whole range (−1, 1) where the images give none).
+    /// The 95 % interval (the whole range where the images give none).
     pub interval: [f64; 2],
     pub determined: bool,
 }
 
-impl RecoveredG {
-    /// The estimate's error against the case's g.
-    pub fn error(&self, truth: f32) -> f64 {
-        self.estimate - truth as f64
+impl Recovered {
+    /// The estimate's error against `truth`.
+    pub fn error(&self, truth: f64) -> f64 {
+        self.estimate - truth
     }
 
-    /// Whether the interval holds the case's g.
-    pub fn covers(&self, truth: f32) -> bool {
-        let t = truth as f64;
-        self.interval[0] <= t && t <= self.interval[1]
+    /// Whether the interval holds `truth`.
+    pub fn covers(&self, truth: f64) -> bool {
+        self.interval[0] <= truth && truth <= self.interval[1]
+    }
+
+    /// `result.json`'s `key` (estimate, interval and determined flag), where the run has it;
+    /// `whole` where the images give no interval.
+    fn of(v: &serde_json::Value, key: &str, whole: [f64; 2]) -> Option<Self> {
+        v["estimate"][key].as_f64().map(|estimate| {
+            let i = &v["interval95"][key];
+            Recovered {
+                estimate,
+                interval: match (i[0].as_f64(), i[1].as_f64()) {
+                    (Some(lo), Some(hi)) => [lo, hi],
+                    _ => whole,
+                },
+                determined: v["determined"][key].as_bool().unwrap_or(false),
+            }
+        })
     }
 }
 
@@ -263,17 +285,8 @@ fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Out
         status: v["status"].as_str().unwrap_or("?").to_string(),
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
         model_ratio: [f64::NAN; 3],
-        g: v["estimate"]["g"].as_f64().map(|estimate| {
-            let i = &v["interval95"]["g"];
-            RecoveredG {
-                estimate,
-                interval: match (i[0].as_f64(), i[1].as_f64()) {
-                    (Some(lo), Some(hi)) => [lo, hi],
-                    _ => [-1.0, 1.0],
-                },
-                determined: v["determined"]["g"].as_bool().unwrap_or(false),
-            }
-        }),
+        g: Recovered::of(&v, "g", [-1.0, 1.0]),
+        light_scale: Recovered::of(&v, "light_scale", [0.0, f64::INFINITY]),
     })
 }
 
@@ -372,7 +385,9 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     s.tracer.refine = a.refine;
     s.tracer.refine_spp = a.refine_spp;
     s.schedule.params.free_g = a.free.contains(&cmdline::optimize::FreeParam::G);
+    s.schedule.params.free_light_scale = a.free.contains(&cmdline::optimize::FreeParam::LightScale);
     s.start.init.g = a.init_g;
+    s.start.init.light_scale = a.init_light_scale;
     if *a.quick {
         s.schedule.iterations = 12;
         s.schedule.spp = 4;

@@ -120,6 +120,7 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
             sigma_t: [50.0; 3],
             albedo: TRUTH.albedo.map(f64::from),
             g: None,
+            light_scale: None,
         };
         s.schedule.params.fix_albedo = true;
         s.schedule.params.monochrome = true;

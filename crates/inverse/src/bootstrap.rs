@@ -82,6 +82,7 @@ pub fn bootstrap_step(current: &Params, estimate: &Params, refit: &Params) -> Op
         sigma_t,
         albedo,
         g: current.g,
+        light_scale: current.light_scale,
     })
 }
 
@@ -161,6 +162,7 @@ mod tests {
                 .map(|x| ((1.0 + s) * x.ln() + c0 - s * 60f64.ln()).exp()),
             albedo: t.albedo.map(|a| a + ca + sa * (a - 0.85)),
             g: None,
+            light_scale: None,
         };
         let est = recover(&truth);
         let mut cur = est;

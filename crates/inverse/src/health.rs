@@ -26,7 +26,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::consistency::Consistency;
 use crate::optimize::IterationRecord;
-use crate::params::{ALBEDO_MAX, ALBEDO_MIN, G_MAX, ParamSpec, Params, SIGMA_T_MIN};
+use crate::params::{
+    ALBEDO_MAX, ALBEDO_MIN, G_MAX, LIGHT_SCALE_MAX, LIGHT_SCALE_MIN, ParamSpec, Params, SIGMA_T_MIN,
+};
 
 /// The smallest rise of the loss, as a fraction per [`RISE_SPAN`] iterations, that fails a run.
 pub const RISE_FLOOR: f64 = 0.05;
@@ -59,6 +61,8 @@ pub enum Problem {
     },
     /// A recovered g ends at its bound, ±[`G_MAX`].
     GAtBound { value: f64 },
+    /// A recovered light scale ends at its bound.
+    LightScaleAtBound { value: f64 },
     /// The estimate lies outside the learned model's training range.
     OutsideTrainingRange { channel: usize, albedo_red: f64 },
     /// The volumetric path tracer's render of the estimate does not match the targets.
@@ -113,6 +117,13 @@ impl Problem {
                  not determine g (start elsewhere with {init}, or state g in the dataset)",
                 init = Setting::InitG,
             ),
+            Problem::LightScaleAtBound { value } => format!(
+                "the light scale ended at its bound ({value}): the optimiser ran into the edge \
+                 of the range [{LIGHT_SCALE_MIN}, {LIGHT_SCALE_MAX}] it allows; check the \
+                 lights' stated intensities and the images' exposure, or start elsewhere \
+                 ({init})",
+                init = Setting::InitLightScale,
+            ),
             Problem::OutsideTrainingRange {
                 channel,
                 albedo_red,
@@ -164,7 +175,8 @@ pub fn assess(
         .sigma_t
         .iter()
         .chain(&estimate.albedo)
-        .chain(&estimate.g);
+        .chain(&estimate.g)
+        .chain(&estimate.light_scale);
     if values.clone().any(|v| !v.is_finite()) {
         out.push(Problem::NonFinite {
             detail: format!("σ_t {:?}, α {:?}", estimate.sigma_t, estimate.albedo),
@@ -174,6 +186,14 @@ pub fn assess(
     let g = estimate.g.unwrap_or(g);
     if spec.free_g && g.abs() >= G_MAX - 1e-7 {
         out.push(Problem::GAtBound { value: g });
+    }
+    let at_bound =
+        |k: &f64| *k <= LIGHT_SCALE_MIN * (1.0 + 1e-6) || *k >= LIGHT_SCALE_MAX * (1.0 - 1e-6);
+    if let Some(k) = estimate
+        .light_scale
+        .filter(|k| spec.free_light_scale && at_bound(k))
+    {
+        out.push(Problem::LightScaleAtBound { value: k });
     }
     for c in 0..3 {
         let a = estimate.albedo[c];

@@ -117,6 +117,9 @@ pub struct IterationRecord {
     /// of the JSON otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub d_g: Option<f64>,
+    /// ∂ℓ/∂ln k where the run recovers the light scale (left out of the JSON otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d_ln_light_scale: Option<f64>,
     /// Views used.
     pub views: Vec<usize>,
     /// Top-left pixel (x0, y0) of each view's crop window (`--crop`; empty without crops).
@@ -141,6 +144,8 @@ pub struct IterationGradient {
     pub d_albedo: [f64; 3],
     /// ∂ℓ/∂g, where every view's derivative images had ∂I/∂g.
     pub d_g: Option<f64>,
+    /// ∂ℓ/∂ln k of a factor k on the lights, where every view's gradient had it.
+    pub d_ln_light_scale: Option<f64>,
     /// Views used.
     pub views: Vec<usize>,
     /// Crop origins (empty without crops).
@@ -291,7 +296,7 @@ impl<'a> Optimizer<'a> {
         rs: &RenderSettings,
     ) -> Result<Image, InverseError> {
         let at = self.forward.at(p.medium(&self.base))?;
-        at.view(camera, light).value(rs, None)
+        at.view(camera, &p.light(light)).value(rs, None)
     }
 
     /// The loss and its gradient of iteration `k` at the parameters `p` (the views, crops and
@@ -324,16 +329,21 @@ impl<'a> Optimizer<'a> {
             })
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
-        let (mut misfit, mut d_g) = (Some(0.0), Some(0.0));
+        let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some(0.0), Some(0.0));
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
+            // The light as the run has it (a recovered scale on its stated intensity).
+            let light = p.light(full.light);
             let t = match crop {
                 Some((camera, image, _)) => TargetView {
                     camera,
-                    light: full.light,
+                    light: &light,
                     image,
                 },
-                None => TargetView { ..*full },
+                None => TargetView {
+                    light: &light,
+                    ..*full
+                },
             };
             let spp = c.spp_at(k);
             let rs = RenderSettings {
@@ -397,11 +407,13 @@ impl<'a> Optimizer<'a> {
                 ds_t[ch] += w[ch] * g.d_sigma_t[ch] / views.len() as f64;
                 da[ch] += w[ch] * g.d_albedo[ch] / views.len() as f64;
             }
-            d_g = d_g.zip(g.d_g).map(|(sum, d)| {
+            let shared = |sum: f64, d: [f64; 3]| {
                 sum + (0..3)
                     .map(|ch| w[ch] * d[ch] / views.len() as f64)
                     .sum::<f64>()
-            });
+            };
+            d_g = d_g.zip(g.d_g).map(|(sum, d)| shared(sum, d));
+            d_k = d_k.zip(g.d_ln_light_scale).map(|(sum, d)| shared(sum, d));
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -416,6 +428,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             d_g,
+            d_ln_light_scale: d_k,
             views,
             crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
         })
@@ -447,6 +460,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             d_g,
+            d_ln_light_scale: d_k,
             views,
             crop_origins,
         } = self.gradient(k, &p)?;
@@ -455,7 +469,11 @@ impl<'a> Optimizer<'a> {
         // iterations; elsewhere it keeps its value (zero gradient, no Adam moment).
         let moves_g = c.params.free_g && k >= c.effective_albedo_warmup();
         let d_g = d_g.filter(|_| moves_g);
-        let mut g = c.params.chain(&p, ds_t, da, d_g.unwrap_or(0.0));
+        // A free light scale moves from the first iteration, with α: both set the brightness.
+        let d_k = d_k.filter(|_| c.params.free_light_scale);
+        let mut g = c
+            .params
+            .chain(&p, ds_t, da, [d_g.unwrap_or(0.0), d_k.unwrap_or(0.0)]);
         let lr_t = if k < c.effective_albedo_warmup() {
             g[..3].fill(0.0);
             0.0
@@ -463,16 +481,11 @@ impl<'a> Optimizer<'a> {
             c.lr_sigma_t
         };
         let lr_g = if d_g.is_some() { c.lr_g } else { 0.0 };
-        let scale = [
-            lr_t,
-            lr_t,
-            lr_t,
-            c.lr_albedo,
-            c.lr_albedo,
-            c.lr_albedo,
-            lr_g,
-        ];
-        let scale = &scale[..g.len()];
+        let lr_k = if d_k.is_some() { c.lr_light_scale } else { 0.0 };
+        let mut scale = vec![lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
+        scale.extend(c.params.g_index().map(|_| lr_g));
+        scale.extend(c.params.light_scale_index().map(|_| lr_k));
+        let scale = &scale[..];
         // The step is taken on copies and kept only when it is finite, so that a failure
         // leaves the optimiser (and a checkpoint written after it) at the last good state.
         let (mut adam, mut u) = (self.adam.clone(), self.u.clone());
@@ -496,6 +509,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             d_g,
+            d_ln_light_scale: d_k,
             views,
             crop_origins,
             seconds: t0.elapsed().as_secs_f64(),

@@ -10,9 +10,12 @@
 //!
 //! * g = u_g, a seventh variable when the run recovers the phase function's g
 //!   ([`ParamSpec::free_g`]; one g for all channels, as the Henyey–Greenstein medium has);
+//! * k = exp(u_k), the factor on every light's stated intensity, the next variable when the run
+//!   recovers the light's strength ([`ParamSpec::free_light_scale`]; one factor for all lights
+//!   and channels: the images are linear in it, I(k) = k·I(1), so ∂I/∂ln k = I);
 //!
 //! then clamped after every step: α ∈ [ALBEDO_MIN, ALBEDO_MAX] (the paper's (0, 0.99995)),
-//! σ_t ≥ SIGMA_T_MIN, g ∈ [−G_MAX, G_MAX]. A monochrome run shares one value per kind over the
+//! σ_t ≥ SIGMA_T_MIN, g ∈ [−G_MAX, G_MAX], k ∈ [LIGHT_SCALE_MIN, LIGHT_SCALE_MAX]. A monochrome run shares one value per kind over the
 //! channels (the gradient is the channel mean, docs/model.md A13); a fixed parameter keeps its
 //! value (zero gradient). Without a free g, g is the object's ([`Params::medium`]'s `base`).
 
@@ -28,6 +31,10 @@ pub const SIGMA_T_MIN: f64 = 1e-3;
 /// Largest |g| after clamping: HG lobes narrower than this are beyond what a recovery's
 /// images resolve, and g → ±1 is a delta.
 pub const G_MAX: f64 = 0.95;
+/// Smallest light scale after clamping.
+pub const LIGHT_SCALE_MIN: f64 = 1e-3;
+/// Largest light scale after clamping.
+pub const LIGHT_SCALE_MAX: f64 = 1e3;
 
 /// How σ_t is represented for the optimiser.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -55,6 +62,10 @@ pub struct ParamSpec {
     /// (Left out of the JSON when off, so runs written before the option compare equal.)
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub free_g: bool,
+    /// Recover a factor on every light's stated intensity (one for all lights and channels) as
+    /// the last variable. (Left out of the JSON when off.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub free_light_scale: bool,
 }
 
 impl Default for ParamSpec {
@@ -65,6 +76,7 @@ impl Default for ParamSpec {
             fix_sigma_t: false,
             fix_albedo: false,
             free_g: false,
+            free_light_scale: false,
         }
     }
 }
@@ -80,6 +92,11 @@ pub struct Params {
     /// the object's own. (Left out of the JSON when `None`.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub g: Option<f64>,
+    /// The factor on every light's stated intensity, where the run recovers it
+    /// ([`ParamSpec::free_light_scale`]); `None`: the lights as stated. (Left out of the JSON
+    /// when `None`.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_scale: Option<f64>,
 }
 
 impl Params {
@@ -89,6 +106,16 @@ impl Params {
             sigma_t,
             albedo,
             g: None,
+            light_scale: None,
+        }
+    }
+
+    /// `light` with its intensity times the recovered light scale (as stated without one).
+    pub fn light(&self, light: &scene::PointLight) -> scene::PointLight {
+        let k = self.light_scale.unwrap_or(1.0) as f32;
+        scene::PointLight {
+            intensity: light.intensity.map(|v| v * k),
+            ..*light
         }
     }
 
@@ -111,9 +138,20 @@ impl Params {
 }
 
 impl ParamSpec {
-    /// The number of the optimiser's variables: six, seven with a free g.
+    /// The number of the optimiser's variables: six, and one each for a free g and a free
+    /// light scale.
     pub fn len(&self) -> usize {
-        if self.free_g { 7 } else { 6 }
+        6 + self.free_g as usize + self.free_light_scale as usize
+    }
+
+    /// The index of g among the variables, where it is free.
+    pub fn g_index(&self) -> Option<usize> {
+        self.free_g.then_some(6)
+    }
+
+    /// The index of ln k among the variables, where the light scale is free.
+    pub fn light_scale_index(&self) -> Option<usize> {
+        self.free_light_scale.then_some(6 + self.free_g as usize)
     }
 
     /// Always false: the optimiser has at least six variables.
@@ -121,7 +159,8 @@ impl ParamSpec {
         false
     }
 
-    /// The optimiser's vector for `p` (a free g that `p` lacks starts at 0).
+    /// The optimiser's vector for `p` (a free g that `p` lacks starts at 0, a free light scale
+    /// at 1).
     pub fn encode(&self, p: &Params) -> Vec<f32> {
         let mut u = Vec::with_capacity(self.len());
         for &s in &p.sigma_t {
@@ -133,6 +172,9 @@ impl ParamSpec {
         u.extend(p.albedo.iter().map(|&a| a as f32));
         if self.free_g {
             u.push(p.g.unwrap_or(0.0) as f32);
+        }
+        if self.free_light_scale {
+            u.push(p.light_scale.unwrap_or(1.0).ln() as f32);
         }
         u
     }
@@ -146,7 +188,10 @@ impl ParamSpec {
         Params {
             sigma_t: std::array::from_fn(|c| sigma(u[c]).max(SIGMA_T_MIN)),
             albedo: std::array::from_fn(|c| (u[3 + c] as f64).clamp(ALBEDO_MIN, ALBEDO_MAX)),
-            g: self.free_g.then(|| (u[6] as f64).clamp(-G_MAX, G_MAX)),
+            g: self.g_index().map(|i| (u[i] as f64).clamp(-G_MAX, G_MAX)),
+            light_scale: self
+                .light_scale_index()
+                .map(|i| (u[i] as f64).exp().clamp(LIGHT_SCALE_MIN, LIGHT_SCALE_MAX)),
         }
     }
 
@@ -158,8 +203,14 @@ impl ParamSpec {
     }
 
     /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied), and
-    /// ∂ℓ/∂g (`d_g`) as the seventh entry with a free g.
-    pub fn chain(&self, p: &Params, d_sigma_t: [f64; 3], d_albedo: [f64; 3], d_g: f64) -> Vec<f32> {
+    /// `d_shared` = [∂ℓ/∂g, ∂ℓ/∂ln k] as the entries of a free g and a free light scale.
+    pub fn chain(
+        &self,
+        p: &Params,
+        d_sigma_t: [f64; 3],
+        d_albedo: [f64; 3],
+        d_shared: [f64; 2],
+    ) -> Vec<f32> {
         let mut gs: [f64; 3] = std::array::from_fn(|c| {
             d_sigma_t[c]
                 * match self.parameterisation {
@@ -180,8 +231,14 @@ impl ParamSpec {
         if self.fix_albedo {
             ga = [0.0; 3];
         }
-        let dg = self.free_g.then_some(d_g);
-        gs.iter().chain(&ga).chain(&dg).map(|&g| g as f32).collect()
+        let dg = self.free_g.then_some(d_shared[0]);
+        let dk = self.free_light_scale.then_some(d_shared[1]);
+        gs.iter()
+            .chain(&ga)
+            .chain(&dg)
+            .chain(&dk)
+            .map(|&g| g as f32)
+            .collect()
     }
 }
 
@@ -200,6 +257,7 @@ mod tests {
                 sigma_t: [30.0, 55.5, 100.0],
                 albedo: [0.8, 0.9, 0.98],
                 g: None,
+                light_scale: None,
             };
             let q = spec.decode(&spec.encode(&p));
             for c in 0..3 {
@@ -220,6 +278,7 @@ mod tests {
             sigma_t: [40.0, 60.0, 80.0],
             albedo: [0.9; 3],
             g: None,
+            light_scale: None,
         };
         // ℓ(σ) = Σ σ_c² ⇒ ∂ℓ/∂σ_c = 2σ_c; check ∂ℓ/∂u by FD through decode.
         for parameterisation in [Parameterisation::Scaled, Parameterisation::Log] {
@@ -227,7 +286,7 @@ mod tests {
                 parameterisation,
                 ..Default::default()
             };
-            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], 0.0);
+            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], [0.0; 2]);
             let u = spec.encode(&p);
             for c in 0..3 {
                 let h = 1e-3f32;
@@ -245,7 +304,7 @@ mod tests {
             fix_albedo: true,
             ..Default::default()
         };
-        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], 5.0);
+        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], [5.0, 6.0]);
         assert_eq!(g, vec![200.0, 200.0, 200.0, 0.0, 0.0, 0.0]);
     }
 
@@ -268,7 +327,8 @@ mod tests {
         v[6] = 1.5;
         spec.clamp(&mut v);
         assert!((v[6] as f64 - G_MAX).abs() < 1e-6);
-        let g = spec.chain(&p, [0.0; 3], [0.0; 3], -2.5);
+        let g = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.5, 1.0]);
+        assert_eq!(g.len(), 7);
         assert_eq!(g[6], -2.5);
         let base = Medium {
             sigma_t: [1.0; 3],
@@ -282,5 +342,47 @@ mod tests {
         let fixed = ParamSpec::default();
         assert_eq!(fixed.encode(&p).len(), 6);
         assert_eq!(fixed.decode(&fixed.encode(&p)).g, None);
+    }
+
+    /// A free light scale follows g as ln k; the lights scale by it.
+    #[test]
+    fn a_free_light_scale_is_the_last_variable() {
+        let spec = ParamSpec {
+            free_g: true,
+            free_light_scale: true,
+            ..Default::default()
+        };
+        assert_eq!(
+            (spec.len(), spec.g_index(), spec.light_scale_index()),
+            (8, Some(6), Some(7))
+        );
+        let p = Params {
+            g: Some(0.3),
+            light_scale: Some(2.5),
+            ..Params::new([40.0; 3], [0.9; 3])
+        };
+        let u = spec.encode(&p);
+        assert!((u[7] as f64 - 2.5f64.ln()).abs() < 1e-6);
+        let q = spec.decode(&u);
+        assert!((q.light_scale.unwrap() - 2.5).abs() < 1e-5 && (q.g.unwrap() - 0.3).abs() < 1e-6);
+        assert_eq!(
+            spec.chain(&p, [0.0; 3], [0.0; 3], [1.0, -3.0])[6..],
+            [1.0, -3.0]
+        );
+        let only_k = ParamSpec {
+            free_light_scale: true,
+            ..Default::default()
+        };
+        assert_eq!((only_k.len(), only_k.light_scale_index()), (7, Some(6)));
+        let mut v = only_k.encode(&p);
+        v[6] = 20.0;
+        only_k.clamp(&mut v);
+        assert!((only_k.decode(&v).light_scale.unwrap() / LIGHT_SCALE_MAX - 1.0).abs() < 1e-5);
+        let light = scene::PointLight {
+            position: glam::Vec3::ZERO,
+            intensity: [1.0, 2.0, 4.0],
+        };
+        assert_eq!(p.light(&light).intensity, [2.5, 5.0, 10.0]);
+        assert_eq!(Params::new([1.0; 3], [0.5; 3]).light(&light), light);
     }
 }

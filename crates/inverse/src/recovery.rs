@@ -324,6 +324,7 @@ fn run_starts(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryEr
         sigma_t: starts[best].estimate.sigma_t.map(|v| v as f32 as f64),
         albedo: starts[best].estimate.albedo.map(|v| v as f32 as f64),
         g: starts[best].estimate.g.map(|v| v as f32 as f64),
+        light_scale: starts[best].estimate.light_scale.map(|v| v as f32 as f64),
     };
     run(&b, obs)?;
     // The starts go into the run's record.
@@ -345,8 +346,15 @@ pub fn write_result(out: &Path, result: &serde_json::Value) -> Result<(), Recove
 /// The estimate, and the truth and the errors when known, as the summary's lines.
 pub fn estimate_lines(est: &Params, truth: Option<&Params>) -> Vec<String> {
     let f3 = |v: [f64; 3], p: usize| format!("({:.p$}, {:.p$}, {:.p$})", v[0], v[1], v[2], p = p);
-    // A recovered g, printed after α.
-    let g = |p: &Params| p.g.map(|g| format!("  g = {g:.3}")).unwrap_or_default();
+    // A recovered g and light scale, printed after α.
+    let g = |p: &Params| {
+        let g = p.g.map(|g| format!("  g = {g:.3}")).unwrap_or_default();
+        let k = p
+            .light_scale
+            .map(|k| format!("  light ×{k:.4}"))
+            .unwrap_or_default();
+        g + &k
+    };
     let mut out = vec![format!(
         "  estimate  σ_t = {}  α = {}{}",
         f3(est.sigma_t, 2),

@@ -9,19 +9,26 @@ use serde_json::json;
 
 use crate::optimize::{InverseError, IterationRecord, OptimizeConfig};
 use crate::params::Params;
+use crate::uncertainty::SharedUncertainty;
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// `iterations.csv`: one row per iteration (parameters before the step, loss, gradient).
 /// A run that recovers g has two more columns at the end: g and ∂ℓ/∂g (empty in the
-/// iterations whose model holds g).
+/// iterations whose model holds g); one that recovers the light scale two more: k and ∂ℓ/∂ln k.
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
     let free_g = history.iter().any(|r| r.params.g.is_some());
+    let free_k = history.iter().any(|r| r.params.light_scale.is_some());
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
          d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit",
     );
-    s.push_str(if free_g { ",g,d_g\n" } else { "\n" });
+    s.push_str(if free_g { ",g,d_g" } else { "" });
+    s.push_str(if free_k {
+        ",light_scale,d_ln_light_scale\n"
+    } else {
+        "\n"
+    });
     for r in history {
         let _ = write!(s, "{},{:.6e}", r.iteration, r.loss);
         for v in r.params.sigma_t.iter().chain(&r.params.albedo) {
@@ -50,6 +57,18 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             let g = r.params.g.map(|g| format!("{g:.6}")).unwrap_or_default();
             let d_g = r.d_g.map(|d| format!("{d:.6e}")).unwrap_or_default();
             let _ = write!(s, ",{g},{d_g}");
+        }
+        if free_k {
+            let k = r
+                .params
+                .light_scale
+                .map(|k| format!("{k:.6}"))
+                .unwrap_or_default();
+            let d = r
+                .d_ln_light_scale
+                .map(|d| format!("{d:.6e}"))
+                .unwrap_or_default();
+            let _ = write!(s, ",{k},{d}");
         }
         s.push('\n');
     }
@@ -178,6 +197,12 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
     if let (Some(gu), Some(g)) = (&u.g, est.g) {
         out.push(format!("  g = {}", fmt(g, gu.interval, false, 3)));
     }
+    if let (Some(ku), Some(k)) = (&u.light_scale, est.light_scale) {
+        out.push(format!(
+            "  light scale k = {} (the lights' stated intensity times k)",
+            fmt(k, ku.interval, false, 4)
+        ));
+    }
     let open_t: Vec<&str> = (0..3)
         .filter(|&c| !u.fixed[0] && !u.determined_sigma_t[c])
         .map(|c| CH[c])
@@ -210,6 +235,14 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
             "α is NOT determined by these images in {} (its interval is wider than ±{}).",
             open_a.join(", "),
             crate::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
+        ));
+    }
+    if u.light_scale.is_some_and(|k| !k.determined) {
+        out.push(format!(
+            "The light's strength is NOT determined by these images (its interval spans more \
+             than ±{:.0} %): a brighter light trades against α (and σ_t). A calibrated light, or \
+             a reference of known reflectance in the images, settles it.",
+            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     }
     if u.g.is_some_and(|g| !g.determined) {
@@ -308,27 +341,45 @@ pub fn write_plots(
             bands: Vec::new(),
         },
     ];
-    if let Some(g) = final_params.g {
-        // A recovered g: one series (the channels share it).
+    // A recovered g and light scale: one series each (the channels share them), before the
+    // loss.
+    type Of = fn(&Params) -> Option<f64>;
+    let shared: [(&str, &str, Of, Option<SharedUncertainty>); 2] = [
+        (
+            "phase function g",
+            "g",
+            |p| p.g,
+            uncertainty.and_then(|u| u.g),
+        ),
+        (
+            "light scale k (× the stated intensity)",
+            "k",
+            |p| p.light_scale,
+            uncertainty.and_then(|u| u.light_scale),
+        ),
+    ];
+    for (title, label, of, u) in shared {
+        let Some(last) = of(final_params) else {
+            continue;
+        };
         let mut pts: Vec<(f64, f64)> = history
             .iter()
-            .filter_map(|r| r.params.g.map(|v| (r.iteration as f64, v)))
+            .filter_map(|r| of(&r.params).map(|v| (r.iteration as f64, v)))
             .collect();
-        pts.push((n as f64, g));
-        let band = uncertainty
-            .and_then(|u| u.g)
+        pts.push((n as f64, last));
+        let band = u
             .and_then(|u| u.interval)
             .map(|[lo, hi]| Band::constant("95 % interval of this fit", 0.0, n as f64, lo, hi));
         panels.insert(
-            2,
+            panels.len() - 1,
             Panel {
-                title: "phase function g".into(),
+                title: title.into(),
                 x_label: "iteration".into(),
-                y_label: "g".into(),
+                y_label: label.into(),
                 log_y: false,
                 series: vec![Series::new("estimate", pts)],
                 reference_lines: truth
-                    .and_then(|t| t.g)
+                    .and_then(of)
                     .map(|t| vec![("truth".to_string(), t)])
                     .unwrap_or_default(),
                 bands: band.into_iter().collect(),
@@ -460,10 +511,12 @@ mod tests {
                 sigma_t: [50.0; 3],
                 albedo: [0.5; 3],
                 g: None,
+                light_scale: None,
             },
             d_sigma_t: [0.0; 3],
             d_albedo: [0.0; 3],
             d_g: None,
+            d_ln_light_scale: None,
             views: vec![view],
             crop_origins: vec![],
             seconds: 0.0,
@@ -483,6 +536,7 @@ mod tests {
             sigma_t: [72.0; 3],
             albedo: [0.9; 3],
             g: None,
+            light_scale: None,
         };
         let text = interval_lines(&est, &u).join("\n");
         assert!(text.contains("α = 0.9000 (fixed)"), "{text}");
@@ -503,6 +557,7 @@ mod tests {
             sigma_t: [70.3; 3],
             albedo: [0.9; 3],
             g: None,
+            light_scale: None,
         };
         let lines = interval_lines(&est, &u);
         assert!(lines[1].contains("σ_t = 70.3 [57.8, 85.5]"), "{}", lines[1]);

@@ -96,6 +96,7 @@ pub fn measure(
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
         g: None,
+        light_scale: None,
     });
     c.model = model;
     c.spp = spp;

@@ -68,31 +68,44 @@ pub const DETERMINED_G_HALF_WIDTH: f64 = 0.05;
 
 pub mod joint;
 
-/// The interval of a recovered g.
+/// The interval of a recovered parameter that the channels share: g, or the light scale k.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GUncertainty {
-    /// [lo, hi] of the 95 % interval, within (−1, 1) (`None`: no finite interval).
+pub struct SharedUncertainty {
+    /// [lo, hi] of the 95 % interval (g within (−1, 1); `None`: no finite interval).
     pub interval: Option<[f64; 2]>,
-    /// Its standard deviation.
+    /// The standard deviation of g, or of ln k.
     pub sd: Option<f64>,
-    /// g is determined by the images (half-width from the images alone at most
-    /// [`DETERMINED_G_HALF_WIDTH`]).
+    /// Determined by the images: g's half-width from the images alone at most
+    /// [`DETERMINED_G_HALF_WIDTH`]; k's hi/lo at most [`DETERMINED_SIGMA_T_RATIO`].
     pub determined: bool,
 }
 
-impl GUncertainty {
+impl SharedUncertainty {
     /// The interval around `g` of variance `var` (images, optimiser and model error) whose
     /// part from the images and the optimiser alone is `images_var`.
-    pub fn new(g: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
+    pub fn g(g: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
         let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
         let limit = 1.0 - 1e-6;
-        GUncertainty {
+        SharedUncertainty {
             interval: sd.map(|s| [(g - Z95 * s).max(-limit), (g + Z95 * s).min(limit)]),
             sd,
             determined: sd.is_some()
                 && images_var
                     .map(f64::sqrt)
                     .is_some_and(|s| Z95 * s <= DETERMINED_G_HALF_WIDTH),
+        }
+    }
+
+    /// The interval k·exp(±1.96·sd) around the light scale `k`, from the variances of ln k.
+    pub fn light_scale(k: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
+        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
+        SharedUncertainty {
+            interval: sd.map(|s| [k * (-Z95 * s).exp(), k * (Z95 * s).exp()]),
+            sd,
+            determined: sd.is_some()
+                && images_var
+                    .map(f64::sqrt)
+                    .is_some_and(|s| (2.0 * Z95 * s).exp() <= DETERMINED_SIGMA_T_RATIO),
         }
     }
 }
@@ -351,7 +364,10 @@ pub struct Uncertainty {
     pub fixed: [bool; 2],
     /// g's interval where the run recovers g.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub g: Option<GUncertainty>,
+    pub g: Option<SharedUncertainty>,
+    /// The light scale's interval where the run recovers it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_scale: Option<SharedUncertainty>,
 }
 
 impl Uncertainty {
@@ -410,6 +426,7 @@ impl Uncertainty {
             view_bread: Vec::new(),
             fixed: [false, false],
             g: None,
+            light_scale: None,
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
                      error, the spread and drift of the last iterates"
                 .into(),
@@ -510,6 +527,7 @@ impl Uncertainty {
     fn keep_from(&mut self, from: &Self) {
         self.fixed = from.fixed;
         self.g = from.g;
+        self.light_scale = from.light_scale;
         for c in 0..3 {
             if from.sigma_t[c].is_none() {
                 self.sigma_t[c] = None;
@@ -548,6 +566,11 @@ impl Uncertainty {
             j["interval95"]["g"] = serde_json::json!(g.interval);
             j["determined"]["g"] = serde_json::json!(g.determined);
             j["uncertainty"]["sd_g"] = serde_json::json!(g.sd);
+        }
+        if let Some(k) = &self.light_scale {
+            j["interval95"]["light_scale"] = serde_json::json!(k.interval);
+            j["determined"]["light_scale"] = serde_json::json!(k.determined);
+            j["uncertainty"]["sd_ln_light_scale"] = serde_json::json!(k.sd);
         }
         j
     }

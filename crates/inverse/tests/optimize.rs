@@ -89,6 +89,7 @@ fn config(iterations: u32) -> OptimizeConfig {
         sigma_t: [60.0; 3],
         albedo: [0.5; 3],
         g: None,
+        light_scale: None,
     });
     c.iterations = iterations;
     c.refine_iterations = 0;
@@ -494,6 +495,7 @@ fn split_sample_gradient_has_the_two_render_expectation() {
         sigma_t: [72.0, 66.0, 54.0],
         albedo: [0.86, 0.82, 0.83],
         g: None,
+        light_scale: None,
     };
     let grads = |split: bool| -> Vec<[f64; 6]> {
         let mut c = OptimizeConfig::new(at);

@@ -65,6 +65,7 @@ fn config() -> impl Strategy<Value = OptimizeConfig> {
                 sigma_t: c.0,
                 albedo: c.1,
                 g: None,
+                light_scale: None,
             };
             let (log, mono, fix_t, fix_a) = c.2;
             o.params.parameterisation = if log {

@@ -3,11 +3,12 @@
 //! [`Optimizer::with_forward`]. The stand-in here is a Lambertian slab of constant albedo seen
 //! through an absorbing layer whose optical depth grows across the image,
 //!
-//!   I_c(x) = α_c · s(x) · (1 − e^{−σ_t,c·d(x)}) · (1 + g·u(x)),
+//!   I_c(x) = L_c · α_c · s(x) · (1 − e^{−σ_t,c·d(x)}) · (1 + g·u(x)),
 //!   s(x) = 1/2 + y/(2H),  d(x) = 0.01 + 0.03·x/W,  u(x) = (x + y)/(W + H) − 1/2,
 //!
-//! with its exact derivatives (g tilts the image along its diagonal); the loop recovers α and
-//! σ_t from its own images, and g as well where it is free.
+//! L_c the light's intensity, with its exact derivatives (g tilts the image along its
+//! diagonal); the loop recovers α and σ_t from its own images, and g or the light's scale as
+//! well where they are free.
 
 use crate::common;
 
@@ -27,6 +28,7 @@ struct At(Medium);
 struct View<'v> {
     medium: &'v Medium,
     camera: &'v Camera,
+    light: &'v PointLight,
 }
 
 impl ForwardModel for Lambertian {
@@ -40,14 +42,11 @@ impl ForwardModel for Lambertian {
 }
 
 impl MediumRenderer for At {
-    fn view<'v>(
-        &'v self,
-        camera: &'v Camera,
-        _light: &'v PointLight,
-    ) -> Box<dyn ViewRenderer + 'v> {
+    fn view<'v>(&'v self, camera: &'v Camera, light: &'v PointLight) -> Box<dyn ViewRenderer + 'v> {
         Box::new(View {
             medium: &self.0,
             camera,
+            light,
         })
     }
 }
@@ -67,11 +66,11 @@ impl View<'_> {
                 for c in 0..3 {
                     let (a, st) = (self.medium.albedo[c], self.medium.sigma_t[c]);
                     let e = (-st * d).exp();
-                    let tilt = 1.0 + g * u;
+                    let tilt = (1.0 + g * u) * self.light.intensity[c];
                     out[0].data[i][c] = a * s * (1.0 - e) * tilt;
                     out[1].data[i][c] = a * s * d * e * tilt;
                     out[2].data[i][c] = s * (1.0 - e) * tilt;
-                    out[3].data[i][c] = a * s * (1.0 - e) * u;
+                    out[3].data[i][c] = a * s * (1.0 - e) * u * self.light.intensity[c];
                 }
             }
         }
@@ -255,4 +254,89 @@ fn a_free_g_is_recovered_through_the_same_loop() {
     let [lo, hi] = gu.interval.expect("a finite interval");
     assert!(lo <= g && g <= hi && hi - lo < 0.2, "g {g} in [{lo}, {hi}]");
     assert!(u.to_json()["interval95"]["g"].is_array());
+}
+
+/// A light of unknown strength: the targets were made with twice the intensity the view states,
+/// and the run, with the light scale free and α held at its truth (in this model α and the
+/// light multiply alike, so the images cannot tell them apart), recovers k = 2 and σ_t; its
+/// loss gradient in ln k is the derivative of the loss.
+#[test]
+fn a_free_light_scale_is_recovered_through_the_same_loop() {
+    let accel = common::sphere(0.5);
+    let truth = Medium {
+        sigma_t: [40.0, 70.0, 100.0],
+        albedo: [0.7, 0.8, 0.9],
+        g: 0.0,
+        eta: 1.0,
+        roughness: 0.0,
+    };
+    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
+    let stated = PointLight {
+        position: Vec3::new(0.0, 2.0, 2.0),
+        intensity: [1.0; 3],
+    };
+    let bright = PointLight {
+        intensity: [2.0; 3],
+        ..stated
+    };
+    let rs = RenderSettings {
+        spp: 1,
+        seed: 0,
+        view: 0,
+    };
+    let target = Lambertian
+        .at(truth)
+        .unwrap()
+        .view(&camera, &bright)
+        .value(&rs, None)
+        .unwrap();
+    let mut config = OptimizeConfig {
+        iterations: 400,
+        refine_iterations: 0,
+        albedo_warmup: 0,
+        lr_sigma_t: 0.03,
+        init: Params::new([50.0; 3], truth.albedo.map(f64::from)),
+        ..OptimizeConfig::default()
+    };
+    config.params.free_light_scale = true;
+    config.params.fix_albedo = true;
+    let targets = vec![TargetView {
+        camera: &camera,
+        light: &stated,
+        image: &target,
+    }];
+    let mut opt =
+        Optimizer::with_forward(config, &accel, Box::new(Lambertian), None, truth, targets)
+            .unwrap();
+    let p0 = opt.params();
+    assert_eq!(p0.light_scale, Some(1.0));
+    let grad = opt.gradient(0, &p0).unwrap();
+    let h = 1e-3;
+    let loss = |ln_k: f64| {
+        let p = Params {
+            light_scale: Some(ln_k.exp()),
+            ..p0
+        };
+        opt.gradient(0, &p).unwrap().loss
+    };
+    let fd = (loss(h) - loss(-h)) / (2.0 * h);
+    let d = grad
+        .d_ln_light_scale
+        .expect("every model's gradient has ∂ℓ/∂ln k");
+    assert!(
+        (d / fd - 1.0).abs() < 1e-3,
+        "∂ℓ/∂ln k {d} against differences {fd}"
+    );
+    opt.run(None, |_, _| {}).unwrap();
+    let p = opt.params();
+    let k = p.light_scale.unwrap();
+    assert!((k / 2.0 - 1.0).abs() < 0.01, "k {k}");
+    for c in 0..3 {
+        let st = truth.sigma_t[c] as f64;
+        assert!(
+            (p.sigma_t[c] / st - 1.0).abs() < 0.03,
+            "channel {c}: σ_t {}",
+            p.sigma_t[c]
+        );
+    }
 }

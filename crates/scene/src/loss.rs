@@ -66,5 +66,8 @@ pub struct LossGradient {
     /// Each colour channel's share of ∂ℓ/∂g (g is one value for all channels: ∂ℓ/∂g is their
     /// sum); `None` where the derivative images have no ∂I/∂g.
     pub d_g: Option<[f64; 3]>,
+    /// Each colour channel's share of ∂ℓ/∂ln k for a factor k on the light's intensity (the
+    /// image is linear in it: ∂I/∂ln k = I); `None` where the render did not keep it.
+    pub d_ln_light_scale: Option<[f64; 3]>,
     pub images: Option<DiffImages>,
 }

@@ -57,6 +57,10 @@ pub enum Setting {
     FreeG,
     /// The starting g of a recovery that frees it.
     InitG,
+    /// Recovering a factor on the lights' stated intensity.
+    FreeLightScale,
+    /// The starting light scale of a recovery that frees it.
+    InitLightScale,
     /// The learned renderer's entry-point sampler.
     EntrySampler,
     /// The gradient estimator.
@@ -100,6 +104,8 @@ impl Setting {
             Setting::InitAlbedo => "init_albedo",
             Setting::FreeG => "free_g",
             Setting::InitG => "init_g",
+            Setting::FreeLightScale => "free_light_scale",
+            Setting::InitLightScale => "init_light_scale",
             Setting::EntrySampler => "entry_sampler",
             Setting::Estimator => "estimator",
             Setting::Widths => "widths",

@@ -1213,13 +1213,45 @@ fn optimize_free_g_is_refused_where_no_model_differentiates_g() {
     let learned = [&TINY_OPTIMIZE[..], &["--free", "g", "--refine", "0"]].concat();
     assert_stderr_has(
         &fails(d, &learned),
-        &["--free g with model learned", "fix: keep the refinement (--refine above 0)"],
+        &[
+            "--free g with model learned",
+            "fix: keep the refinement (--refine above 0)",
+        ],
     );
     let dipole = [&TINY_OPTIMIZE[..], &["--free", "g", "--model", "dipole"]].concat();
     assert_stderr_has(&fails(d, &dipole), &["the dipole does not differentiate g"]);
     let start = [&TINY_OPTIMIZE[..], &["--init-g", "0.5"]].concat();
     assert_stderr_has(
         &fails(d, &start),
-        &["--init-g 0.5 without --free g", "fix: add --free g or drop --init-g"],
+        &[
+            "--init-g 0.5 without --free g",
+            "fix: add --free g or drop --init-g",
+        ],
+    );
+}
+
+/// `--free light-scale` is refused with the learned model's bias correction, naming the fix;
+/// `--init-light-scale` needs it.
+#[test]
+fn optimize_free_light_scale_is_refused_with_the_bias_correction() {
+    let t = tmp();
+    let d = t.path();
+    make_dataset(d, "ds", "2", "12", &["--sigma-t", "60", "--albedo", "0.9"]);
+    let corrected = [
+        &TINY_OPTIMIZE[..],
+        &["--free", "light-scale", "--refine", "0"],
+    ]
+    .concat();
+    assert_stderr_has(
+        &fails(d, &corrected),
+        &[
+            "--free light-scale with the bias correction",
+            "fix: keep the refinement (--refine above 0)",
+        ],
+    );
+    let start = [&TINY_OPTIMIZE[..], &["--init-light-scale", "2"]].concat();
+    assert_stderr_has(
+        &fails(d, &start),
+        &["--init-light-scale 2 without --free light-scale"],
     );
 }

@@ -24,9 +24,6 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// The CSV's columns: one row per case, repetition and channel.
 const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g";
 
-/// The CSV's columns of a recovered g (in runs that free it; the same on the three channel rows).
-const CSV_G: &str = ",g_est,g_lo,g_hi,g_covered,g_determined";
-
 /// The Markdown header, then a table with its summary per set of cases (index-matched or
 /// dielectric; a heading each when both ran), and the CSV.
 pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
@@ -69,19 +66,34 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             ""
         }
     );
-    let free_g = outcomes.iter().any(|o| o.g.is_some());
-    if free_g {
-        let _ = writeln!(
-            md,
-            "g is recovered in every run (`--free g`), from {}.\n",
-            a.init_g
+    // The shared parameters some run recovered: their columns and tables.
+    let free: Vec<&SharedColumn> = SHARED
+        .iter()
+        .filter(|c| outcomes.iter().any(|o| (c.of)(o).is_some()))
+        .collect();
+    for c in &free {
+        let from = match c.name {
+            "g" => a
+                .init_g
                 .map_or("the dataset's stated g (the case's own)".to_string(), |g| {
                     format!("g = {g}")
-                })
+                }),
+            _ => format!("k = {} (the truth is 1)", a.init_light_scale.unwrap_or(1.0)),
+        };
+        let _ = writeln!(
+            md,
+            "The {} is recovered in every run, from {from}.\n",
+            c.name
         );
     }
     let mut csv = String::from(CSV_HEADER);
-    csv.push_str(if free_g { CSV_G } else { "" });
+    for c in &free {
+        let key = c.name.replace(' ', "_");
+        let _ = write!(
+            csv,
+            ",{key}_est,{key}_lo,{key}_hi,{key}_covered,{key}_determined"
+        );
+    }
     csv.push('\n');
     let (index_matched, dielectric): (Vec<Outcome>, Vec<Outcome>) = outcomes
         .iter()
@@ -101,62 +113,92 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
         if both {
             let _ = writeln!(md, "### {title}\n");
         }
-        table(&mut md, &mut csv, &set, free_g);
-        if free_g {
-            g_table(&mut md, &set);
+        table(&mut md, &mut csv, &set, &free);
+        for col in SHARED
+            .iter()
+            .filter(|c| set.iter().any(|o| (c.of)(o).is_some()))
+        {
+            shared_table(&mut md, &set, col);
         }
     }
     (md, csv)
 }
 
-/// The recovered g of each run and their summary.
-fn g_table(md: &mut String, outcomes: &[Outcome]) {
+/// A parameter the runs may recover besides σ_t and α: its name, its value in a run and its
+/// truth in a case, and the goal on its error.
+struct SharedColumn {
+    name: &'static str,
+    of: fn(&Outcome) -> Option<super::Recovered>,
+    truth: fn(&Outcome) -> f64,
+    goal: &'static str,
+}
+
+const SHARED: [SharedColumn; 2] = [
+    SharedColumn {
+        name: "g",
+        of: |o| o.g,
+        truth: |o| o.case.medium.g as f64,
+        goal: "|error| ≤ 0.05",
+    },
+    SharedColumn {
+        name: "light scale",
+        of: |o| o.light_scale,
+        // The suite's datasets state their lights as rendered.
+        truth: |_| 1.0,
+        goal: "|error| ≤ 0.05",
+    },
+];
+
+/// The recovered g or light scale of each run and their summary.
+fn shared_table(md: &mut String, outcomes: &[Outcome], col: &SharedColumn) {
+    let name = col.name;
     let _ = writeln!(
         md,
-        "\n| case | targets | rep | g truth | g estimate [95 % interval] | error | in interval | determined |"
+        "\n| case | targets | rep | {name} truth | {name} estimate [95 % interval] | error | in interval | determined |"
     );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
     let mut det_err = Vec::new();
     let (mut covered, mut n) = (0, 0);
     for o in outcomes {
-        let Some(g) = o.g else { continue };
-        let truth = o.case.medium.g;
+        let Some(r) = (col.of)(o) else { continue };
+        let truth = (col.truth)(o);
         let _ = writeln!(
             md,
             "| {} | {} | {} | {truth} | {:.3} [{:.3}, {:.3}] | {:+.3} | {} | {} |",
             o.case.name,
             o.targets.name(),
             o.rep,
-            g.estimate,
-            g.interval[0],
-            g.interval[1],
-            g.error(truth),
-            if g.covers(truth) { "y" } else { "n" },
-            if g.determined { "y" } else { "n" }
+            r.estimate,
+            r.interval[0],
+            r.interval[1],
+            r.error(truth),
+            if r.covers(truth) { "y" } else { "n" },
+            if r.determined { "y" } else { "n" }
         );
         n += 1;
-        covered += g.covers(truth) as usize;
-        if g.determined {
-            det_err.push(g.error(truth).abs());
+        covered += r.covers(truth) as usize;
+        if r.determined {
+            det_err.push(r.error(truth).abs());
         }
     }
     let _ = writeln!(
         md,
-        "\n- g: the truth inside the 95 % interval in {covered} of {n} runs; determined in {} of {n}{}\n",
+        "\n- {name}: the truth inside the 95 % interval in {covered} of {n} runs; determined in {} of {n}{}\n",
         det_err.len(),
         if det_err.is_empty() {
             String::new()
         } else {
             format!(
-                ", where the largest |error| is {:.3} (goal ≤ 0.05)",
-                det_err.iter().copied().fold(0.0, f64::max)
+                ", where the largest |error| is {:.3} (goal: {})",
+                det_err.iter().copied().fold(0.0, f64::max),
+                col.goal
             )
         }
     );
 }
 
 /// The table of `outcomes` with its summary (Markdown), and their CSV rows.
-fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free_g: bool) {
+fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&SharedColumn]) {
     let _ = writeln!(
         md,
         "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
@@ -240,17 +282,18 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free_g: bool) 
                 o.case.medium.roughness,
                 o.case.medium.g
             );
-            if free_g {
-                match o.g {
-                    Some(g) => {
+            // The shared parameters' columns (the same on the three channel rows).
+            for col in free {
+                match (col.of)(o) {
+                    Some(r) => {
                         let _ = write!(
                             csv,
                             ",{:.5},{:.5},{:.5},{},{}",
-                            g.estimate,
-                            g.interval[0],
-                            g.interval[1],
-                            g.covers(o.case.medium.g),
-                            g.determined
+                            r.estimate,
+                            r.interval[0],
+                            r.interval[1],
+                            r.covers((col.truth)(o)),
+                            r.determined
                         );
                     }
                     None => csv.push_str(",,,,,"),

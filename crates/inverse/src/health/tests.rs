@@ -12,10 +12,12 @@ fn record_view(k: u32, loss: f64, view: usize) -> IterationRecord {
             sigma_t: [50.0; 3],
             albedo: [0.9; 3],
             g: None,
+            light_scale: None,
         },
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
         d_g: None,
+        d_ln_light_scale: None,
         views: vec![view],
         crop_origins: Vec::new(),
         seconds: 0.1,
@@ -28,6 +30,7 @@ fn params(sigma_t: f64, albedo: f64) -> Params {
         sigma_t: [sigma_t; 3],
         albedo: [albedo; 3],
         g: None,
+        light_scale: None,
     }
 }
 
@@ -105,6 +108,17 @@ fn each_failure_is_detected() {
     assert_eq!(kinds(&r), ["g-at-bound"]);
     assert!(r[0].message().contains("init_g"), "{}", r[0].message());
     assert!(assess(&flat, 0, &params(60.0, 0.9), &spec, 0.95, None).is_empty());
+    let free_k = ParamSpec {
+        free_light_scale: true,
+        ..ParamSpec::default()
+    };
+    let bright = Params {
+        light_scale: Some(crate::params::LIGHT_SCALE_MAX),
+        ..params(60.0, 0.9)
+    };
+    let r = assess(&flat, 0, &bright, &free_k, 0.0, None);
+    assert_eq!(kinds(&r), ["light-scale-at-bound"]);
+    assert!(r[0].message().contains("init_light_scale"), "{}", r[0].message());
 }
 
 /// Gaussian noise from the workspace's sampler (Box–Muller).

@@ -80,6 +80,13 @@ pub struct OptimizeConfig {
     /// JSON at its default, so runs written before the option compare equal.)
     #[serde(default = "default_lr_g", skip_serializing_if = "is_default_lr_g")]
     pub lr_g: f32,
+    /// Learning rate of ln k, the light scale's variable, where the run recovers it
+    /// ([`ParamSpec::free_light_scale`]). (Left out of the JSON at its default.)
+    #[serde(
+        default = "default_lr_light_scale",
+        skip_serializing_if = "is_default_lr_light_scale"
+    )]
+    pub lr_light_scale: f32,
     /// Step decay factor.
     pub decay: f32,
     /// Iterations between decays.
@@ -145,6 +152,17 @@ fn is_false(v: &bool) -> bool {
 /// then settles as the steps decay.
 pub const DEFAULT_LR_G: f32 = 0.01;
 
+/// The default learning rate of ln k: as α's, the other brightness variable.
+pub const DEFAULT_LR_LIGHT_SCALE: f32 = 0.02;
+
+fn default_lr_light_scale() -> f32 {
+    DEFAULT_LR_LIGHT_SCALE
+}
+
+fn is_default_lr_light_scale(v: &f32) -> bool {
+    *v == DEFAULT_LR_LIGHT_SCALE
+}
+
 fn default_lr_g() -> f32 {
     DEFAULT_LR_G
 }
@@ -186,6 +204,7 @@ impl Default for OptimizeConfig {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
             g: None,
+            light_scale: None,
         })
     }
 }
@@ -253,6 +272,7 @@ impl OptimizeConfig {
             ("lr_sigma_t", self.lr_sigma_t),
             ("lr_albedo", self.lr_albedo),
             ("lr_g", self.lr_g),
+            ("lr_light_scale", self.lr_light_scale),
             ("decay", self.decay),
         ] {
             if !v.is_finite() {
@@ -276,6 +296,21 @@ impl OptimizeConfig {
             return Err(format!(
                 "init.g = {g}, the phase function's g must be in (-1, 1)"
             ));
+        }
+        if let Some(k) = p.light_scale.filter(|k| !(k.is_finite() && *k > 0.0)) {
+            return Err(format!(
+                "init.light_scale = {k}, a light scale must be positive"
+            ));
+        }
+        if self.params.free_light_scale
+            && !self.two_renders
+            && self.model.kind() == ModelKind::Learned
+        {
+            return Err(
+                "a free light scale with the learned model's single-render gradient: its fused \
+                 render keeps no value image for ∂ℓ/∂ln k; use the two-render gradient"
+                    .into(),
+            );
         }
         if self.params.free_g
             && !self
@@ -387,6 +422,7 @@ impl OptimizeConfig {
             lr_sigma_t: 0.015,
             lr_albedo: 0.02,
             lr_g: DEFAULT_LR_G,
+            lr_light_scale: DEFAULT_LR_LIGHT_SCALE,
             decay: 0.85,
             decay_every: 50,
             refit_every: 0,

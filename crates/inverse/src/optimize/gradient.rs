@@ -88,6 +88,10 @@ pub fn split_sample_gradient(
             .d_g
             .zip(ba.d_g)
             .map(|(x, y)| std::array::from_fn(|ch| 0.5 * (x[ch] + y[ch]))),
+        d_ln_light_scale: ab
+            .d_ln_light_scale
+            .zip(ba.d_ln_light_scale)
+            .map(|(x, y)| std::array::from_fn(|ch| 0.5 * (x[ch] + y[ch]))),
         images: None,
     }
 }
@@ -110,8 +114,9 @@ pub fn cross_misfit(a: &Image, b: &Image, target: &Image) -> [f64; 3] {
 }
 
 /// The decorrelated loss gradient: ℓ and ∂ℓ/∂I from the render `i1`, ∂I/∂θ from the derivative
-/// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ (θ: σ_t, α
-/// and, where `d2` has ∂I/∂g, g's share per channel).
+/// images of an independent render `d2`: ∂ℓ/∂θ = (1/N) Σ ∂ℓ/∂I(I₁, T) · ∂I₂/∂θ (θ: σ_t, α,
+/// where `d2` has ∂I/∂g g's share per channel, and ln k of a factor k on the light, whose
+/// derivative image is the value image of `d2`).
 pub(crate) fn decorrelated_gradient(
     i1: &Image,
     d2: &DiffImages,
@@ -124,8 +129,10 @@ pub(crate) fn decorrelated_gradient(
         d_sigma_t: [0.0; 3],
         d_albedo: [0.0; 3],
         d_g: d2.d_g.as_ref().map(|_| [0.0; 3]),
+        d_ln_light_scale: Some([0.0; 3]),
         images: None,
     };
+    let mut dk = [0.0; 3];
     let pixels = i1.data.iter().zip(&target.data);
     let derivatives = d2.d_sigma_t.data.iter().zip(&d2.d_albedo.data);
     for (p, ((a, t), (dt, da))) in pixels.zip(derivatives).enumerate() {
@@ -134,6 +141,7 @@ pub(crate) fn decorrelated_gradient(
             g.loss_channels[ch] += l;
             g.d_sigma_t[ch] += dl * dt[ch] as f64;
             g.d_albedo[ch] += dl * da[ch] as f64;
+            dk[ch] += dl * d2.value.data[p][ch] as f64;
             if let (Some(sum), Some(img)) = (g.d_g.as_mut(), d2.d_g.as_ref()) {
                 sum[ch] += dl * img.data[p][ch] as f64;
             }
@@ -145,6 +153,7 @@ pub(crate) fn decorrelated_gradient(
     g.d_sigma_t = g.d_sigma_t.map(|v| v * n_inv);
     g.d_albedo = g.d_albedo.map(|v| v * n_inv);
     g.d_g = g.d_g.map(|d| d.map(|v| v * n_inv));
+    g.d_ln_light_scale = Some(dk.map(|v| v * n_inv));
     g
 }
 

@@ -6,9 +6,10 @@ use base::rng::hash_key;
 use bssrdf::render::RenderSettings;
 
 use super::{InverseError, Optimizer};
+use crate::uncertainty::joint::{self, JointAccumulator, Shared};
 use crate::uncertainty::{
-    Accumulator, GUncertainty, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
-    iterate_covariance, iterate_drift, joint,
+    Accumulator, SharedUncertainty, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
+    iterate_covariance, iterate_drift,
 };
 
 impl Optimizer<'_> {
@@ -23,12 +24,20 @@ impl Optimizer<'_> {
         let n = self.targets.len();
         let k = s.views.clamp(1, n);
         let mut acc = Accumulator::default();
-        // With a free g, the sandwich over all seven variables ([`joint`]).
-        let mut acc_g = c.params.free_g.then(joint::JointAccumulator::default);
+        // With a free g or light scale, the sandwich over all variables at once ([`joint`]).
+        let shared: Vec<Shared> = [
+            c.params.free_g.then_some(Shared::G),
+            c.params.free_light_scale.then_some(Shared::LnLightScale),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let mut acc_joint = (!shared.is_empty()).then(|| JointAccumulator::new(shared.clone()));
         for i in 0..k {
             let v = i * n / k;
             let t = &self.targets[v];
-            let view = at.view(t.camera, t.light);
+            let light = p.light(t.light);
+            let view = at.view(t.camera, &light);
             let render = |stream: u64| {
                 let rs = RenderSettings {
                     spp: s.spp.max(1),
@@ -45,15 +54,23 @@ impl Optimizer<'_> {
                 target: t.image,
             };
             acc.add_view(&renders, p.sigma_t);
-            if let Some(j) = acc_g.as_mut() {
-                let (Some(ga), Some(gb)) = (&a.d_g, &b.d_g) else {
-                    return Err(InverseError::Invalid(
-                        "the intervals of a free g need ∂I/∂g, which the run's final model \
-                         does not render"
-                            .into(),
-                    ));
-                };
-                j.add_view(&renders, [ga, gb], p.sigma_t);
+            if let Some(j) = acc_joint.as_mut() {
+                let d_shared = shared
+                    .iter()
+                    .map(|s| match s {
+                        Shared::G => match (&a.d_g, &b.d_g) {
+                            (Some(ga), Some(gb)) => Ok([ga, gb]),
+                            _ => Err(InverseError::Invalid(
+                                "the intervals of a free g need ∂I/∂g, which the run's final \
+                                 model does not render"
+                                    .into(),
+                            )),
+                        },
+                        // The images are linear in k: ∂I/∂ln k = I.
+                        Shared::LnLightScale => Ok([&a.value, &b.value]),
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                j.add_view(&renders, &d_shared, p.sigma_t);
             }
         }
         let tail = ((self.history.len() as f64 * s.tail_fraction).ceil() as usize)
@@ -67,7 +84,7 @@ impl Optimizer<'_> {
         let spread: [[f64; 3]; 3] =
             std::array::from_fn(|c| std::array::from_fn(|k| walk[c][k] + drift[c][k]));
         let fixed = [c.params.fix_sigma_t, c.params.fix_albedo];
-        let (cov, images, g) = match &acc_g {
+        let (cov, images, shared_var) = match &acc_joint {
             None => (
                 add_covariances(acc.covariance_fixed(s.model_brightness_sd, fixed), spread),
                 add_covariances(acc.covariance_fixed(0.0, fixed), spread),
@@ -79,29 +96,40 @@ impl Optimizer<'_> {
                     .map(|r| r.params)
                     .chain(std::iter::once(p))
                     .collect();
-                let spread = joint::add(
-                    &joint::iterate_covariance(&tail),
-                    &joint::iterate_drift(&tail),
-                );
+                let spread = joint::iterate_covariance(&tail, &shared)
+                    + joint::iterate_drift(&tail, &shared);
                 let part = |sd: f64| {
                     j.covariance(sd, fixed)
-                        .map(|m| joint::blocks(&joint::add(&m, &spread)))
+                        .map(|m| joint::blocks(&(m + &spread)))
                 };
                 let (all, img) = (part(s.model_brightness_sd), part(0.0));
-                let g = GUncertainty::new(
-                    p.g.unwrap_or(self.base.g as f64),
-                    all.map(|x| x.1),
-                    img.map(|x| x.1),
-                );
+                let var =
+                    |x: &Option<([[f64; 3]; 3], Vec<f64>)>, i: usize| x.as_ref().map(|x| x.1[i]);
+                let shared_var: Vec<(Shared, Option<f64>, Option<f64>)> = shared
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (*s, var(&all, i), var(&img, i)))
+                    .collect();
                 (
                     all.map_or([None; 3], |x| x.0.map(Some)),
                     img.map_or([None; 3], |x| x.0.map(Some)),
-                    Some(g),
+                    Some(shared_var),
                 )
             }
         };
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
-        u.g = g;
+        for (s, var, images_var) in shared_var.into_iter().flatten() {
+            match s {
+                Shared::G => {
+                    let g = p.g.unwrap_or(self.base.g as f64);
+                    u.g = Some(SharedUncertainty::g(g, var, images_var));
+                }
+                Shared::LnLightScale => {
+                    let k = p.light_scale.unwrap_or(1.0);
+                    u.light_scale = Some(SharedUncertainty::light_scale(k, var, images_var));
+                }
+            }
+        }
         u.view_bread = (0..k)
             .map(|i| i * n / k)
             .zip(acc.view_breads().iter().copied())

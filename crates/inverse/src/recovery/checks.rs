@@ -28,6 +28,8 @@ pub(super) fn check(
     obs: &dyn Observer,
 ) -> Result<(), RecoveryError> {
     let targets = TargetView::of_dataset(&p.ds, &cfg.dataset.display().to_string())?;
+    // The lights as the estimate has them (a recovered scale on their stated intensity).
+    let lights: Vec<_> = p.ds.views.iter().map(|v| shown.light(&v.light)).collect();
     let n = p.ds.views.len();
     let k = cfg.consistency_views.min(n);
     let check_views: Vec<(usize, CheckView)> = (0..k)
@@ -35,7 +37,7 @@ pub(super) fn check(
         .map(|v| {
             let view = CheckView {
                 camera: &p.ds.views[v].camera,
-                light: &p.ds.views[v].light,
+                light: &lights[v],
                 target: targets[v].image,
                 index: opt.config().view_subset.as_ref().map_or(v, |s| s[v]),
             };
@@ -102,7 +104,7 @@ pub(super) fn check(
     }
     result["complete"] = json!(true);
     write_result(&cfg.out, &result)?;
-    super::outputs::mitsuba(cfg, &p.ds, &shown.medium(&p.base), obs)?;
+    super::outputs::mitsuba(cfg, &p.ds, &shown, &p.base, obs)?;
     let summary = Summary {
         shown: &shown,
         shown_u: shown_u.as_ref(),

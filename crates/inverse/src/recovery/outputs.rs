@@ -94,16 +94,22 @@ fn write_view(
     Ok(())
 }
 
-/// `OUT/mitsuba/`: the reported medium `medium` as Mitsuba 3 XML: `medium.xml` (the object's
-/// boundary and interior, to paste into a shape), the dataset's scene with it (`scene.xml`, or
-/// one file per view when the views' lights differ) and the mesh they name (`object.ply`).
+/// `OUT/mitsuba/`: the reported medium (`est` on the object `base`) as Mitsuba 3 XML:
+/// `medium.xml` (the object's boundary and interior, to paste into a shape), the dataset's scene
+/// with it (`scene.xml`, or one file per view when the views' lights differ; the lights scaled
+/// where their scale was recovered) and the mesh they name (`object.ply`).
 pub(super) fn mitsuba(
     cfg: &RecoveryConfig,
     ds: &Dataset,
-    medium: &Medium,
+    est: &Params,
+    base: &Medium,
     obs: &dyn Observer,
 ) -> Result<(), RecoveryError> {
-    let desc = ds.scene(*medium);
+    let medium = &est.medium(base);
+    let mut desc = ds.scene(*medium);
+    for v in &mut desc.views {
+        v.light = est.light(&v.light);
+    }
     let spp = ds.render.spp.unwrap_or(64);
     let depth = ds.render.max_depth.unwrap_or(32);
     let dir = cfg.out.join("mitsuba");

@@ -129,6 +129,13 @@ pub(super) fn prepare(
         g: cfg.optimize.params.free_g.then_some(m.g as f64),
         ..Params::of(m)
     });
+    if cfg.optimize.params.free_light_scale {
+        tracing::info!(
+            "the lights' strength is recovered: a factor k on every light's stated intensity, \
+             from k = {}",
+            cfg.optimize.init.light_scale.unwrap_or(1.0)
+        );
+    }
     if cfg.optimize.params.free_g {
         let start = cfg.optimize.init.g.unwrap_or(object.g as f64);
         let from = if cfg.optimize.init.g.is_some() {

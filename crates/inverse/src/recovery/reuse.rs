@@ -148,7 +148,8 @@ pub fn differing_settings(
     out
 }
 
-/// `{"sigma_t": [3], "albedo": [3]}` (and `"g"` where the run recovered it) as parameters.
+/// `{"sigma_t": [3], "albedo": [3]}` (and `"g"`, `"light_scale"` where the run recovered
+/// them) as parameters.
 pub fn params_of(v: &serde_json::Value) -> Option<Params> {
     let rgb = |field: &str| -> Option<[f64; 3]> {
         let a = v[field].as_array().filter(|a| a.len() == 3)?;
@@ -159,6 +160,7 @@ pub fn params_of(v: &serde_json::Value) -> Option<Params> {
         sigma_t: rgb("sigma_t")?,
         albedo: rgb("albedo")?,
         g: v["g"].as_f64(),
+        light_scale: v["light_scale"].as_f64(),
     })
 }
 

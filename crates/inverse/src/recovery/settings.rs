@@ -81,6 +81,7 @@ pub struct Schedule {
     pub lr_sigma_t: f32,
     pub lr_albedo: f32,
     pub lr_g: f32,
+    pub lr_light_scale: f32,
     pub decay: f32,
     pub decay_every: u32,
     pub albedo_warmup: u32,
@@ -164,6 +165,7 @@ impl Default for RecoverySettings {
                 lr_sigma_t: c.lr_sigma_t,
                 lr_albedo: c.lr_albedo,
                 lr_g: c.lr_g,
+                lr_light_scale: c.lr_light_scale,
                 decay: c.decay,
                 decay_every: c.decay_every,
                 albedo_warmup: c.albedo_warmup,
@@ -331,6 +333,7 @@ impl RecoverySettings {
         c.lr_sigma_t = s.lr_sigma_t;
         c.lr_albedo = s.lr_albedo;
         c.lr_g = s.lr_g;
+        c.lr_light_scale = s.lr_light_scale;
         c.decay = s.decay;
         c.decay_every = s.decay_every;
         let l = &self.learned;
@@ -343,7 +346,57 @@ impl RecoverySettings {
         c.albedo_warmup = s.albedo_warmup;
         c.params = s.params.clone();
         self.check_free_g(&c)?;
+        self.check_free_light_scale(&c)?;
         Ok(c)
+    }
+
+    /// A starting light scale needs a free one and must be positive; the learned model's
+    /// single-render gradient keeps no value image for ∂ℓ/∂ln k, and its bias correction
+    /// simulates the dataset with its lights as stated.
+    fn check_free_light_scale(&self, c: &OptimizeConfig) -> Result<(), RecoveryError> {
+        let invalid = RecoveryError::Invalid;
+        if let Some(k) = self.start.init.light_scale {
+            if !c.params.free_light_scale {
+                return Err(invalid(format!(
+                    "{} {k} without {}: the lights are as the dataset states them unless their \
+                     scale is recovered; fix: add {} or drop {}",
+                    Setting::InitLightScale,
+                    Setting::FreeLightScale,
+                    Setting::FreeLightScale,
+                    Setting::InitLightScale
+                )));
+            }
+            if !(k.is_finite() && k > 0.0) {
+                return Err(invalid(format!(
+                    "{} {k}: a factor on the lights' intensity must be positive",
+                    Setting::InitLightScale
+                )));
+            }
+        }
+        if c.params.free_light_scale
+            && c.final_model() == ModelKind::Learned
+            && self.bias_correction.correction.enabled
+        {
+            return Err(invalid(format!(
+                "{} with the bias correction of the learned model alone: its simulations \
+                 render the lights as the dataset states them; fix: keep the refinement ({} \
+                 above 0)",
+                Setting::FreeLightScale,
+                Setting::Refine
+            )));
+        }
+        if c.params.free_light_scale
+            && self.schedule.single_render
+            && c.model.kind() == ModelKind::Learned
+        {
+            return Err(invalid(format!(
+                "{} with the single-render gradient of the learned model: its fused render \
+                 keeps no value image for the light scale's gradient; fix: drop the \
+                 single-render gradient",
+                Setting::FreeLightScale
+            )));
+        }
+        Ok(())
     }
 
     /// A free g needs a model that differentiates g in the run's last iterations (the tracer
@@ -513,5 +566,44 @@ mod tests {
         s.start.init.g = Some(1.5);
         let e = s.optimize_config(no_depth).unwrap_err().to_string();
         assert!(e.contains("must be in (-1, 1)"), "{e}");
+    }
+
+    /// A free light scale runs with every model; it is refused where the learned model's
+    /// bias correction would simulate the lights as stated, and a starting scale needs it.
+    #[test]
+    fn a_free_light_scale_is_refused_where_it_cannot_run() {
+        let mut s = RecoverySettings::default();
+        s.schedule.params.free_light_scale = true;
+        assert!(s.optimize_config(no_depth).unwrap().params.free_light_scale);
+        s.model.kind = ModelKind::Dipole;
+        assert!(s.optimize_config(no_depth).is_ok());
+        s.model.kind = ModelKind::Learned;
+        s.tracer.refine = Some(0);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(
+            e.contains("free_light_scale with the bias correction"),
+            "{e}"
+        );
+        s.bias_correction.correction.enabled = false;
+        assert!(s.optimize_config(no_depth).is_ok());
+        s.schedule.single_render = true;
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("single-render gradient"), "{e}");
+
+        let mut s = RecoverySettings::default();
+        s.start.init.light_scale = Some(2.0);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(
+            e.contains("init_light_scale 2 without free_light_scale"),
+            "{e}"
+        );
+        s.schedule.params.free_light_scale = true;
+        assert_eq!(
+            s.optimize_config(no_depth).unwrap().init.light_scale,
+            Some(2.0)
+        );
+        s.start.init.light_scale = Some(-1.0);
+        let e = s.optimize_config(no_depth).unwrap_err().to_string();
+        assert!(e.contains("must be positive"), "{e}");
     }
 }

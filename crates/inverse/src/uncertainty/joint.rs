@@ -1,17 +1,19 @@
-//! The covariance of a recovery that also frees the phase function's g.
+//! The covariance of a recovery that also frees parameters shared by the channels: the phase
+//! function's g, a factor k on the lights.
 //!
-//! With g free the channels are no longer independent: every channel's image depends on the one
-//! g, so the sandwich of the module above is taken over all seven variables at once,
+//! With a shared parameter free the channels are no longer independent: every channel's image
+//! depends on it, so the sandwich of the module above is taken over all variables at once,
 //!
-//!   θ = (ln σ_t,R, α_R, ln σ_t,G, α_G, ln σ_t,B, α_B, g),
+//!   θ = (ln σ_t,R, α_R, ln σ_t,G, α_G, ln σ_t,B, α_B, s_1, …, s_m),
 //!
-//! where the pixel row of channel c has three non-zero entries, J = (σ_t,c·∂I_c/∂σ_t,c at 2c,
-//! ∂I_c/∂α_c at 2c + 1, ∂I_c/∂g at 6). A, B, d, C_opt and C_drift are as in the per-channel case
-//! (White 1980's sandwich with the views as clusters, the model's common brightness error along
-//! d = A⁻¹ Σ J I, the spread and drift of the last iterates), now 7 × 7. Each channel's
-//! (ln σ_t, α) block of the result is that channel's marginal covariance, g's uncertainty
-//! included; the last diagonal entry is g's variance. A fixed σ_t or α is conditioned on (its
-//! rows and columns left out before A is inverted), as in [`super::Accumulator::covariance_fixed`].
+//! s_j the shared ones (g; ln k), where the pixel row of channel c has 2 + m non-zero entries,
+//! J = (σ_t,c·∂I_c/∂σ_t,c at 2c, ∂I_c/∂α_c at 2c + 1, ∂I_c/∂s_j at 6 + j; ∂I/∂ln k = I).
+//! A, B, d, C_opt and C_drift are as in the per-channel case (White 1980's sandwich with the
+//! views as clusters, the model's common brightness error along d = A⁻¹ Σ J I, the spread and
+//! drift of the last iterates), now (6 + m) × (6 + m). Each channel's (ln σ_t, α) block of the
+//! result is that channel's marginal covariance, the shared parameters' uncertainty included;
+//! the last diagonal entries are their variances. A fixed σ_t or α is conditioned on (its rows
+//! and columns left out before A is inverted), as in [`super::Accumulator::covariance_fixed`].
 
 use nalgebra::{DMatrix, DVector};
 use scene::Image;
@@ -19,70 +21,94 @@ use scene::Image;
 use super::ViewRenders;
 use crate::params::Params;
 
-/// The number of joint variables.
-pub const N: usize = 7;
-/// The index of g among them.
-pub const G: usize = 6;
+/// A symmetric matrix over θ.
+pub type Joint = DMatrix<f64>;
 
-/// A symmetric 7 × 7 matrix over θ.
-pub type Joint = [[f64; N]; N];
+/// A shared parameter of θ ([`theta`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shared {
+    /// The phase function's g.
+    G,
+    /// ln k of the factor k on the lights.
+    LnLightScale,
+}
 
 /// Sums over the views of the joint sandwich.
 #[derive(Clone, Debug)]
 pub struct JointAccumulator {
+    shared: Vec<Shared>,
     a: Joint,
     /// g_v per view.
-    g: Vec<[f64; N]>,
+    g: Vec<DVector<f64>>,
     /// Σ_p J_p I_p.
-    ji: [f64; N],
-}
-
-impl Default for JointAccumulator {
-    fn default() -> Self {
-        Self {
-            a: [[0.0; N]; N],
-            g: Vec::new(),
-            ji: [0.0; N],
-        }
-    }
+    ji: DVector<f64>,
 }
 
 impl JointAccumulator {
-    /// Adds one view at σ_t = `sigma_t`, with the ∂I/∂g images `d_g` of the same two renders
-    /// as `r`'s.
-    pub fn add_view(&mut self, r: &ViewRenders, d_g: [&Image; 2], sigma_t: [f64; 3]) {
-        let mut gv = [0.0; N];
-        let mut a = [[0.0; N]; N];
+    /// The sums over θ with the shared parameters `shared`, in that order.
+    pub fn new(shared: Vec<Shared>) -> Self {
+        let n = 6 + shared.len();
+        Self {
+            shared,
+            a: DMatrix::zeros(n, n),
+            g: Vec::new(),
+            ji: DVector::zeros(n),
+        }
+    }
+
+    /// The number of variables.
+    pub fn len(&self) -> usize {
+        6 + self.shared.len()
+    }
+
+    /// Always false: θ has at least six variables.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Adds one view at σ_t = `sigma_t`, with the derivative images of the shared parameters
+    /// `d_shared` (one pair per shared parameter, of the same two renders as `r`'s; the value
+    /// images for ln k).
+    pub fn add_view(&mut self, r: &ViewRenders, d_shared: &[[&Image; 2]], sigma_t: [f64; 3]) {
+        let n = self.len();
+        assert_eq!(
+            d_shared.len(),
+            self.shared.len(),
+            "one image pair per shared parameter"
+        );
+        let mut gv = DVector::zeros(n);
+        let mut a = DMatrix::zeros(n, n);
+        let mut idx = vec![0; n - 4];
+        let (mut j1, mut j2) = (vec![0.0; n - 4], vec![0.0; n - 4]);
         for p in 0..r.target.data.len() {
             for c in 0..3 {
-                let idx = [2 * c, 2 * c + 1, G];
-                let j = |k: usize| {
-                    [
-                        sigma_t[c] * r.d_sigma_t[k].data[p][c] as f64,
-                        r.d_albedo[k].data[p][c] as f64,
-                        d_g[k].data[p][c] as f64,
-                    ]
-                };
-                let (j1, j2) = (j(0), j(1));
+                idx[0] = 2 * c;
+                idx[1] = 2 * c + 1;
+                for (j, k) in idx[2..].iter_mut().enumerate() {
+                    *k = 6 + j;
+                }
+                for (k, row) in [&mut j1, &mut j2].into_iter().enumerate() {
+                    row[0] = sigma_t[c] * r.d_sigma_t[k].data[p][c] as f64;
+                    row[1] = r.d_albedo[k].data[p][c] as f64;
+                    for (j, d) in d_shared.iter().enumerate() {
+                        row[2 + j] = d[k].data[p][c] as f64;
+                    }
+                }
                 let [v1, v2] = [0, 1].map(|k| r.value[k].data[p][c] as f64);
                 let res = 0.5 * (v1 + v2) - r.target.data[p][c] as f64;
                 if !(res.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
                     continue;
                 }
-                for x in 0..3 {
-                    for y in 0..3 {
-                        a[idx[x]][idx[y]] += 0.5 * (j1[x] * j2[y] + j2[x] * j1[y]);
+                for x in 0..idx.len() {
+                    for y in 0..idx.len() {
+                        a[(idx[x], idx[y])] += 0.5 * (j1[x] * j2[y] + j2[x] * j1[y]);
                     }
                     gv[idx[x]] += 0.5 * (j1[x] + j2[x]) * res;
                     self.ji[idx[x]] += 0.5 * (j1[x] * v2 + j2[x] * v1);
                 }
             }
         }
-        for (row, add) in self.a.iter_mut().zip(&a) {
-            for (v, d) in row.iter_mut().zip(add) {
-                *v += d;
-            }
-        }
+        self.a += a;
         self.g.push(gv);
     }
 
@@ -91,12 +117,13 @@ impl JointAccumulator {
     /// over them.
     pub fn covariance(&self, model_brightness_sd: f64, fixed: [bool; 2]) -> Option<Joint> {
         let v = self.g.len();
+        let n_all = self.len();
         if v < 2 {
             return None;
         }
-        let free: Vec<usize> = (0..N).filter(|&i| i == G || !fixed[i % 2]).collect();
+        let free: Vec<usize> = (0..n_all).filter(|&i| i >= 6 || !fixed[i % 2]).collect();
         let n = free.len();
-        let a = DMatrix::from_fn(n, n, |i, j| self.a[free[i]][free[j]]);
+        let a = DMatrix::from_fn(n, n, |i, j| self.a[(free[i], free[j])]);
         if a.iter().any(|x| !x.is_finite()) {
             return None;
         }
@@ -113,81 +140,75 @@ impl JointAccumulator {
         b *= v as f64 / (v as f64 - 1.0);
         let d = &s * DVector::from_fn(n, |i, _| self.ji[free[i]]);
         let m = &s * b * &s + model_brightness_sd.powi(2) * &d * d.transpose();
-        let mut out = [[0.0; N]; N];
+        let mut out = DMatrix::zeros(n_all, n_all);
         for (i, &fi) in free.iter().enumerate() {
             for (j, &fj) in free.iter().enumerate() {
-                out[fi][fj] = m[(i, j)];
+                out[(fi, fj)] = m[(i, j)];
             }
         }
-        out.iter().flatten().all(|x| x.is_finite()).then_some(out)
+        out.iter().all(|x| x.is_finite()).then_some(out)
     }
 }
 
-/// θ of `p` (its g 0 where it has none).
-fn theta(p: &Params) -> [f64; N] {
-    let mut x = [0.0; N];
+/// θ of `p` with the shared parameters `shared` (g 0 and k 1 where `p` has none).
+pub fn theta(p: &Params, shared: &[Shared]) -> DVector<f64> {
+    let mut x = DVector::zeros(6 + shared.len());
     for c in 0..3 {
         x[2 * c] = p.sigma_t[c].ln();
         x[2 * c + 1] = p.albedo[c];
     }
-    x[G] = p.g.unwrap_or(0.0);
+    for (j, s) in shared.iter().enumerate() {
+        x[6 + j] = match s {
+            Shared::G => p.g.unwrap_or(0.0),
+            Shared::LnLightScale => p.light_scale.unwrap_or(1.0).ln(),
+        };
+    }
     x
 }
 
 /// The covariance of the iterates `params` over θ (C_opt).
-pub fn iterate_covariance(params: &[Params]) -> Joint {
+pub fn iterate_covariance(params: &[Params], shared: &[Shared]) -> Joint {
+    let n_all = 6 + shared.len();
     let n = params.len();
-    let mut out = [[0.0; N]; N];
+    let mut out = DMatrix::zeros(n_all, n_all);
     if n < 2 {
         return out;
     }
-    let x: Vec<[f64; N]> = params.iter().map(theta).collect();
-    let m: [f64; N] = std::array::from_fn(|k| x.iter().map(|v| v[k]).sum::<f64>() / n as f64);
+    let x: Vec<DVector<f64>> = params.iter().map(|p| theta(p, shared)).collect();
+    let m = x.iter().fold(DVector::zeros(n_all), |acc, v| acc + v) / n as f64;
     for v in &x {
-        for i in 0..N {
-            for j in 0..N {
-                out[i][j] += (v[i] - m[i]) * (v[j] - m[j]) / (n as f64 - 1.0);
-            }
-        }
+        let d = v - &m;
+        out += &d * d.transpose() / (n as f64 - 1.0);
     }
     out
 }
 
 /// The drift of the iterates `params` over θ as d dᵀ, d the mean of their second half minus
 /// that of their first (C_drift).
-pub fn iterate_drift(params: &[Params]) -> Joint {
+pub fn iterate_drift(params: &[Params], shared: &[Shared]) -> Joint {
+    let n_all = 6 + shared.len();
     let n = params.len();
-    let mut out = [[0.0; N]; N];
     if n < 2 {
-        return out;
+        return DMatrix::zeros(n_all, n_all);
     }
     let (first, second) = params.split_at(n / 2);
-    let mean = |part: &[Params]| -> [f64; N] {
-        let x: Vec<[f64; N]> = part.iter().map(theta).collect();
-        std::array::from_fn(|k| x.iter().map(|v| v[k]).sum::<f64>() / x.len() as f64)
+    let mean = |part: &[Params]| -> DVector<f64> {
+        part.iter()
+            .map(|p| theta(p, shared))
+            .fold(DVector::zeros(n_all), |acc, v| acc + v)
+            / part.len() as f64
     };
-    let (a, b) = (mean(first), mean(second));
-    let d: [f64; N] = std::array::from_fn(|k| b[k] - a[k]);
-    for i in 0..N {
-        for j in 0..N {
-            out[i][j] = d[i] * d[j];
-        }
-    }
-    out
+    let d = mean(second) - mean(first);
+    &d * d.transpose()
 }
 
-/// The sum of two joint covariances.
-pub fn add(a: &Joint, b: &Joint) -> Joint {
-    std::array::from_fn(|i| std::array::from_fn(|j| a[i][j] + b[i][j]))
-}
-
-/// Each channel's (ln σ_t, α) block as [c00, c01, c11], and g's variance.
-pub fn blocks(m: &Joint) -> ([[f64; 3]; 3], f64) {
+/// Each channel's (ln σ_t, α) block as [c00, c01, c11], and the shared parameters' variances.
+pub fn blocks(m: &Joint) -> ([[f64; 3]; 3], Vec<f64>) {
     let ch = std::array::from_fn(|c| {
         let (s, a) = (2 * c, 2 * c + 1);
-        [m[s][s], m[s][a], m[a][a]]
+        [m[(s, s)], m[(s, a)], m[(a, a)]]
     });
-    (ch, m[G][G])
+    (ch, (6..m.nrows()).map(|i| m[(i, i)]).collect())
 }
 
 #[cfg(test)]
@@ -203,7 +224,7 @@ mod tests {
     fn with_g_decoupled_the_blocks_are_the_per_channel_sandwich() {
         let (w, h) = (8u32, 8u32);
         let mut rng = base::rng::Sampler::new(5, 0, 0, 0);
-        let mut joint = JointAccumulator::default();
+        let mut joint = JointAccumulator::new(vec![Shared::G]);
         let mut per_channel = Accumulator::default();
         let sigma_t = [40.0, 60.0, 80.0];
         for view in 0..12 {
@@ -242,13 +263,14 @@ mod tests {
                 d_albedo: [&d_albedo, &d_albedo],
                 target: &target,
             };
-            joint.add_view(&r, [&d_g, &d_g], sigma_t);
+            joint.add_view(&r, &[[&d_g, &d_g]], sigma_t);
             per_channel.add_view(&r, sigma_t);
         }
         let m = joint
             .covariance(0.03, [false, false])
             .expect("positive definite");
-        let (ch, var_g) = blocks(&m);
+        let (ch, var) = blocks(&m);
+        let var_g = var[0];
         let want = per_channel.covariance(0.03);
         for c in 0..3 {
             let want = want[c].expect("per-channel");
@@ -268,9 +290,9 @@ mod tests {
         let f = joint.covariance(0.03, [true, false]).unwrap();
         let want = per_channel.covariance_fixed(0.03, [true, false]);
         for c in 0..3 {
-            assert_eq!(f[2 * c][2 * c], 0.0);
+            assert_eq!(f[(2 * c, 2 * c)], 0.0);
             let want = want[c].unwrap()[2];
-            let got = f[2 * c + 1][2 * c + 1];
+            let got = f[(2 * c + 1, 2 * c + 1)];
             assert!(
                 (got - want).abs() <= 1e-9 * want,
                 "channel {c}: {got} vs {want}"
@@ -287,14 +309,14 @@ mod tests {
                 ..Params::new([50.0; 3], [0.9; 3])
             })
             .collect();
-        let c = iterate_covariance(&it);
-        let d = iterate_drift(&it);
+        let c = iterate_covariance(&it, &[Shared::G]);
+        let d = iterate_drift(&it, &[Shared::G]);
         assert!(
-            (c[G][G] - 0.01f64.powi(2) * 55.0 / 6.0).abs() < 1e-12,
+            (c[(6, 6)] - 0.01f64.powi(2) * 55.0 / 6.0).abs() < 1e-12,
             "{}",
-            c[G][G]
+            c[(6, 6)]
         );
-        assert!((d[G][G] - 0.05f64.powi(2)).abs() < 1e-12, "{}", d[G][G]);
-        assert!(c[0][0].abs() < 1e-20, "{}", c[0][0]);
+        assert!((d[(6, 6)] - 0.05f64.powi(2)).abs() < 1e-12, "{}", d[(6, 6)]);
+        assert!(c[(0, 0)].abs() < 1e-20, "{}", c[(0, 0)]);
     }
 }

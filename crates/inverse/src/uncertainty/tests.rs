@@ -255,6 +255,7 @@ fn widening_along_the_valley() {
         sigma_t: [50.0; 3],
         albedo: [0.95; 3],
         g: None,
+        light_scale: None,
     };
     let s = Sensitivity {
         slope: [0.0; 3],
@@ -303,6 +304,7 @@ fn a_fixed_parameter_stays_fixed_through_widening_and_correction() {
         sigma_t: [80.0; 3],
         albedo: [0.9; 3],
         g: None,
+        light_scale: None,
     };
     let mut u = Uncertainty::new(at.sigma_t, at.albedo, [narrow; 3], [narrow; 3], 8);
     u.albedo = [None; 3];

@@ -85,6 +85,7 @@ pub(super) fn optimize_checkpoints(work: &Path) -> Res {
         sigma_t: [50.0; 3],
         albedo: [0.5; 3],
         g: None,
+        light_scale: None,
     };
     let mut plain = OptimizeConfig::new(init);
     plain.iterations = 2;
