@@ -99,32 +99,46 @@ impl ViewRenderer for View<'_> {
     }
 }
 
-#[test]
-fn a_model_from_outside_the_library_runs_through_the_loop() {
-    let accel = common::sphere(0.5);
-    let truth = Medium {
-        sigma_t: [40.0, 70.0, 100.0],
-        albedo: [0.7, 0.8, 0.9],
-        g: 0.0,
-        eta: 1.0,
-        roughness: 0.0,
-    };
+/// The medium of the toy runs (g and the light as each test sets them).
+const TRUTH: Medium = Medium {
+    sigma_t: [40.0, 70.0, 100.0],
+    albedo: [0.7, 0.8, 0.9],
+    g: 0.0,
+    eta: 1.0,
+    roughness: 0.0,
+};
+
+/// The toy runs' camera and light (of intensity `intensity`).
+fn view(intensity: f32) -> (Camera, PointLight) {
     let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
     let light = PointLight {
         position: Vec3::new(0.0, 2.0, 2.0),
-        intensity: [1.0; 3],
+        intensity: [intensity; 3],
     };
+    (camera, light)
+}
+
+/// The stand-in's image of `medium` in the view.
+fn target(medium: Medium, camera: &Camera, light: &PointLight) -> Image {
     let rs = RenderSettings {
         spp: 1,
         seed: 0,
         view: 0,
     };
-    let target = Lambertian
-        .at(truth)
+    Lambertian
+        .at(medium)
         .unwrap()
-        .view(&camera, &light)
+        .view(camera, light)
         .value(&rs, None)
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn a_model_from_outside_the_library_runs_through_the_loop() {
+    let accel = common::sphere(0.5);
+    let truth = TRUTH;
+    let (camera, light) = view(1.0);
+    let target = target(truth, &camera, &light);
     let config = OptimizeConfig {
         iterations: 400,
         refine_iterations: 0,
@@ -170,29 +184,9 @@ fn a_model_from_outside_the_library_runs_through_the_loop() {
 #[test]
 fn a_free_g_is_recovered_through_the_same_loop() {
     let accel = common::sphere(0.5);
-    let truth = Medium {
-        sigma_t: [40.0, 70.0, 100.0],
-        albedo: [0.7, 0.8, 0.9],
-        g: 0.4,
-        eta: 1.0,
-        roughness: 0.0,
-    };
-    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
-    let light = PointLight {
-        position: Vec3::new(0.0, 2.0, 2.0),
-        intensity: [1.0; 3],
-    };
-    let rs = RenderSettings {
-        spp: 1,
-        seed: 0,
-        view: 0,
-    };
-    let target = Lambertian
-        .at(truth)
-        .unwrap()
-        .view(&camera, &light)
-        .value(&rs, None)
-        .unwrap();
+    let truth = Medium { g: 0.4, ..TRUTH };
+    let (camera, light) = view(1.0);
+    let target = target(truth, &camera, &light);
     let mut config = OptimizeConfig {
         iterations: 400,
         refine_iterations: 0,
@@ -263,33 +257,10 @@ fn a_free_g_is_recovered_through_the_same_loop() {
 #[test]
 fn a_free_light_scale_is_recovered_through_the_same_loop() {
     let accel = common::sphere(0.5);
-    let truth = Medium {
-        sigma_t: [40.0, 70.0, 100.0],
-        albedo: [0.7, 0.8, 0.9],
-        g: 0.0,
-        eta: 1.0,
-        roughness: 0.0,
-    };
-    let camera = Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
-    let stated = PointLight {
-        position: Vec3::new(0.0, 2.0, 2.0),
-        intensity: [1.0; 3],
-    };
-    let bright = PointLight {
-        intensity: [2.0; 3],
-        ..stated
-    };
-    let rs = RenderSettings {
-        spp: 1,
-        seed: 0,
-        view: 0,
-    };
-    let target = Lambertian
-        .at(truth)
-        .unwrap()
-        .view(&camera, &bright)
-        .value(&rs, None)
-        .unwrap();
+    let truth = TRUTH;
+    let (camera, stated) = view(1.0);
+    let (_, bright) = view(2.0);
+    let target = target(truth, &camera, &bright);
     let mut config = OptimizeConfig {
         iterations: 400,
         refine_iterations: 0,

@@ -118,7 +118,11 @@ fn each_failure_is_detected() {
     };
     let r = assess(&flat, 0, &bright, &free_k, 0.0, None);
     assert_eq!(kinds(&r), ["light-scale-at-bound"]);
-    assert!(r[0].message().contains("init_light_scale"), "{}", r[0].message());
+    assert!(
+        r[0].message().contains("init_light_scale"),
+        "{}",
+        r[0].message()
+    );
 }
 
 /// Gaussian noise from the workspace's sampler (Box–Muller).
