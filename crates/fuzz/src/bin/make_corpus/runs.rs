@@ -100,7 +100,17 @@ pub(super) fn optimize_checkpoints(work: &Path) -> Res {
     varied.view_subset = Some(vec![0, 1]);
     varied.views_per_iter = 2;
     varied.two_renders = false;
-    for (name, config) in [("plain.json", plain), ("varied.json", varied)] {
+    // The tracer with g and the lights' scale free: eight variables.
+    let mut free = plain.clone();
+    free.model = inverse::forward::ModelChoice::Volpath(inverse::forward::TracerEstimator::Ad);
+    free.params.free_g = true;
+    free.params.free_light_scale = true;
+    free.init.g = Some(0.2);
+    for (name, config) in [
+        ("plain.json", plain),
+        ("varied.json", varied),
+        ("free.json", free),
+    ] {
         let path = work.join(name);
         let mut run = Optimizer::new(
             config,
