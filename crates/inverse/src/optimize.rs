@@ -345,47 +345,7 @@ impl<'a> Optimizer<'a> {
                     ..*full
                 },
             };
-            let spp = c.spp_at(k);
-            let rs = RenderSettings {
-                spp,
-                seed: hash_key(&[c.seed, k as u64]),
-                view: v as u64,
-            };
-            let mut view_misfit = None;
-            let g = if c.two_renders && c.split_samples && spp >= 2 {
-                // Two derivative renders with half the samples each and independent seeds:
-                // ∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ], no covariance bias, the
-                // cost of one render at `spp`.
-                let half = spp / 2;
-                let rs_a = RenderSettings { spp: half, ..rs };
-                let rs_b = RenderSettings {
-                    spp: spp - half,
-                    seed: hash_key(&[c.seed, k as u64, 0xB]),
-                    ..rs
-                };
-                let view = at.view(t.camera, t.light);
-                let da = view.derivatives(&rs_a, None)?;
-                let db = view.derivatives(&rs_b, None)?;
-                if c.loss == Loss::L2 {
-                    view_misfit = Some(cross_misfit(&da.value, &db.value, t.image));
-                }
-                split_sample_gradient(&da, &db, t.image, c.loss)
-            } else if c.two_renders {
-                // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
-                // ∂I/∂θ: two renders, independent samples (no covariance bias).
-                let rs_b = RenderSettings {
-                    seed: hash_key(&[c.seed, k as u64, 0xB]),
-                    ..rs
-                };
-                // One set of camera rays (the view's triangle lists) for both renders.
-                let view = at.view(t.camera, t.light);
-                let i1 = view.value(&rs, None)?;
-                let d2 = view.derivatives(&rs_b, None)?;
-                decorrelated_gradient(&i1, &d2, t.image, c.loss)
-            } else {
-                at.view(t.camera, t.light)
-                    .loss_gradient(&rs, t.image, c.loss)?
-            };
+            let (g, view_misfit) = self.view_gradient(&*at, &t, k, v)?;
             if let Some(what) = non_finite_part(&g) {
                 return Err(InverseError::NonFinite {
                     iteration: k,
@@ -432,6 +392,60 @@ impl<'a> Optimizer<'a> {
             views,
             crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
         })
+    }
+
+    /// The loss gradient of target view `t` (index `v`) in iteration `k` by the configured
+    /// estimator, and the view's noise-free misfit where the estimator has it.
+    fn view_gradient(
+        &self,
+        at: &dyn crate::forward::MediumRenderer,
+        t: &TargetView,
+        k: u32,
+        v: usize,
+    ) -> Result<(bssrdf::diff::LossGradient, Option<[f64; 3]>), InverseError> {
+        let c = &self.config;
+        let spp = c.spp_at(k);
+        let rs = RenderSettings {
+            spp,
+            seed: hash_key(&[c.seed, k as u64]),
+            view: v as u64,
+        };
+        let mut view_misfit = None;
+        let g = if c.two_renders && c.split_samples && spp >= 2 {
+            // Two derivative renders with half the samples each and independent seeds:
+            // ∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ], no covariance bias, the
+            // cost of one render at `spp`.
+            let half = spp / 2;
+            let rs_a = RenderSettings { spp: half, ..rs };
+            let rs_b = RenderSettings {
+                spp: spp - half,
+                seed: hash_key(&[c.seed, k as u64, 0xB]),
+                ..rs
+            };
+            let view = at.view(t.camera, t.light);
+            let da = view.derivatives(&rs_a, None)?;
+            let db = view.derivatives(&rs_b, None)?;
+            if c.loss == Loss::L2 {
+                view_misfit = Some(cross_misfit(&da.value, &db.value, t.image));
+            }
+            split_sample_gradient(&da, &db, t.image, c.loss)
+        } else if c.two_renders {
+            // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
+            // ∂I/∂θ: two renders, independent samples (no covariance bias).
+            let rs_b = RenderSettings {
+                seed: hash_key(&[c.seed, k as u64, 0xB]),
+                ..rs
+            };
+            // One set of camera rays (the view's triangle lists) for both renders.
+            let view = at.view(t.camera, t.light);
+            let i1 = view.value(&rs, None)?;
+            let d2 = view.derivatives(&rs_b, None)?;
+            decorrelated_gradient(&i1, &d2, t.image, c.loss)
+        } else {
+            at.view(t.camera, t.light)
+                .loss_gradient(&rs, t.image, c.loss)?
+        };
+        Ok((g, view_misfit))
     }
 
     /// One iteration.

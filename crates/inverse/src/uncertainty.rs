@@ -68,47 +68,7 @@ pub const DETERMINED_G_HALF_WIDTH: f64 = 0.05;
 
 pub mod joint;
 
-/// The interval of a recovered parameter that the channels share: g, or the light scale k.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SharedUncertainty {
-    /// [lo, hi] of the 95 % interval (g within (−1, 1); `None`: no finite interval).
-    pub interval: Option<[f64; 2]>,
-    /// The standard deviation of g, or of ln k.
-    pub sd: Option<f64>,
-    /// Determined by the images: g's half-width from the images alone at most
-    /// [`DETERMINED_G_HALF_WIDTH`]; k's hi/lo at most [`DETERMINED_SIGMA_T_RATIO`].
-    pub determined: bool,
-}
-
-impl SharedUncertainty {
-    /// The interval around `g` of variance `var` (images, optimiser and model error) whose
-    /// part from the images and the optimiser alone is `images_var`.
-    pub fn g(g: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
-        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
-        let limit = 1.0 - 1e-6;
-        SharedUncertainty {
-            interval: sd.map(|s| [(g - Z95 * s).max(-limit), (g + Z95 * s).min(limit)]),
-            sd,
-            determined: sd.is_some()
-                && images_var
-                    .map(f64::sqrt)
-                    .is_some_and(|s| Z95 * s <= DETERMINED_G_HALF_WIDTH),
-        }
-    }
-
-    /// The interval k·exp(±1.96·sd) around the light scale `k`, from the variances of ln k.
-    pub fn light_scale(k: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
-        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
-        SharedUncertainty {
-            interval: sd.map(|s| [k * (-Z95 * s).exp(), k * (Z95 * s).exp()]),
-            sd,
-            determined: sd.is_some()
-                && images_var
-                    .map(f64::sqrt)
-                    .is_some_and(|s| (2.0 * Z95 * s).exp() <= DETERMINED_SIGMA_T_RATIO),
-        }
-    }
-}
+pub use joint::SharedUncertainty;
 
 /// Settings of the uncertainty estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -164,7 +164,7 @@ fn shared_table(md: &mut String, outcomes: &[Outcome], col: &SharedColumn) {
         let truth = (col.truth)(o);
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {truth} | {:.3} [{:.3}, {:.3}] | {:+.3} | {} | {} |",
+            "| {} | {} | {} | {truth:.3} | {:.3} [{:.3}, {:.3}] | {:+.3} | {} | {} |",
             o.case.name,
             o.targets.name(),
             o.rep,
@@ -183,7 +183,7 @@ fn shared_table(md: &mut String, outcomes: &[Outcome], col: &SharedColumn) {
     }
     let _ = writeln!(
         md,
-        "\n- {name}: the truth inside the 95 % interval in {covered} of {n} runs; determined in {} of {n}{}\n",
+        "\n- {name}: the truth inside the 95 % interval in {covered} of {n} runs; determined in {} of {n}{}",
         det_err.len(),
         if det_err.is_empty() {
             String::new()
@@ -246,61 +246,7 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&Share
             o.status,
             o.seconds_per_iteration
         );
-        for c in 0..3 {
-            let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
-            let _ = write!(
-                csv,
-                "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4},{},{},{}",
-                o.case.name,
-                o.case.capture.name(),
-                o.case.mfp,
-                o.case.shape,
-                o.targets.name(),
-                o.rep,
-                ["R", "G", "B"][c],
-                o.case.medium.sigma_t[c],
-                o.estimate[0][c],
-                o.sigma_t_error(true)[c],
-                o.sigma_t_error(false)[c],
-                i(o.interval_sigma_t[c], 0),
-                i(o.interval_sigma_t[c], 1),
-                cov[0][c],
-                o.determined_sigma_t[c],
-                o.case.medium.albedo[c],
-                o.estimate[1][c],
-                o.albedo_error()[c],
-                i(o.interval_albedo[c], 0),
-                i(o.interval_albedo[c], 1),
-                cov[1][c],
-                o.consistency_ratio[c],
-                o.consistency_l2[c],
-                o.valley_curvature[c],
-                o.model_ratio[c],
-                o.status,
-                o.seconds_per_iteration,
-                o.case.medium.eta,
-                o.case.medium.roughness,
-                o.case.medium.g
-            );
-            // The shared parameters' columns (the same on the three channel rows).
-            for col in free {
-                match (col.of)(o) {
-                    Some(r) => {
-                        let _ = write!(
-                            csv,
-                            ",{:.5},{:.5},{:.5},{},{}",
-                            r.estimate,
-                            r.interval[0],
-                            r.interval[1],
-                            r.covers((col.truth)(o)),
-                            r.determined
-                        );
-                    }
-                    None => csv.push_str(",,,,,"),
-                }
-            }
-            csv.push('\n');
-        }
+        csv_rows(csv, o, free);
     }
     let _ = writeln!(md);
     let mut names: Vec<Targets> = outcomes.iter().map(|o| o.targets).collect();
@@ -317,6 +263,66 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&Share
         }
     } else {
         summary(md, "", outcomes);
+    }
+}
+
+/// The CSV rows of one run, one per channel.
+fn csv_rows(csv: &mut String, o: &Outcome, free: &[&SharedColumn]) {
+    let cov = o.covered();
+    for c in 0..3 {
+        let i = |v: Option<[f64; 2]>, k: usize| v.map_or(f64::NAN, |x| x[k]);
+        let _ = write!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{:.5},{:.5},{},{},{},{},{},{},{:.5},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{:.4},{},{},{}",
+            o.case.name,
+            o.case.capture.name(),
+            o.case.mfp,
+            o.case.shape,
+            o.targets.name(),
+            o.rep,
+            ["R", "G", "B"][c],
+            o.case.medium.sigma_t[c],
+            o.estimate[0][c],
+            o.sigma_t_error(true)[c],
+            o.sigma_t_error(false)[c],
+            i(o.interval_sigma_t[c], 0),
+            i(o.interval_sigma_t[c], 1),
+            cov[0][c],
+            o.determined_sigma_t[c],
+            o.case.medium.albedo[c],
+            o.estimate[1][c],
+            o.albedo_error()[c],
+            i(o.interval_albedo[c], 0),
+            i(o.interval_albedo[c], 1),
+            cov[1][c],
+            o.consistency_ratio[c],
+            o.consistency_l2[c],
+            o.valley_curvature[c],
+            o.model_ratio[c],
+            o.status,
+            o.seconds_per_iteration,
+            o.case.medium.eta,
+            o.case.medium.roughness,
+            o.case.medium.g
+        );
+        // The shared parameters' columns (the same on the three channel rows).
+        for col in free {
+            match (col.of)(o) {
+                Some(r) => {
+                    let _ = write!(
+                        csv,
+                        ",{:.5},{:.5},{:.5},{},{}",
+                        r.estimate,
+                        r.interval[0],
+                        r.interval[1],
+                        r.covers((col.truth)(o)),
+                        r.determined
+                    );
+                }
+                None => csv.push_str(",,,,,"),
+            }
+        }
+        csv.push('\n');
     }
 }
 

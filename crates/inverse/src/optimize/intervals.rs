@@ -91,30 +91,13 @@ impl Optimizer<'_> {
                 None,
             ),
             Some(j) => {
-                let tail: Vec<_> = self.history[self.history.len() - tail..]
+                let iterates: Vec<_> = self.history[self.history.len() - tail..]
                     .iter()
                     .map(|r| r.params)
                     .chain(std::iter::once(p))
                     .collect();
-                let spread = joint::iterate_covariance(&tail, &shared)
-                    + joint::iterate_drift(&tail, &shared);
-                let part = |sd: f64| {
-                    j.covariance(sd, fixed)
-                        .map(|m| joint::blocks(&(m + &spread)))
-                };
-                let (all, img) = (part(s.model_brightness_sd), part(0.0));
-                let var =
-                    |x: &Option<([[f64; 3]; 3], Vec<f64>)>, i: usize| x.as_ref().map(|x| x.1[i]);
-                let shared_var: Vec<(Shared, Option<f64>, Option<f64>)> = shared
-                    .iter()
-                    .enumerate()
-                    .map(|(i, s)| (*s, var(&all, i), var(&img, i)))
-                    .collect();
-                (
-                    all.map_or([None; 3], |x| x.0.map(Some)),
-                    img.map_or([None; 3], |x| x.0.map(Some)),
-                    Some(shared_var),
-                )
+                let (cov, images, shared_var) = joint_parts(j, &shared, &iterates, s, fixed);
+                (cov, images, Some(shared_var))
             }
         };
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
@@ -147,4 +130,42 @@ impl Optimizer<'_> {
         }
         Ok(u)
     }
+}
+
+/// The per-channel covariances (with and without the model's error) and, per shared parameter,
+/// its two variances.
+type JointParts = (
+    [Option<[f64; 3]>; 3],
+    [Option<[f64; 3]>; 3],
+    Vec<(Shared, Option<f64>, Option<f64>)>,
+);
+
+/// Per channel, the (ln σ_t, α) blocks of the joint sandwich plus the iterates' spread and
+/// drift: with the model's brightness error and from the images alone; and each shared
+/// parameter's two variances likewise.
+fn joint_parts(
+    j: &JointAccumulator,
+    shared: &[Shared],
+    iterates: &[crate::params::Params],
+    s: &UncertaintySettings,
+    fixed: [bool; 2],
+) -> JointParts {
+    let spread =
+        joint::iterate_covariance(iterates, shared) + joint::iterate_drift(iterates, shared);
+    let part = |sd: f64| {
+        j.covariance(sd, fixed)
+            .map(|m| joint::blocks(&(m + &spread)))
+    };
+    let (all, img) = (part(s.model_brightness_sd), part(0.0));
+    let var = |x: &Option<([[f64; 3]; 3], Vec<f64>)>, i: usize| x.as_ref().map(|x| x.1[i]);
+    let shared_var = shared
+        .iter()
+        .enumerate()
+        .map(|(i, sh)| (*sh, var(&all, i), var(&img, i)))
+        .collect();
+    (
+        all.map_or([None; 3], |x| x.0.map(Some)),
+        img.map_or([None; 3], |x| x.0.map(Some)),
+        shared_var,
+    )
 }

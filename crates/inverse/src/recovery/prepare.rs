@@ -129,32 +129,7 @@ pub(super) fn prepare(
         g: cfg.optimize.params.free_g.then_some(m.g as f64),
         ..Params::of(m)
     });
-    if cfg.optimize.params.free_light_scale {
-        tracing::info!(
-            "the lights' strength is recovered: a factor k on every light's stated intensity, \
-             from k = {}",
-            cfg.optimize.init.light_scale.unwrap_or(1.0)
-        );
-    }
-    if cfg.optimize.params.free_g {
-        let start = cfg.optimize.init.g.unwrap_or(object.g as f64);
-        let from = if cfg.optimize.init.g.is_some() {
-            "as asked"
-        } else if stated {
-            "the dataset's stated g"
-        } else {
-            "the assumed g"
-        };
-        let c = &cfg.optimize;
-        let moves = (c.effective_albedo_warmup()..c.iterations)
-            .filter(|&k| c.model_at(k).differentiates_g())
-            .count();
-        tracing::info!(
-            "g is recovered: it starts at {start} ({from}) and moves in the iterations the \
-             volumetric path tracer renders ({moves} of {})",
-            c.iterations
-        );
-    }
+    say_free(&cfg.optimize, &object, stated);
     std::fs::create_dir_all(&cfg.out).map_err(|source| RecoveryError::CreateDir {
         path: cfg.out.clone(),
         source,
@@ -230,5 +205,34 @@ impl Prepared {
             self.base,
             targets,
         )?)
+    }
+}
+
+/// Says which unknowns besides σ_t and α the run recovers, where they start and when they move.
+fn say_free(c: &crate::optimize::OptimizeConfig, object: &Object, stated: bool) {
+    if c.params.free_light_scale {
+        tracing::info!(
+            "the lights' strength is recovered: a factor k on every light's stated intensity, \
+             from k = {}",
+            c.init.light_scale.unwrap_or(1.0)
+        );
+    }
+    if c.params.free_g {
+        let start = c.init.g.unwrap_or(object.g as f64);
+        let from = if c.init.g.is_some() {
+            "as asked"
+        } else if stated {
+            "the dataset's stated g"
+        } else {
+            "the assumed g"
+        };
+        let moves = (c.effective_albedo_warmup()..c.iterations)
+            .filter(|&k| c.model_at(k).differentiates_g())
+            .count();
+        tracing::info!(
+            "g is recovered: it starts at {start} ({from}) and moves in the iterations the \
+             volumetric path tracer renders ({moves} of {})",
+            c.iterations
+        );
     }
 }

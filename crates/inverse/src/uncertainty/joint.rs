@@ -14,12 +14,14 @@
 //! result is that channel's marginal covariance, the shared parameters' uncertainty included;
 //! the last diagonal entries are their variances. A fixed σ_t or α is conditioned on (its rows
 //! and columns left out before A is inverted), as in [`super::Accumulator::covariance_fixed`].
+//! A shared parameter's interval and *determined* flag are a [`SharedUncertainty`].
 
 use nalgebra::{DMatrix, DVector};
 use scene::Image;
 
-use super::ViewRenders;
+use super::{DETERMINED_G_HALF_WIDTH, DETERMINED_SIGMA_T_RATIO, ViewRenders, Z95};
 use crate::params::Params;
+use serde::{Deserialize, Serialize};
 
 /// A symmetric matrix over θ.
 pub type Joint = DMatrix<f64>;
@@ -209,6 +211,48 @@ pub fn blocks(m: &Joint) -> ([[f64; 3]; 3], Vec<f64>) {
         [m[(s, s)], m[(s, a)], m[(a, a)]]
     });
     (ch, (6..m.nrows()).map(|i| m[(i, i)]).collect())
+}
+
+/// The interval of a recovered parameter that the channels share: g, or the light scale k.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SharedUncertainty {
+    /// [lo, hi] of the 95 % interval (g within (−1, 1); `None`: no finite interval).
+    pub interval: Option<[f64; 2]>,
+    /// The standard deviation of g, or of ln k.
+    pub sd: Option<f64>,
+    /// Determined by the images: g's half-width from the images alone at most
+    /// [`super::DETERMINED_G_HALF_WIDTH`]; k's hi/lo at most [`super::DETERMINED_SIGMA_T_RATIO`].
+    pub determined: bool,
+}
+
+impl SharedUncertainty {
+    /// The interval around `g` of variance `var` (images, optimiser and model error) whose
+    /// part from the images and the optimiser alone is `images_var`.
+    pub fn g(g: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
+        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
+        let limit = 1.0 - 1e-6;
+        SharedUncertainty {
+            interval: sd.map(|s| [(g - Z95 * s).max(-limit), (g + Z95 * s).min(limit)]),
+            sd,
+            determined: sd.is_some()
+                && images_var
+                    .map(f64::sqrt)
+                    .is_some_and(|s| Z95 * s <= DETERMINED_G_HALF_WIDTH),
+        }
+    }
+
+    /// The interval k·exp(±1.96·sd) around the light scale `k`, from the variances of ln k.
+    pub fn light_scale(k: f64, var: Option<f64>, images_var: Option<f64>) -> Self {
+        let sd = var.map(f64::sqrt).filter(|v| v.is_finite());
+        SharedUncertainty {
+            interval: sd.map(|s| [k * (-Z95 * s).exp(), k * (Z95 * s).exp()]),
+            sd,
+            determined: sd.is_some()
+                && images_var
+                    .map(f64::sqrt)
+                    .is_some_and(|s| (2.0 * Z95 * s).exp() <= DETERMINED_SIGMA_T_RATIO),
+        }
+    }
 }
 
 #[cfg(test)]
