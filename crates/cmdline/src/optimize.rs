@@ -43,7 +43,7 @@ pub struct OptimizeArgs {
     pub out: crate::Output,
     /// Gradient estimator of the model (`--model`). The learned BSSRDF takes ours (default),
     /// ours-alpha-offsets, naive and fd; `volpath` and `dipole` take ad (default) and fd.
-    #[arg(long, alias = "method", value_name = "ESTIMATOR")]
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, alias = "method", value_name = "ESTIMATOR")]
     pub estimator: Option<String>,
     /// Maximum depth of the volumetric path tracer when it is the model (Mitsuba `volpath`
     /// semantics; default: the dataset's own, else 32).
@@ -104,10 +104,10 @@ pub struct OptimizeArgs {
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<FreeParam>,
     /// Initial g with --free g (default: the dataset's stated g).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, allow_negative_numbers = true)]
     pub init_g: Option<f64>,
     /// Initial light scale with --free light-scale (default 1: the lights as stated).
-    #[arg(long)]
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
     pub init_light_scale: Option<f64>,
     /// Learning rate on ln k with --free light-scale.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_light_scale)]
