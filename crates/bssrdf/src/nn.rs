@@ -32,7 +32,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::model::ModelError;
+use crate::model::error::ModelError;
 
 pub mod reference;
 mod shape_adaptive;

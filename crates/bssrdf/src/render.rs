@@ -36,7 +36,6 @@
 //! [`FrameConvention::Son24Compat`] reproduces SON24's frames (features in (−e₁, −e₂, w_i) of the
 //! unrefracted camera direction, outputs in the shading frame of x_o), see docs/model.md A4.
 
-use base::fresnel::refract;
 use base::rng::hash_key;
 use geometry::{Accel, Frame, Hit, PixelBins};
 use glam::Vec3;
@@ -52,10 +51,11 @@ use crate::incidence::{IncidenceSlice, IncidenceTable};
 use crate::medium::{ReducedMedium, effective_albedo};
 use crate::model::FrameConvention;
 use crate::nn::{INPUT_DIM, LATENT_DIM, ShapeAdaptiveModel, Workspace};
-use crate::polynomial::{Poly3, align_direction, light_space_frame};
+use crate::polynomial::Poly3;
 use crate::projection::ProjectionRule;
 use base::boundary::transmittance;
 
+mod describe;
 mod entry;
 mod features;
 mod networks;
@@ -498,26 +498,7 @@ pub(crate) fn prepare_row(
                 ],
                 b,
             );
-            // Light-space axes (e1, e2, e3) of the descriptor and the outgoing frame.
-            let (axes, out_frame) = match convention {
-                FrameConvention::Vkj19 => {
-                    let d_in = if m.eta == 1.0 {
-                        d
-                    } else {
-                        refract(d, n_o, m.eta).unwrap_or(d)
-                    };
-                    let d_in = match poly.normal() {
-                        Some(n_p) => align_direction(d_in, n_o, n_p),
-                        None => d_in,
-                    };
-                    let f = light_space_frame(d_in);
-                    ([f.s, f.t, f.n], f)
-                }
-                FrameConvention::Son24Compat => {
-                    let f = Frame::from_normal(-d);
-                    ([-f.s, -f.t, f.n], Frame::from_normal(n_o))
-                }
-            };
+            let (axes, out_frame) = features::light_space(convention, d, n_o, m.eta, &poly);
             let coeffs = if scene.settings.planar_features {
                 Poly3::plane(Vec3::Z)
             } else {

@@ -7,6 +7,7 @@ mod dataset_cmd;
 mod demo;
 #[cfg(test)]
 mod docs_options;
+mod experiment_cmd;
 mod generate_cmd;
 mod gradcheck_cmd;
 mod model_cmd;
@@ -80,7 +81,7 @@ enum Command {
     Train(train_cmd::TrainCommand),
     /// The paper's experiments and the robustness suite, with tables and plots.
     #[command(subcommand)]
-    Experiment(experiment::ExperimentCommand),
+    Experiment(experiment_cmd::ExperimentCommand),
     /// Shell completions and man pages.
     #[command(subcommand)]
     Generate(generate_cmd::GenerateCommand),
@@ -166,7 +167,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Dataset(a) => dataset_cmd::run(&a),
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
-        Command::Experiment(e) => Ok(experiment::run(&e, &cmdline::Terminal)?),
+        Command::Experiment(e) => Ok(experiment::run(&e.experiment(), &cmdline::Terminal)?),
         Command::Generate(g) => generate_cmd::run(&g, Cli::command()),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),

@@ -1,11 +1,10 @@
 //! `translucent optimize`: recover σ_t and α from a dataset's images by differentiable rendering
 //! (Son et al. 2024 §5). The options ([`cmdline::optimize::OptimizeArgs`]) become an
-//! [`inverse::recovery::RecoveryConfig`]; the recovery itself, its outputs and its checks are the
-//! library's ([`inverse::recovery`]).
+//! [`recovery::RecoveryConfig`]; the recovery itself, its outputs and its checks are the
+//! library's ([`recovery`]).
 
 use anyhow::Result;
 use cmdline::optimize::{OptimizeArgs, recovery_config};
-use inverse::recovery;
 
 pub fn run(a: &OptimizeArgs) -> Result<()> {
     Ok(recovery::run(&recovery_config(a)?, &cmdline::Terminal)?)
@@ -17,7 +16,7 @@ mod tests {
 
     use inverse::optimize::OptimizeConfig;
     use inverse::params::Params;
-    use inverse::recovery::RecoverySettings;
+    use recovery::RecoverySettings;
 
     use super::*;
 
@@ -39,7 +38,11 @@ mod tests {
             ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
         assert_eq!(config_for(&demo.settings()), expected);
-        let exp = cmdline::arg_defaults::<experiment::accuracy::AccuracyArgs>(&[]);
+        // The experiments' options default to the library's settings.
+        let exp = experiment::accuracy::AccuracyConfig::default();
+        let accuracy_args =
+            cmdline::arg_defaults::<crate::experiment_cmd::accuracy::AccuracyArgs>(&[]);
+        assert_eq!(accuracy_args.config(), exp);
         let init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
@@ -50,17 +53,20 @@ mod tests {
         // the defaults.
         let run = experiment::accuracy::run_args(&exp, &d, &d, "ours", init);
         let expected = OptimizeConfig {
-            seed: *exp.seed,
+            seed: exp.seed,
             refine_iterations: 0,
             refine_restarts_moments: false,
             ..OptimizeConfig::default()
         };
         assert_eq!(config_for(&run.settings), expected);
         // The robustness suite, which measures the defaults, runs them unchanged.
-        let suite = cmdline::arg_defaults::<experiment::robustness::RobustnessArgs>(&[]);
+        let suite = experiment::robustness::RobustnessConfig::default();
+        let suite_args =
+            cmdline::arg_defaults::<crate::experiment_cmd::robustness::RobustnessArgs>(&[]);
+        assert_eq!(suite_args.config(), suite);
         let run = experiment::robustness::run_args(&suite, &d, &d, 0);
         let expected = OptimizeConfig {
-            seed: *suite.seed,
+            seed: suite.seed,
             ..OptimizeConfig::default()
         };
         assert_eq!(config_for(&run.settings), expected);

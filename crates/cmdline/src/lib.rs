@@ -39,7 +39,7 @@ pub enum CmdlineError {
     #[error("{0}")]
     Invalid(String),
     #[error(transparent)]
-    Recovery(#[from] inverse::recovery::RecoveryError),
+    Recovery(#[from] recovery::RecoveryError),
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
     #[error(transparent)]
@@ -94,11 +94,11 @@ impl GlobalArgs {
     }
 }
 
-/// The terminal as an observer of the library's work ([`inverse::recovery::Observer`]): its
+/// The terminal as an observer of the library's work ([`recovery::Observer`]): its
 /// lines on stdout, its progress bars on stderr (hidden with `--quiet`).
 pub struct Terminal;
 
-impl inverse::recovery::Observer for Terminal {
+impl recovery::Observer for Terminal {
     fn progress(&self, len: u64, label: &str) -> ProgressBar {
         progress(len, label)
     }
@@ -290,57 +290,19 @@ pub fn for_every_command(
     })
 }
 
-/// The command-line name of an option's value.
-pub fn value_name<T: clap::ValueEnum>(v: &T) -> String {
-    v.to_possible_value()
-        .map_or_else(String::new, |p| p.get_name().to_string())
-}
-
 impl LearnedArgs {
     /// One line naming the model and the settings that differ between runs (for report headers).
     pub fn describe(&self) -> String {
-        let model = self
-            .model_file
-            .as_ref()
-            .map_or("shipped".to_string(), |p| p.display().to_string());
-        use bssrdf::render::{EntrySampler, LightCurvature, PixelSampling};
-        let projection = match self.projection {
-            bssrdf::projection::ProjectionKind::Vkj19 => "vkj19 projection".to_string(),
-            bssrdf::projection::ProjectionKind::Son24 => {
-                format!("son24 projection (reach {}σ_n)", self.max_dist_scale)
-            }
-        };
+        self.learned().describe()
+    }
 
-        format!(
-            "model {model}, {} exit law, {} incidence, {projection}{}{}{}{}{}",
-            value_name(&self.exit_law),
-            value_name(&self.incidence),
-            if self.planar_features {
-                ", planar features"
-            } else {
-                ""
-            },
-            if self.frozen_descriptor {
-                ", frozen descriptor"
-            } else {
-                ""
-            },
-            if self.entry_sampler == EntrySampler::Walks {
-                ", entry points from walks (no decoder)"
-            } else {
-                ""
-            },
-            if self.light_curvature == LightCurvature::None {
-                ", light side without curvature correction"
-            } else {
-                ", curvature-corrected light side"
-            },
-            if self.pixel_sampling == PixelSampling::OneHot {
-                ", one-hot channels"
-            } else {
-                ""
-            }
-        )
+    /// The model, its file and the learned renderer's settings these options choose.
+    pub fn learned(&self) -> recovery::settings::LearnedModel {
+        recovery::settings::LearnedModel {
+            kind: self.kind(),
+            file: self.model_file.clone(),
+            renderer: self.settings(),
+        }
     }
 
     pub fn settings(&self) -> bssrdf::render::LearnedSettings {
@@ -360,10 +322,8 @@ impl LearnedArgs {
 
     /// Sets the model, its file and the learned renderer's settings of `s` to these options
     /// (the estimator stays).
-    pub fn apply(&self, s: &mut inverse::recovery::RecoverySettings) {
-        s.model.kind = self.kind();
-        s.model.file = self.model_file.clone();
-        s.learned.renderer = self.settings();
+    pub fn apply(&self, s: &mut recovery::RecoverySettings) {
+        self.learned().apply(s);
     }
 
     /// The learned model's networks: `--model-file`, or the shipped ones.
@@ -464,5 +424,17 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::Clip => "--clip",
         Setting::NoC19Quirk => "--no-c19-quirk",
         Setting::MakeTrainingData => "translucent train data --out",
+        Setting::Case => "--case",
+        Setting::ListJobs => "--list-jobs",
+        Setting::Cases => "--cases",
+        Setting::Shapes => "--shapes",
+        Setting::Methods => "--methods",
+        Setting::Media => "--media",
+        Setting::Inits => "--inits",
+        Setting::InitsCase => "--inits-case",
+        Setting::Seeds => "--seeds",
+        Setting::Targets => "--targets",
+        Setting::Mesh => "--mesh",
+        Setting::MitsubaScript => "--mitsuba-script",
     }
 }

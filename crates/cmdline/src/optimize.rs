@@ -1,5 +1,5 @@
 //! `optimize`'s options ([`OptimizeArgs`]) and their one conversion into the library's settings
-//! ([`inverse::recovery::RecoverySettings`], whose defaults are the options' defaults); the
+//! ([`recovery::RecoverySettings`], whose defaults are the options' defaults); the
 //! experiments describe their runs with the same settings, so that every run they publish is one
 //! a user can type.
 
@@ -9,12 +9,12 @@ use bssrdf::diff::{Loss, Primal};
 use clap::Args;
 use inverse::optimize::OptimizeConfig;
 use inverse::params::{ParamSpec, Parameterisation, Params};
-use inverse::recovery::RecoveryConfig;
-use inverse::recovery::settings::{
+use inverse::uncertainty::UncertaintySettings;
+use recovery::RecoveryConfig;
+use recovery::settings::{
     CheckSettings, LearnedSection, ModelSettings, RecoverySettings, Schedule, StartSettings,
     TracerSection,
 };
-use inverse::uncertainty::UncertaintySettings;
 
 use crate::{LearnedArgs, Result, parse_rgb};
 
@@ -232,12 +232,19 @@ impl OptimizeArgs {
 }
 
 impl IterationArgs {
+    /// The budget these options set.
+    pub fn budget(&self) -> recovery::settings::Budget {
+        recovery::settings::Budget {
+            iterations: self.iterations,
+            spp: self.spp,
+            views_per_iter: self.views_per_iter,
+            crop: self.crop,
+        }
+    }
+
     /// Sets the schedule's budget to these options.
     pub fn apply(&self, s: &mut Schedule) {
-        s.iterations = self.iterations;
-        s.spp = self.spp;
-        s.views_per_iter = self.views_per_iter;
-        s.crop = self.crop;
+        self.budget().apply(s);
     }
 }
 
@@ -322,7 +329,7 @@ impl OptimizeArgs {
     }
 }
 
-/// The library's recovery for `a` ([`inverse::recovery`]): the flags as a typed configuration.
+/// The library's recovery for `a` ([`recovery`]): the flags as a typed configuration.
 pub fn recovery_config(a: &OptimizeArgs) -> Result<RecoveryConfig> {
     Ok(a.settings()
         .resolve_for(a.dataset.clone(), a.out.to_path_buf())?)

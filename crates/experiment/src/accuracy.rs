@@ -21,96 +21,36 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::Args;
-use cmdline::optimize::{BiasCorrectionArgs, IterationArgs};
 use geometry::Shape;
 use inverse::forward::ModelKind;
 use inverse::params::Params;
-use inverse::recovery::Observer;
 use inverse::views::{RenderOpts, make_dataset, random_medium};
+use recovery::Observer;
 use scene::rig::{Rig, paper_rig};
 use scene::{Dataset, Medium, MeshSource, ShapeSpec};
 use volpath::rng::Sampler;
 
+pub(crate) mod config;
+
+pub use config::AccuracyConfig;
+
 use crate::error::{Context, Result};
 use crate::report::{Row, inits_plot, report, results_csv};
 use crate::run::Run;
-use crate::{bail, baseline_model, jobs};
-
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-accuracy",
-        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
-    )
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::help("Seed of the media, the renders and the runs")
-))]
-#[command(mut_arg("views", cmdline::groups::default_and_help("40", "Views per dataset")))]
-#[command(mut_arg(
-    "res",
-    cmdline::groups::default_and_help("256", "Image width and height")
-))]
-pub struct AccuracyArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob), each with
-    /// optional parameters as NAME[:KEY=VALUE]… (the keys of a scene file's `shape` table, e.g.
-    /// `blob:amplitude=0.05`; its cases are named `blob-amplitude-0.05-m0`, …).
-    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
-    pub shapes: Vec<String>,
-    /// Hidden media per shape, drawn from the paper's ranges.
-    #[arg(long, default_value_t = 2)]
-    pub media: u64,
-    #[command(flatten)]
-    pub views: cmdline::Views,
-    #[command(flatten)]
-    pub res: cmdline::Resolution,
-    /// Samples per pixel of the volumetric target renders.
-    #[arg(long, default_value_t = 128)]
-    pub target_spp: u32,
-    /// Optimisation methods (comma-separated).
-    #[arg(long, default_value = "ours,naive", value_delimiter = ',')]
-    pub methods: Vec<String>,
-    #[command(flatten)]
-    pub budget: IterationArgs,
-    /// Optimise σ_t/100 (the paper's parameterisation) instead of ln σ_t (as `optimize`).
-    #[arg(long)]
-    pub scaled_sigma_t: bool,
-    /// Albedo first: σ_t stays at its initial value for this many initial iterations (as
-    /// `optimize`).
-    #[arg(long, default_value_t = inverse::optimize::OptimizeConfig::default().albedo_warmup)]
-    pub albedo_warmup: u32,
-    /// Random initialisations on one case (`--inits-case`) with the first method (0: none).
-    #[arg(long, default_value_t = 8)]
-    pub inits: u32,
-    /// The case of the random initialisations (e.g. `torus-m0`; default: the first case).
-    #[arg(long)]
-    pub inits_case: Option<String>,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    /// Bias correction (as `optimize --bias-correction`): after each run the case's dataset is
-    /// rendered again at the recovered medium and recovered with the same settings; the rows
-    /// `<method>+bc` (step 1) and `<method>+bc<k>` report θ_k.
-    #[command(flatten)]
-    pub bc: BiasCorrectionArgs,
-    #[command(flatten)]
-    pub learned: cmdline::LearnedArgs,
-    #[command(flatten)]
-    pub jobs: jobs::JobArgs,
-}
+use crate::{bail, baseline_model};
+use scene::setting::Setting;
 
 /// Runs the accuracy experiment; returns every row: the cases', then the random starts' (case
 /// `<name> init <i>`).
-pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
+pub fn accuracy(a: &AccuracyConfig, obs: &dyn Observer) -> Result<Vec<Row>> {
     check_methods(a)?;
     let shapes: Vec<Shape> = a
         .shapes
         .iter()
-        .map(|s| Ok(ShapeSpec::parse_compact(s, "--shapes")?.to_shape("--shapes")?))
+        .map(|s| {
+            Ok(ShapeSpec::parse_compact(s, &Setting::Shapes.to_string())?
+                .to_shape(&Setting::Shapes.to_string())?)
+        })
         .collect::<Result<_>>()?;
     // The cases: every shape × medium, named `<shape>-m<k>`.
     let specs: Vec<(String, &Shape, u64)> = a
@@ -125,7 +65,8 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     let names: Vec<String> = specs.iter().map(|(n, ..)| n.clone()).collect();
     let init_name = match &a.inits_case {
         Some(want) if !names.contains(want) => bail!(
-            "--inits-case: no case named {want:?}; the cases are {}",
+            "{}: no case named {want:?}; the cases are {}",
+            Setting::InitsCase,
             names.join(", ")
         ),
         Some(want) => want.clone(),
@@ -143,7 +84,7 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
     std::fs::create_dir_all(a.out.join("runs"))?;
     let x = Experiment {
         a,
-        rig: paper_rig(*a.views, *a.res),
+        rig: paper_rig(a.views, a.res),
         obs,
     };
     x.rig.validate("experiment")?;
@@ -178,9 +119,14 @@ pub fn accuracy(a: &AccuracyArgs, obs: &dyn Observer) -> Result<Vec<Row>> {
 }
 
 /// Every method names an estimator of the learned model or a baseline model.
-fn check_methods(a: &AccuracyArgs) -> Result<()> {
+fn check_methods(a: &AccuracyConfig) -> Result<()> {
     if a.shapes.is_empty() || a.methods.is_empty() || a.media == 0 {
-        bail!("--shapes, --methods and --media must name at least one of each");
+        bail!(
+            "{}, {} and {} must name at least one of each",
+            Setting::Shapes,
+            Setting::Methods,
+            Setting::Media
+        );
     }
     for m in &a.methods {
         if baseline_model(m).is_none() {
@@ -188,8 +134,9 @@ fn check_methods(a: &AccuracyArgs) -> Result<()> {
                 let names =
                     |it: &mut dyn Iterator<Item = &'static str>| it.collect::<Vec<_>>().join(", ");
                 crate::ExperimentError::Invalid(format!(
-                    "--methods: unknown method {m:?} (expected an estimator of the learned \
+                    "{}: unknown method {m:?} (expected an estimator of the learned \
                          model: {}, or a baseline model: {})",
+                    Setting::Methods,
                     names(&mut ModelKind::Learned.estimators().iter().copied()),
                     names(&mut ModelKind::ALL[1..].iter().map(|k| k.name()))
                 ))
@@ -204,7 +151,7 @@ type Case<'s> = (String, PathBuf, Medium, &'s Shape);
 
 /// What every stage of the experiment shares: its options, the rig and the observer.
 struct Experiment<'a> {
-    a: &'a AccuracyArgs,
+    a: &'a AccuracyConfig,
     rig: Rig,
     obs: &'a dyn Observer,
 }
@@ -261,8 +208,8 @@ impl Experiment<'_> {
                     continue;
                 };
                 let mut corrected = Vec::new();
-                if a.bc.enabled() && baseline_model(method).is_none() {
-                    for step in 1..=a.bc.bias_correction_steps {
+                if a.bc.enabled && baseline_model(method).is_none() {
+                    for step in 1..=a.bc.steps {
                         let current = corrected.last().unwrap_or(&row);
                         match bias_corrected_row(
                             a, run, &self.rig, shape, name, medium, &row, current, step, obs,
@@ -292,7 +239,7 @@ impl Experiment<'_> {
         let (a, obs) = (self.a, self.obs);
         let mut init_rows = Vec::new();
         let mut init_bc_rows = Vec::new();
-        let mut s = Sampler::new(*a.seed, u64::MAX - 1, 0, 0x696e_6974);
+        let mut s = Sampler::new(a.seed, u64::MAX - 1, 0, 0x696e_6974);
         for (i, job) in init_jobs.iter().enumerate() {
             let init = Params {
                 sigma_t: [0; 3].map(|_| 20.0 + 130.0 * s.next_f32() as f64),
@@ -325,17 +272,13 @@ impl Experiment<'_> {
             // The correction of a random start: the bootstrap recovery starts where this run
             // started (same estimator F), so the bias it measures includes the start's side.
             let mut current = Some(row.clone());
-            let steps = if a.bc.enabled() {
-                a.bc.bias_correction_steps
-            } else {
-                0
-            };
+            let steps = if a.bc.enabled { a.bc.steps } else { 0 };
             for step in 1..=steps {
                 let Some(c) = &current else { break };
                 current =
                     bias_corrected_row(a, run, &self.rig, shape, job, medium, &row, c, step, obs)?;
             }
-            if a.bc.enabled() {
+            if a.bc.enabled {
                 match current {
                     Some(c) => init_bc_rows.push(c),
                     None => missing.push(job.clone()),
@@ -349,7 +292,7 @@ impl Experiment<'_> {
 
 /// `OUT/table.md`, `OUT/results.csv` and, with random starts, `OUT/inits.png`.
 fn write_outputs(
-    a: &AccuracyArgs,
+    a: &AccuracyConfig,
     rows: &[Row],
     init_rows: &[Row],
     init_bc_rows: &[Row],
@@ -385,7 +328,7 @@ fn write_outputs(
 /// θ_step = θ_current + θ̂ − θ̂_step (step 1: 2θ̂ − θ̂₂). Its s/it covers all recoveries so far.
 #[allow(clippy::too_many_arguments)]
 fn bias_corrected_row(
-    a: &AccuracyArgs,
+    a: &AccuracyConfig,
     run: bool,
     rig: &Rig,
     shape: &Shape,
@@ -404,7 +347,7 @@ fn bias_corrected_row(
     };
     let boot = format!("{name}-boot{suffix}-{}", row.method);
     let data = a.out.join("data").join(&boot);
-    let spp = a.bc.bias_correction_spp.unwrap_or(a.target_spp);
+    let spp = a.bc.spp.unwrap_or(a.target_spp);
     if run {
         ensure_dataset(a, rig, shape.clone(), at, spp, &data, &boot, obs)?;
     }
@@ -456,7 +399,7 @@ fn bias_corrected_row(
 /// Render the dataset unless `dir` already holds one with these settings.
 #[allow(clippy::too_many_arguments)]
 fn ensure_dataset(
-    a: &AccuracyArgs,
+    a: &AccuracyConfig,
     rig: &Rig,
     shape: Shape,
     medium: Medium,
@@ -468,11 +411,11 @@ fn ensure_dataset(
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
         let same = ds.truth == Some(medium)
-            && ds.views.len() == *a.views
+            && ds.views.len() == a.views
             && ds
                 .views
                 .first()
-                .is_some_and(|v| v.camera.width == *a.res && v.camera.height == *a.res)
+                .is_some_and(|v| v.camera.width == a.res && v.camera.height == a.res)
             && ds.render.spp == Some(spp);
         if same {
             obs.say(&format!("dataset {name}: reusing {}", dir.display()));
@@ -482,7 +425,7 @@ fn ensure_dataset(
     }
     obs.say(&format!(
         "dataset {name}: {} views {}×{} at {} spp, σ_t = {:.1?}, α = {:.3?}",
-        *a.views, *a.res, *a.res, spp, medium.sigma_t, medium.albedo
+        a.views, a.res, a.res, spp, medium.sigma_t, medium.albedo
     ));
     make_dataset(
         rig,
@@ -490,7 +433,7 @@ fn ensure_dataset(
         medium,
         RenderOpts {
             spp,
-            seed: *a.seed,
+            seed: a.seed,
             max_depth: 32,
             shadow: Default::default(),
         },
@@ -504,7 +447,7 @@ fn ensure_dataset(
 /// The `optimize` settings of one run: its defaults with the experiment's budget, method, start
 /// and learned-renderer options.
 pub fn run_args(
-    a: &AccuracyArgs,
+    a: &AccuracyConfig,
     dataset: &Path,
     run_dir: &Path,
     method: &str,
@@ -531,7 +474,7 @@ pub fn run_args(
         g: None,
         light_scale: None,
     };
-    s.schedule.seed = *a.seed;
+    s.schedule.seed = a.seed;
     s.checks.final_spp = 16;
     // The experiment corrects its runs itself (rows `<method>+bc`), and compares the learned
     // model's estimators on the learned model alone: no volumetric refinement.
@@ -544,7 +487,7 @@ pub fn run_args(
 /// it if it has finished (`None` otherwise).
 #[allow(clippy::too_many_arguments)]
 fn optimize(
-    a: &AccuracyArgs,
+    a: &AccuracyConfig,
     run: bool,
     dataset: &Path,
     run_dir: &Path,

@@ -19,9 +19,7 @@ pub enum ExperimentError {
         source: Box<ExperimentError>,
     },
     #[error(transparent)]
-    Options(#[from] cmdline::CmdlineError),
-    #[error(transparent)]
-    Recovery(#[from] inverse::recovery::RecoveryError),
+    Recovery(#[from] recovery::RecoveryError),
     #[error(transparent)]
     Inverse(#[from] inverse::optimize::InverseError),
     #[error(transparent)]

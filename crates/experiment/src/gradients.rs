@@ -10,54 +10,38 @@
 //! A scene whose images are all there is not rendered again (an interrupted run continues with
 //! the missing scenes); other settings need another `--out`.
 
-use inverse::recovery::Observer;
+use recovery::Observer;
+use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
 use bssrdf::diff::{Estimator, Primal};
 use bssrdf::render::RenderSettings;
-use clap::Args;
 use geometry::Shape;
 use inverse::forward::learned::LearnedSpec;
 use inverse::gradcheck::{Agreement, agreement, render_estimators};
 use scene::rig::RigLight;
+use scene::setting::Setting;
 use scene::{Dataset, Image, Medium, MeshSource};
 
 use inverse::gradcheck::write_estimators;
 use inverse::views::{RenderOpts, make_dataset};
 use scene::rig::house_rig;
 
-#[derive(Args)]
-#[command(mut_arg("out", cmdline::groups::default("out/experiment-gradients")))]
-#[command(mut_arg("seed", cmdline::groups::help("Seed of the renders")))]
-#[command(mut_arg(
-    "res",
-    cmdline::groups::default_and_help("256", "Image width and height")
-))]
-#[command(mut_arg(
-    "spp",
-    cmdline::groups::default_and_help(
-        "64",
-        "Samples per pixel of the estimators' derivative renders (the differences: four times)"
-    )
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help("A smoke test in seconds (32², 4 spp): not a measurement")
-))]
-pub struct GradientsArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    #[command(flatten)]
-    pub res: cmdline::Resolution,
-    #[command(flatten)]
-    pub spp: cmdline::Spp,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+/// The gradient experiment's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GradientsConfig {
+    /// The output folder.
+    pub out: PathBuf,
+    /// Image width and height.
+    pub res: u32,
+    /// Samples per pixel of the estimators' derivative renders (the differences: four times).
+    pub spp: u32,
+    /// Seed of the renders.
+    pub seed: u64,
+    /// A smoke test in seconds (32², 4 spp): not a measurement.
+    pub quick: bool,
+    pub jobs: super::jobs::Jobs,
 }
 
 /// The estimators compared with the differences.
@@ -78,26 +62,37 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
     ])
 }
 
-pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
-    let (res, spp) = if *a.quick { (32, 4) } else { (*a.res, *a.spp) };
+/// Writes the run's `settings` into `out/settings.txt`, or checks them against those of the run
+/// the folder holds (a run at other settings needs another folder).
+fn stamp(out: &Path, settings: &str) -> Result<()> {
+    let stamp = out.join("settings.txt");
+    match std::fs::read_to_string(&stamp) {
+        Ok(s) if s != settings => {
+            bail!(
+                "{} holds a run at {s}; use another {}",
+                out.display(),
+                Setting::Out
+            )
+        }
+        _ => {
+            std::fs::create_dir_all(out)?;
+            std::fs::write(&stamp, settings)?;
+        }
+    }
+    Ok(())
+}
+
+pub fn run(a: &GradientsConfig, obs: &dyn Observer) -> Result<()> {
+    let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
     let scenes = scenes()?;
     let cases: Vec<String> = scenes.iter().map(|(n, ..)| n.to_string()).collect();
     if a.jobs.listed(&cases, obs)? {
         return Ok(());
     }
     let _lock = a.jobs.lock(&a.out)?;
-    let model = cmdline::LearnedArgs::shipped_model()?;
-    let settings = format!("{res}² × {spp} spp, seed {}", *a.seed);
-    let stamp = a.out.join("settings.txt");
-    match std::fs::read_to_string(&stamp) {
-        Ok(s) if s != settings => {
-            bail!("{} holds a run at {s}; use another --out", a.out.display())
-        }
-        _ => {
-            std::fs::create_dir_all(&a.out)?;
-            std::fs::write(&stamp, &settings)?;
-        }
-    }
+    let model = bssrdf::model::shipped()?;
+    let settings = format!("{res}² × {spp} spp, seed {}", a.seed);
+    stamp(&a.out, &settings)?;
     let mut rows: Vec<(String, Estimator, Agreement, f64)> = Vec::new();
     let mut missing = Vec::new();
     for (name, shape, medium) in scenes {
@@ -134,7 +129,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
                 medium,
                 RenderOpts {
                     spp: 4,
-                    seed: *a.seed,
+                    seed: a.seed,
                     max_depth: 32,
                     shadow: Default::default(),
                 },
@@ -148,13 +143,13 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         let accel = inverse::views::build_accel(mesh, &warnings, name);
         let rs = RenderSettings {
             spp,
-            seed: *a.seed,
+            seed: a.seed,
             view: 0,
         };
         // The differences: an independent render (another seed) at four times the samples.
         let reference = RenderSettings {
             spp: 4 * spp,
-            seed: *a.seed ^ 0xFD,
+            seed: a.seed ^ 0xFD,
             view: 0,
         };
         let results = if finished {
@@ -164,7 +159,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
             let pb = obs.progress(0, &format!("{name}: ours, naive, fd"));
             let r = render_estimators(
                 &accel,
-                LearnedSpec::new(&model, Default::default(), *a.seed),
+                LearnedSpec::new(&model, Default::default(), a.seed),
                 medium,
                 &view.camera,
                 &view.light,
@@ -186,7 +181,7 @@ pub fn run(a: &GradientsArgs, obs: &dyn Observer) -> Result<()> {
         }
     }
     a.jobs.report_missing(&missing, obs);
-    let (md, csv) = tables(&rows, &settings, *a.quick);
+    let (md, csv) = tables(&rows, &settings, a.quick);
     super::write_tables(
         &a.out,
         "gradients",

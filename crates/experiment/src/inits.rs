@@ -5,75 +5,61 @@
 //! (`OUT/inits.png`): the σ_t and α errors over the iterations, the mean over the starts with
 //! the mean ± one standard deviation and every start's curve (`OUT/inits-band.png` and `.svg`).
 
-use inverse::recovery::Observer;
+use recovery::Observer;
 
 use crate::bail;
 use crate::error::Result;
-use clap::Args;
 use plot::{Band, Figure, Panel, Series};
 
 use super::report::{Row, read_trajectory};
-use crate::accuracy::{AccuracyArgs, accuracy};
-use cmdline::arg_defaults;
-use cmdline::optimize::IterationArgs;
+use crate::accuracy::{AccuracyConfig, accuracy};
+use recovery::BiasCorrection;
+use recovery::settings::Budget;
+use scene::setting::Setting;
+use std::path::PathBuf;
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-inits",
-        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
-    )
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::help("Seed of the medium, the renders, the starts and the runs")
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement"
-    )
-))]
-pub struct InitsArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    /// The built-in shape of the case (as `experiment accuracy --shapes`).
-    #[arg(long, default_value = "blob")]
+/// The initialisations experiment's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitsConfig {
+    /// The output folder (datasets in `OUT/data`, runs in `OUT/runs`; reused by a later run).
+    pub out: PathBuf,
+    /// The built-in shape of the case (as the accuracy experiment's shapes).
     pub shape: String,
-    /// Random initialisations.
-    #[arg(long, default_value_t = 8)]
+    /// Random initialisations (at least 2).
     pub inits: u32,
-    #[command(flatten)]
-    pub budget: IterationArgs,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    pub budget: Budget,
+    /// Seed of the medium, the renders, the starts and the runs.
+    pub seed: u64,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement.
+    pub quick: bool,
+    pub jobs: super::jobs::Jobs,
 }
 
-pub fn run(a: &InitsArgs, obs: &dyn Observer) -> Result<()> {
+pub fn run(a: &InitsConfig, obs: &dyn Observer) -> Result<()> {
     if a.inits < 2 {
-        bail!("--inits must be at least 2 (a spread needs two starts)");
+        bail!(
+            "{} must be at least 2 (a spread needs two starts)",
+            Setting::Inits
+        );
     }
-    let out = a.out.to_string_lossy().to_string();
-    let mut acc: AccuracyArgs = arg_defaults(&["--out", &out]);
+    let mut acc = AccuracyConfig {
+        out: a.out.clone(),
+        ..AccuracyConfig::default()
+    };
     acc.shapes = vec![a.shape.clone()];
     acc.media = 1;
     acc.budget = a.budget;
     acc.seed = a.seed;
     acc.methods = vec!["ours".into()];
     acc.inits = a.inits;
-    acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
-    if *a.quick {
-        (acc.views, acc.res, acc.target_spp, acc.inits) = (4.into(), 32.into(), 4, 3);
+    acc.bc = BiasCorrection::off();
+    if a.quick {
+        (acc.views, acc.res, acc.target_spp, acc.inits) = (4, 32, 4, 3);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();
     let rows = accuracy(&acc, obs)?;
-    if a.jobs.list_jobs {
+    if a.jobs.list.is_some() {
         return Ok(());
     }
     let starts: Vec<&Row> = rows.iter().filter(|r| r.case.contains(" init ")).collect();

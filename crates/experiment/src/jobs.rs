@@ -8,34 +8,27 @@
 //! `--assemble` only tabulates. Cases run on any machine that sees the output folder, in any
 //! order, at the same time: Slurm and HyperQueue examples are in docs/commands.md.
 
-use inverse::recovery::Observer;
+use recovery::Observer;
 use std::path::Path;
 
 use crate::bail;
 use crate::error::Result;
-use clap::Args;
 use scene::fsutil::FolderLock;
+use scene::setting::Setting;
 
-/// The `--help` heading of the scheduler options.
-const JOB_OPTIONS: &str = "Running the cases as separate jobs (a cluster's scheduler)";
-
-/// `--list-jobs`, `--case`, `--assemble`.
-#[derive(Args, Clone, Debug, Default)]
-pub struct JobArgs {
-    /// Print one self-contained command per case (this command with `--case NAME`) for a
-    /// scheduler, e.g. a Slurm job array or HyperQueue, and run nothing.
-    #[arg(help_heading = JOB_OPTIONS, long, conflicts_with_all = ["case", "assemble"])]
-    pub list_jobs: bool,
-    /// Run only the case NAME (as `--list-jobs` prints it) into the output folder, then
-    /// tabulate every case finished so far.
-    #[arg(help_heading = JOB_OPTIONS, long, value_name = "NAME")]
+/// Which of an experiment's cases an invocation runs, or whether it lists them as jobs.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Jobs {
+    /// List one self-contained command per case and run nothing: the words of the command
+    /// that ran the experiment, to which each listed job adds its case ([`Setting::Case`]).
+    pub list: Option<Vec<String>>,
+    /// Run only this case into the output folder, then tabulate every case finished so far.
     pub case: Option<String>,
     /// Run nothing: tabulate the cases finished so far in the output folder.
-    #[arg(help_heading = JOB_OPTIONS, long, conflicts_with = "case")]
     pub assemble: bool,
 }
 
-impl JobArgs {
+impl Jobs {
     /// Whether this invocation runs `case`.
     pub fn runs(&self, case: &str) -> bool {
         !self.assemble && self.case.as_deref().is_none_or(|c| c == case)
@@ -53,24 +46,25 @@ impl JobArgs {
             && !cases.contains(c)
         {
             bail!(
-                "--case: no case {c:?} in this experiment (its cases: {}); `--list-jobs` prints \
-                 the command of each",
-                cases.join(", ")
+                "{}: no case {c:?} in this experiment (its cases: {}); {} prints the command of \
+                 each",
+                Setting::Case,
+                cases.join(", "),
+                Setting::ListJobs
             );
         }
-        if !self.list_jobs {
+        let Some(argv) = &self.list else {
             return Ok(false);
-        }
-        let argv: Vec<String> = std::env::args().filter(|a| a != "--list-jobs").collect();
+        };
+        let case_flag = Setting::Case.to_string();
         for case in cases {
             let words = argv
                 .iter()
                 .map(String::as_str)
-                .chain(["--case", case.as_str()]);
-            obs.say(
-                &shlex::try_join(words)
-                    .map_err(|e| crate::ExperimentError::Invalid(format!("--list-jobs: {e}")))?,
-            );
+                .chain([case_flag.as_str(), case.as_str()]);
+            obs.say(&shlex::try_join(words).map_err(|e| {
+                crate::ExperimentError::Invalid(format!("{}: {e}", Setting::ListJobs))
+            })?);
         }
         Ok(true)
     }
@@ -100,7 +94,7 @@ impl JobArgs {
     }
 }
 
-impl JobArgs {
+impl Jobs {
     /// Makes (or checks) an input that several cases share with `make`, unless this invocation
     /// only assembles: under the lock `out/locks/<name>` when cases may run side by side, so
     /// one job makes it and the others wait and then reuse it.

@@ -14,17 +14,17 @@
 //! | `volumetric` | [`volumetric`] | Fig. 8 |
 //! | `prb` | [`prb`] | Fig. 9 |
 //!
-//! The runs are `optimize`'s own ([`run::Run`]: the library's [`inverse::recovery::RecoverySettings`],
+//! The runs are `optimize`'s own ([`run::Run`]: the library's [`recovery::RecoverySettings`],
 //! each field one of `optimize`'s options), with the defaults a user gets unless a row says
 //! otherwise. The library prints nothing: its lines and progress bars go
 //! to an [`Observer`]. Errors are typed ([`ExperimentError`]).
 
+use scene::setting::Setting;
 use std::path::Path;
 
-use clap::Subcommand;
 use inverse::forward::ModelKind;
-use inverse::recovery::Observer;
 use inverse::views::{RenderOpts, make_dataset};
+use recovery::Observer;
 use scene::rig::paper_rig;
 use scene::{Dataset, Medium, MeshSource};
 
@@ -43,51 +43,53 @@ pub mod volumetric;
 
 pub use error::{Context, ExperimentError, Result};
 
-use accuracy::AccuracyArgs;
+use accuracy::AccuracyConfig;
 
-#[derive(Subcommand)]
-pub enum ExperimentCommand {
+/// One experiment with its settings.
+#[derive(Clone, Debug)]
+pub enum Experiment {
     /// Accuracy of the recovered σ_t and α on volumetric-path-traced datasets (paper Table 1,
     /// Fig. 7): shapes × media, methods, random initialisations.
-    Accuracy(Box<AccuracyArgs>),
+    Accuracy(Box<AccuracyConfig>),
     /// `optimize`'s defaults on cases we did not tune on: twelve index-matched, isotropic ones
     /// (flash, fixed light, turntable, back-lit; 5, 15, 50 mean free paths; blob, torus, a mesh
     /// file) and nine with a smooth or rough dielectric boundary around a forward-scattering
     /// medium (up to 300 mean free paths): errors, 95 % intervals and their calibration,
     /// whether σ_t is determined, consistency, status.
-    Robustness(Box<robustness::RobustnessArgs>),
+    Robustness(Box<robustness::RobustnessConfig>),
     /// Seconds per iteration of every forward model × estimator at the paper's workload
     /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
     /// `--mitsuba-python`.
-    Timing(timing::TimingArgs),
+    Timing(timing::TimingConfig),
     /// Derivative images of the learned renderer's estimators (ours, naive) against central
     /// differences on a cone and a blob (paper Fig. 3 and 5): relative error of the summed
     /// derivative and per-pixel correlation.
-    Gradients(gradients::GradientsArgs),
+    Gradients(gradients::GradientsConfig),
     /// The paper's comparison with the planar dipole (Fig. 6): ours, naive and the dipole on
     /// three shapes × two media; errors over iterations and re-renders side by side.
-    Planar(planar::PlanarArgs),
+    Planar(planar::PlanarConfig),
     /// Random initialisations on one case (paper Fig. 7): the mean ± s.d. of the errors over
     /// the iterations, and every start's curve.
-    Inits(inits::InitsArgs),
+    Inits(inits::InitsConfig),
     /// σ_t alone with α fixed, grey medium (paper Fig. 8): ours at 32 spp against the
     /// volumetric baseline at 32 and 128 spp, at equal iterations and at equal time.
-    Volumetric(volumetric::VolumetricArgs),
+    Volumetric(volumetric::VolumetricConfig),
     /// RGB σ_t and α (paper Fig. 9): ours against the volumetric baseline and, with
     /// `--mitsuba-python`, Mitsuba 3's PRB, by iterations and by time.
-    Prb(prb::PrbArgs),
+    Prb(prb::PrbConfig),
 }
 
-pub fn run(cmd: &ExperimentCommand, obs: &dyn Observer) -> Result<()> {
+/// Runs the experiment, reporting to `obs`.
+pub fn run(cmd: &Experiment, obs: &dyn Observer) -> Result<()> {
     match cmd {
-        ExperimentCommand::Accuracy(a) => accuracy::accuracy(a, obs).map(|_| ()),
-        ExperimentCommand::Robustness(a) => robustness::run(a, obs),
-        ExperimentCommand::Timing(a) => timing::run(a, obs),
-        ExperimentCommand::Gradients(a) => gradients::run(a, obs),
-        ExperimentCommand::Planar(a) => planar::run(a, obs),
-        ExperimentCommand::Inits(a) => inits::run(a, obs),
-        ExperimentCommand::Volumetric(a) => volumetric::run(a, obs),
-        ExperimentCommand::Prb(a) => prb::run(a, obs),
+        Experiment::Accuracy(a) => accuracy::accuracy(a, obs).map(|_| ()),
+        Experiment::Robustness(a) => robustness::run(a, obs),
+        Experiment::Timing(a) => timing::run(a, obs),
+        Experiment::Gradients(a) => gradients::run(a, obs),
+        Experiment::Planar(a) => planar::run(a, obs),
+        Experiment::Inits(a) => inits::run(a, obs),
+        Experiment::Volumetric(a) => volumetric::run(a, obs),
+        Experiment::Prb(a) => prb::run(a, obs),
     }
 }
 
@@ -130,8 +132,9 @@ pub fn blob_dataset(
 /// experiment's (reusing it would mix two experiments).
 fn other_dataset(dir: &Path) -> ExperimentError {
     ExperimentError::Invalid(format!(
-        "{} holds a dataset made with other settings; remove it or choose another --out",
-        dir.display()
+        "{} holds a dataset made with other settings; remove it or choose another {}",
+        dir.display(),
+        Setting::Out
     ))
 }
 

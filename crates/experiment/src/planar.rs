@@ -26,64 +26,45 @@
 
 pub mod rerender;
 
-use inverse::recovery::Observer;
+use recovery::Observer;
 
 use crate::error::Result;
-use clap::Args;
 use plot::{Figure, Panel, Series};
+use recovery::BiasCorrection;
+use std::path::PathBuf;
 
 use super::report::{Row, read_trajectory};
-use crate::accuracy::{AccuracyArgs, accuracy};
-use cmdline::arg_defaults;
-use cmdline::optimize::IterationArgs;
+use crate::accuracy::{AccuracyConfig, accuracy};
+use recovery::settings::Budget;
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-planar",
-        "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
-    )
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::help("Seed of the media, the renders and the runs")
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement"
-    )
-))]
-pub struct PlanarArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    /// Built-in shapes (comma-separated, as `experiment accuracy --shapes`).
-    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
+/// The planar-dipole comparison's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarConfig {
+    /// The output folder (datasets in `OUT/data`, runs in `OUT/runs`; reused by a later run).
+    pub out: PathBuf,
+    /// Built-in shapes (as the accuracy experiment's shapes).
     pub shapes: Vec<String>,
     /// Hidden media per shape, drawn from the paper's ranges.
-    #[arg(long, default_value_t = 2)]
     pub media: u64,
-    #[command(flatten)]
-    pub budget: IterationArgs,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
+    pub budget: Budget,
+    /// Seed of the media, the renders and the runs.
+    pub seed: u64,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
+    pub quick: bool,
     /// Samples per pixel of the re-renders of the first view (truth and each estimate, by the
     /// volumetric path tracer; module docs).
-    #[arg(long, default_value_t = 512)]
     pub rerender_spp: u32,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    pub jobs: super::jobs::Jobs,
 }
 
 /// The methods compared (paper Fig. 6).
 const METHODS: [&str; 3] = ["ours", "naive", "dipole"];
 
-pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
-    let out = a.out.to_string_lossy().to_string();
-    let mut acc: AccuracyArgs = arg_defaults(&["--out", &out]);
+pub fn run(a: &PlanarConfig, obs: &dyn Observer) -> Result<()> {
+    let mut acc = AccuracyConfig {
+        out: a.out.clone(),
+        ..AccuracyConfig::default()
+    };
     acc.shapes = a.shapes.clone();
     acc.media = a.media;
     acc.budget = a.budget;
@@ -91,26 +72,26 @@ pub fn run(a: &PlanarArgs, obs: &dyn Observer) -> Result<()> {
     acc.methods = METHODS.map(String::from).to_vec();
     acc.inits = 0;
     // The paper compares the plain methods.
-    acc.bc = cmdline::optimize::BiasCorrectionArgs::off();
-    if *a.quick {
-        (acc.views, acc.res, acc.target_spp, acc.media) = (4.into(), 32.into(), 4, 1);
+    acc.bc = BiasCorrection::off();
+    if a.quick {
+        (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();
     let rows = accuracy(&acc, obs)?;
-    if a.jobs.list_jobs {
+    if a.jobs.list.is_some() {
         return Ok(());
     }
     let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
     cases.dedup();
-    let spp = if *a.quick { 4 } else { a.rerender_spp };
+    let spp = if a.quick { 4 } else { a.rerender_spp };
     let mut compared = Vec::new();
     for case in cases {
         let of_case: Vec<&Row> = rows.iter().filter(|r| r.case == case).collect();
         let fig = error_figure(case, &of_case)?;
         fig.write_png(&a.out.join(format!("planar-{case}.png")), true)?;
         fig.write_svg(&a.out.join(format!("planar-{case}.svg")), true)?;
-        let r = rerender::case(&a.out, case, &of_case, spp, *a.seed, obs)?;
+        let r = rerender::case(&a.out, case, &of_case, spp, a.seed, obs)?;
         r.figure
             .write_png(&a.out.join(format!("renders-{case}.png")), r.exposure, true)?;
         compared.extend(r.rows);

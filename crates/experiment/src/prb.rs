@@ -10,11 +10,10 @@
 //! which the σ_t error stays within 10 % (`OUT/prb.md`, `prb.csv`). Runs resume and are reused.
 
 use inverse::forward::ModelKind;
-use inverse::recovery::Observer;
+use recovery::Observer;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Context, Result};
-use clap::Args;
 use plot::{Figure, Panel, Series};
 
 use super::report::{Step, read_steps};
@@ -22,39 +21,20 @@ use super::report::{Step, read_steps};
 use crate::run::Run;
 use inverse::views::random_medium;
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-prb",
-        "Output folder (the dataset in OUT/data, runs in OUT/runs)"
-    )
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::default_and_help("1", "Seed of the medium, the renders and the runs")
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement"
-    )
-))]
-pub struct PrbArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
+/// The PRB comparison's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrbConfig {
+    /// The output folder (the dataset in `OUT/data`, runs in `OUT/runs`).
+    pub out: PathBuf,
     /// Iterations per run.
-    #[arg(long, default_value_t = 300)]
     pub iterations: u32,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB run.
-    #[arg(long)]
+    /// Seed of the medium, the renders and the runs.
+    pub seed: u64,
+    /// A Python with Mitsuba 3: adds the PRB run.
     pub mitsuba_python: Option<PathBuf>,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement.
+    pub quick: bool,
+    pub jobs: super::jobs::Jobs,
 }
 
 /// σ_t within this relative error (RMS over the channels) counts as converged.
@@ -140,8 +120,8 @@ fn figure(
     )
 }
 
-pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(*a.quick, a.iterations);
+pub fn run(a: &PrbConfig, obs: &dyn Observer) -> Result<()> {
+    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let mut cases = vec!["ours".to_string(), "volumetric".to_string()];
     if a.mitsuba_python.is_some() {
         cases.push("mitsuba-prb".into());
@@ -151,9 +131,9 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    let truth = random_medium(*a.seed);
+    let truth = random_medium(a.seed);
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, truth, target_spp, *a.seed, obs)
+        super::blob_dataset(&data, views, res, truth, target_spp, a.seed, obs)
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();
@@ -163,7 +143,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
         let s = &mut o.settings;
         s.model.kind = model.unwrap_or_default();
         (s.schedule.iterations, s.schedule.spp) = (iterations, spp);
-        s.schedule.seed = *a.seed;
+        s.schedule.seed = a.seed;
         s.checks.final_spp = 16;
         s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.
@@ -182,7 +162,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
             if prb_finished(&dir, iterations, spp) {
                 obs.say(&format!("run Mitsuba PRB: reusing {}", dir.display()));
             } else {
-                super::run_prb(py, &data, &dir, iterations, spp, *a.seed)?;
+                super::run_prb(py, &data, &dir, iterations, spp, a.seed)?;
             }
         }
         if prb_finished(&dir, iterations, spp) {
@@ -203,7 +183,7 @@ pub fn run(a: &PrbArgs, obs: &dyn Observer) -> Result<()> {
          | s/it | σ_t within 10 % from iteration | seconds to that |\n|---|---|---|---|---|---|\n",
         truth.sigma_t,
         truth.albedo,
-        if *a.quick {
+        if a.quick {
             " — QUICK: a smoke test, not a measurement"
         } else {
             ""

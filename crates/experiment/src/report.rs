@@ -11,7 +11,7 @@ use crate::error::{Context, Result};
 use inverse::params::Params;
 use plot::{Figure, Panel, Series};
 
-use crate::accuracy::AccuracyArgs;
+use crate::accuracy::config::AccuracyConfig;
 
 /// One finished run.
 #[derive(Clone)]
@@ -52,14 +52,14 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// The Markdown table and the per-method summary.
 /// The Markdown report: every row, then the per-group summary (each method of `rows`, the random
 /// initialisations `init_rows` and, when bias-corrected, their corrections `init_bc_rows`).
-pub fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row], init_bc_rows: &[Row]) -> String {
+pub fn report(a: &AccuracyConfig, rows: &[Row], init_rows: &[Row], init_bc_rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
         "Accuracy: {} views {}×{} (targets {} spp, volpath), {} iterations × {} spp × {} view(s){}, {}, α first for {} iterations, seed {}; {}\n",
-        *a.views,
-        *a.res,
-        *a.res,
+        a.views,
+        a.res,
+        a.res,
         a.target_spp,
         a.budget.iterations,
         a.budget.spp,
@@ -73,7 +73,7 @@ pub fn report(a: &AccuracyArgs, rows: &[Row], init_rows: &[Row], init_bc_rows: &
             "Adam on ln σ_t"
         },
         a.albedo_warmup,
-        *a.seed,
+        a.seed,
         a.learned.describe()
     );
     let _ = writeln!(

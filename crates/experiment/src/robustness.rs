@@ -33,19 +33,20 @@
 //! the intervals hold the truth) and the accuracy where σ_t is determined, one table per set.
 //! `OUT/robustness.md` and `OUT/robustness.csv`; an interrupted run continues where it stopped.
 
-use inverse::recovery::Observer;
+use recovery::Observer;
+use scene::setting::Setting;
 use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
 use crate::run::Run;
-use clap::Args;
+use recovery::settings::Budget;
 use scene::Dataset;
 
-use cmdline::optimize::IterationArgs;
+use inverse::forward::ModelKind;
 use inverse::forward::learned::LearnedSpec;
-use inverse::recovery::reuse::read_json;
 use inverse::views::build_accel;
+use recovery::reuse::read_json;
 
 mod cases;
 mod report;
@@ -55,94 +56,84 @@ pub use cases::{Capture, Case, Suite, Targets, cases, dielectric_cases};
 use report::report;
 use targets::{ensure_dataset, target_renderers};
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help("out/robustness", "Output folder (datasets, runs, tables)")
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::help("Seed of the media (renders and runs use seed + repetition)")
-))]
-#[command(mut_arg("views", cmdline::groups::default_and_help("24", "Views per dataset")))]
-#[command(mut_arg(
-    "res",
-    cmdline::groups::default_and_help("128", "Image width and height")
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations): a smoke test of the pipeline, not a measurement"
-    )
-))]
-pub struct RobustnessArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    #[command(flatten)]
-    pub views: cmdline::Views,
-    #[command(flatten)]
-    pub res: cmdline::Resolution,
+/// The robustness suite's settings; [`Default`] is the command's defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobustnessConfig {
+    /// The output folder (datasets, runs, tables).
+    pub out: PathBuf,
+    /// Views per dataset.
+    pub views: usize,
+    /// Image width and height.
+    pub res: u32,
     /// Samples per pixel of the volumetric target renders.
-    #[arg(long, default_value_t = 128)]
     pub target_spp: u32,
-    /// The forward model of the recoveries: `learned` (the default), `volpath` (the volumetric
-    /// baseline, `optimize --model volpath`) or `dipole` (the planar dipole baseline).
-    #[arg(long, default_value = "learned")]
-    pub model: inverse::forward::ModelKind,
-    #[command(flatten)]
-    pub budget: IterationArgs,
-    /// The volumetric refinement of every run (`optimize --refine`): its last N iterations with
-    /// the volumetric path tracer. Default: `optimize`'s.
-    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N")]
+    /// The forward model of the recoveries.
+    pub model: ModelKind,
+    pub budget: Budget,
+    /// The tracer's refinement of every run: its last N iterations (`None`: the recovery's
+    /// default).
     pub refine: Option<u32>,
-    /// Samples per pixel of the refinement's iterations (`optimize --refine-spp`). Default:
-    /// `optimize`'s (--spp).
-    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    /// Samples per pixel of the refinement's iterations (`None`: the recovery's default).
     pub refine_spp: Option<u32>,
-    /// Recover these besides σ_t and α in every run (`optimize --free`): `g`, the phase
-    /// function's anisotropy; `light-scale`, a factor on the lights (whose truth here is 1:
-    /// the datasets state their lights). Each gets its own table.
-    #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
-    pub free: Vec<cmdline::optimize::FreeParam>,
-    /// The starting g of runs that free it (`optimize --init-g`). Default: the dataset's
-    /// stated g, which here is the case's own.
-    #[arg(long, allow_negative_numbers = true, requires = "free")]
+    /// Recover the phase function's g besides σ_t and α in every run (its own table).
+    pub free_g: bool,
+    /// Recover a factor on the lights (whose truth here is 1: the datasets state their lights)
+    /// in every run (its own table).
+    pub free_light_scale: bool,
+    /// The starting g of runs that free it (`None`: the dataset's stated g, the case's own).
     pub init_g: Option<f64>,
-    /// The starting light scale of runs that free it (`optimize --init-light-scale`; default
-    /// 1, the truth).
-    #[arg(long, requires = "free")]
+    /// The starting light scale of runs that free it (`None`: 1, the truth).
     pub init_light_scale: Option<f64>,
-    /// Independent repetitions of every case (renders and runs).
-    #[arg(long, default_value_t = 1)]
+    /// Independent repetitions of every case (renders and runs; at least 1).
     pub seeds: u64,
-    /// Which cases: the twelve index-matched, isotropic ones (the default), the nine with a
-    /// dielectric boundary and a forward-scattering medium, or all.
-    #[arg(long, value_enum, default_value_t)]
+    /// Which cases.
     pub suite: Suite,
     /// Only these cases of the suite (names as in the table, e.g. `flash-15-blob`).
-    #[arg(long, value_delimiter = ',')]
     pub cases: Option<Vec<String>>,
     /// The mesh file of the third shape.
-    #[arg(long, default_value = "data/meshes/spot.obj")]
     pub mesh: PathBuf,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    /// Who renders the targets: `volpath` (ours), `mitsuba` (Mitsuba 3's volpath through
-    /// `--mitsuba-script`, an independent renderer), or both (`volpath,mitsuba`). Default: ours,
-    /// and Mitsuba's too when the script finds Mitsuba 3 (not with `--quick`).
-    #[arg(long, value_delimiter = ',')]
+    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
+    /// a smoke test of the pipeline, not a measurement.
+    pub quick: bool,
+    /// Seed of the media (renders and runs use seed + repetition).
+    pub seed: u64,
+    /// Who renders the targets (`None`: ours, and Mitsuba's too when the script finds
+    /// Mitsuba 3, not in a quick run).
     pub targets: Option<Vec<Targets>>,
-    /// The script that renders a dataset's views with Mitsuba 3 (`pip install mitsuba numpy`;
-    /// on Debian also `apt-get install libllvm19`).
-    #[arg(long, default_value = "tools/mitsuba/render_dataset.py")]
+    /// The script that renders a dataset's views with Mitsuba 3.
     pub mitsuba_script: PathBuf,
-    /// The Python interpreter (with Mitsuba 3) that runs `--mitsuba-script`.
-    #[arg(long = "mitsuba-python", default_value = "python3")]
+    /// The Python interpreter (with Mitsuba 3) that runs the script.
     pub python: PathBuf,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    pub jobs: super::jobs::Jobs,
+}
+
+impl Default for RobustnessConfig {
+    fn default() -> Self {
+        RobustnessConfig {
+            out: PathBuf::from("out/robustness"),
+            views: 24,
+            res: 128,
+            target_spp: 128,
+            model: ModelKind::Learned,
+            budget: Budget::default(),
+            refine: None,
+            refine_spp: None,
+            free_g: false,
+            free_light_scale: false,
+            init_g: None,
+            init_light_scale: None,
+            seeds: 1,
+            suite: Suite::default(),
+            cases: None,
+            mesh: PathBuf::from("data/meshes/spot.obj"),
+            quick: false,
+            seed: 0,
+            targets: None,
+            mitsuba_script: PathBuf::from("tools/mitsuba/render_dataset.py"),
+            python: PathBuf::from("python3"),
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
 }
 
 /// One recovery's figures, read from its `result.json`.
@@ -375,20 +366,20 @@ fn model_ratio(
 }
 
 /// The `optimize` run of one case: the command's defaults, with the experiment's budget and seed.
-pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) -> Run {
+pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) -> Run {
     let mut r = Run::defaults(dataset, run_dir);
     let s = &mut r.settings;
     s.model.kind = a.model;
     a.budget.apply(&mut s.schedule);
-    s.schedule.seed = *a.seed + rep;
+    s.schedule.seed = a.seed + rep;
     s.checks.final_spp = 16;
     s.tracer.refine = a.refine;
     s.tracer.refine_spp = a.refine_spp;
-    s.schedule.params.free_g = a.free.contains(&cmdline::optimize::FreeParam::G);
-    s.schedule.params.free_light_scale = a.free.contains(&cmdline::optimize::FreeParam::LightScale);
+    s.schedule.params.free_g = a.free_g;
+    s.schedule.params.free_light_scale = a.free_light_scale;
     s.start.init.g = a.init_g;
     s.start.init.light_scale = a.init_light_scale;
-    if *a.quick {
+    if a.quick {
         s.schedule.iterations = 12;
         s.schedule.spp = 4;
         s.checks.uncertainty.views = 3;
@@ -400,13 +391,14 @@ pub fn run_args(a: &RobustnessArgs, dataset: &Path, run_dir: &Path, rep: u64) ->
     r
 }
 
-pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
-    let mut all = a.suite.cases(*a.seed);
+pub fn run(a: &RobustnessConfig, obs: &dyn Observer) -> Result<()> {
+    let mut all = a.suite.cases(a.seed);
     if let Some(want) = &a.cases {
         for w in want {
             if !all.iter().any(|c| &c.name == w) {
                 bail!(
-                    "--cases: no case '{w}' (the cases: {})",
+                    "{}: no case '{w}' (the cases: {})",
+                    Setting::Cases,
                     all.iter()
                         .map(|c| c.name.as_str())
                         .collect::<Vec<_>>()
@@ -416,7 +408,7 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
         }
         all.retain(|c| want.contains(&c.name));
     }
-    crate::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    crate::ensure!(a.seeds >= 1, "{} must be at least 1", Setting::Seeds);
     let renderers = target_renderers(a, obs)?;
     // Repetition by repetition, so that an interrupted run has every renderer's first ones.
     let mut jobs: Vec<(u64, Targets, &Case)> = Vec::new();
@@ -430,7 +422,7 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
         .flat_map(|&t| all.iter().filter(move |c| !t.renders(c)))
         .map(|c| c.name.as_str())
         .collect();
-    if !unrendered.is_empty() && !a.jobs.list_jobs {
+    if !unrendered.is_empty() && a.jobs.list.is_none() {
         obs.say(&format!(
             "Mitsuba 3 targets: none for {} (a smooth dielectric lit by a point light is black \
              in Mitsuba's volpath: no path reaches the light through the smooth surface)",
@@ -461,7 +453,7 @@ pub fn run(a: &RobustnessArgs, obs: &dyn Observer) -> Result<()> {
         }
         let mut out = outcome(case, rep, targets, &run_dir.join("result.json"))?;
         out.model_ratio = if run {
-            model_ratio(&o, &data, &run_dir, *a.quick, obs)?
+            model_ratio(&o, &data, &run_dir, a.quick, obs)?
         } else {
             // A finished job measured it; a table assembled here only reads it.
             read_json(&run_dir.join("model-ratio.json")).map_or([f64::NAN; 3], |v| rgb(&v["ratio"]))

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use inverse::recovery::{self, Observer, RecoveryConfig, RecoverySettings, RunResult};
+use recovery::{self, Observer, RecoveryConfig, RecoverySettings, RunResult};
 
 use crate::Result;
 

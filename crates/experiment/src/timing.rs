@@ -8,12 +8,12 @@
 //! Rows are kept in `OUT/timing.json` as they finish: an interrupted run continues with the
 //! missing ones, and a finished one prints its table again; other settings need another `--out`.
 
-use inverse::recovery::Observer;
+use recovery::Observer;
+use scene::setting::Setting;
 use std::path::{Path, PathBuf};
 
 use crate::bail;
 use crate::error::{Context, Result};
-use clap::Args;
 use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::TargetView;
 use inverse::timing::{DEFAULTS, TimingRow, TimingSettings, all_pairs, measure, measure_defaults};
@@ -21,50 +21,25 @@ use serde::{Deserialize, Serialize};
 
 use inverse::views::random_medium;
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-timing",
-        "Output folder (the dataset in OUT/data; timing.json, timing.md, timing.csv)"
-    )
-))]
-#[command(mut_arg(
-    "seed",
-    cmdline::groups::default_and_help("3", "Seed of the medium, the targets and the runs")
-))]
-#[command(mut_arg(
-    "spp",
-    cmdline::groups::default_and_help("32", "Samples per pixel per iteration (the paper: 32)")
-))]
-#[command(mut_arg(
-    "res",
-    cmdline::groups::default_and_help("256", "Image width and height (the paper: 256)")
-))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help("A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement")
-))]
-pub struct TimingArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
-    /// Iterations per model × estimator (the first is not counted).
-    #[arg(long, default_value_t = 16)]
+/// The timing experiment's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimingConfig {
+    /// The output folder (the dataset in `OUT/data`; timing.json, timing.md, timing.csv).
+    pub out: PathBuf,
+    /// Iterations per model × estimator (the first is not counted; at least 2).
     pub iterations: u32,
-    #[command(flatten)]
-    pub spp: cmdline::Spp,
-    #[command(flatten)]
-    pub res: cmdline::Resolution,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    /// A Python with Mitsuba 3 (e.g. `.mi/bin/python`): adds the PRB row.
-    #[arg(long)]
+    /// Samples per pixel per iteration (the paper: 32).
+    pub spp: u32,
+    /// Image width and height (the paper: 256).
+    pub res: u32,
+    /// Seed of the medium, the targets and the runs.
+    pub seed: u64,
+    /// A Python with Mitsuba 3: adds the PRB row.
     pub mitsuba_python: Option<PathBuf>,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
+    /// A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement.
+    pub quick: bool,
     /// All rows are one case (`timing`): their times compare only when measured on one machine.
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    pub jobs: super::jobs::Jobs,
 }
 
 /// What `OUT/timing.json` holds.
@@ -88,28 +63,36 @@ fn paper_figure(model: ModelKind, method: &str, spp_factor: u32) -> &'static str
     }
 }
 
-pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
-    let (res, spp, iterations, views, target_spp) = if *a.quick {
+/// Tabulates the record the output folder holds, if any (runs nothing).
+fn assemble(a: &TimingConfig, obs: &dyn Observer) -> Result<()> {
+    let path = a.out.join("timing.json");
+    let Ok(bytes) = std::fs::read(&path) else {
+        a.jobs.report_missing(&["timing".to_string()], obs);
+        return Ok(());
+    };
+    let record: Record = serde_json::from_slice(&bytes)
+        .with_context(|| format!("{}: not a timing record", path.display()))?;
+    let (md, csv) = tables(&record, a.quick);
+    super::write_tables(&a.out, "timing", &md, &csv, "", obs)
+}
+
+pub fn run(a: &TimingConfig, obs: &dyn Observer) -> Result<()> {
+    let (res, spp, iterations, views, target_spp) = if a.quick {
         (32, 4, 3, 2, 4)
     } else {
-        (*a.res, *a.spp, a.iterations, 4, 8)
+        (a.res, a.spp, a.iterations, 4, 8)
     };
     if iterations < 2 {
-        bail!("--iterations must be at least 2 (the first iteration is not counted)");
+        bail!(
+            "{} must be at least 2 (the first iteration is not counted)",
+            Setting::Iterations
+        );
     }
     if a.jobs.listed(&["timing".to_string()], obs)? {
         return Ok(());
     }
     if a.jobs.assemble {
-        let path = a.out.join("timing.json");
-        let Ok(bytes) = std::fs::read(&path) else {
-            a.jobs.report_missing(&["timing".to_string()], obs);
-            return Ok(());
-        };
-        let record: Record = serde_json::from_slice(&bytes)
-            .with_context(|| format!("{}: not a timing record", path.display()))?;
-        let (md, csv) = tables(&record, *a.quick);
-        return super::write_tables(&a.out, "timing", &md, &csv, "", obs);
+        return assemble(a, obs);
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
@@ -117,21 +100,22 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         &data,
         views,
         res,
-        random_medium(*a.seed),
+        random_medium(a.seed),
         target_spp,
-        *a.seed,
+        a.seed,
         obs,
     )?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {
         bail!(
-            "{} holds a dataset of another resolution; use another --out",
-            data.display()
+            "{} holds a dataset of another resolution; use another {}",
+            data.display(),
+            Setting::Out
         );
     }
     let settings = TimingSettings {
         iterations,
         spp,
-        seed: *a.seed,
+        seed: a.seed,
         volpath_max_depth: ds.render.max_depth.unwrap_or(volpath::DEFAULT_MAX_DEPTH),
     };
     let path = a.out.join("timing.json");
@@ -141,8 +125,9 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
                 .with_context(|| format!("{}: not a timing record", path.display()))?;
             if r.settings != settings || r.res != res {
                 bail!(
-                    "{} holds a timing run with other settings; use another --out",
-                    a.out.display()
+                    "{} holds a timing run with other settings; use another {}",
+                    a.out.display(),
+                    Setting::Out
                 );
             }
             r
@@ -163,7 +148,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         .object
         .context("the timing dataset states no object (boundary, phase function)")?
         .medium([50.0; 3], [0.5; 3]);
-    let nets = cmdline::LearnedArgs::shipped_model()?;
+    let nets = bssrdf::model::shipped()?;
     // Every pair at the workload's spp, and the paper's method at twice that (its Table 1).
     let runs = all_pairs()
         .into_iter()
@@ -201,7 +186,7 @@ pub fn run(a: &TimingArgs, obs: &dyn Observer) -> Result<()> {
         )?);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }
-    let (md, csv) = tables(&record, *a.quick);
+    let (md, csv) = tables(&record, a.quick);
     super::write_tables(&a.out, "timing", &md, &csv, "", obs)
 }
 

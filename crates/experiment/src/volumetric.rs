@@ -10,10 +10,10 @@
 //! accuracy`'s.
 
 use inverse::forward::ModelKind;
-use inverse::recovery::Observer;
+use recovery::Observer;
+use std::path::PathBuf;
 
 use crate::error::Result;
-use clap::Args;
 use plot::{Figure, Panel, Series};
 use scene::Medium;
 
@@ -22,33 +22,18 @@ use super::report::read_steps;
 use crate::run::Run;
 use inverse::params::Params;
 
-#[derive(Args)]
-#[command(mut_arg(
-    "out",
-    cmdline::groups::default_and_help(
-        "out/experiment-volumetric",
-        "Output folder (the dataset in OUT/data, runs in OUT/runs)"
-    )
-))]
-#[command(mut_arg("seed", cmdline::groups::help("Seed of the renders and the runs")))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement"
-    )
-))]
-pub struct VolumetricArgs {
-    #[command(flatten)]
-    pub out: cmdline::Output,
+/// The volumetric-baseline experiment's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumetricConfig {
+    /// The output folder (the dataset in `OUT/data`, runs in `OUT/runs`).
+    pub out: PathBuf,
     /// Iterations per run.
-    #[arg(long, default_value_t = 300)]
     pub iterations: u32,
-    #[command(flatten)]
-    pub seed: cmdline::Seed,
-    #[command(flatten)]
-    pub quick: cmdline::Quick,
-    #[command(flatten)]
-    pub jobs: super::jobs::JobArgs,
+    /// Seed of the renders and the runs.
+    pub seed: u64,
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement.
+    pub quick: bool,
+    pub jobs: super::jobs::Jobs,
 }
 
 /// The true medium: grey, the paper's fixed α.
@@ -85,8 +70,8 @@ const VARIANTS: [Variant; 3] = [
     },
 ];
 
-pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(*a.quick, a.iterations);
+pub fn run(a: &VolumetricConfig, obs: &dyn Observer) -> Result<()> {
+    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
     let case = |v: &Variant| format!("{}-{}spp", v.name, spp * v.spp_factor);
     let cases: Vec<String> = VARIANTS.iter().map(case).collect();
     if a.jobs.listed(&cases, obs)? {
@@ -95,14 +80,14 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, TRUTH, target_spp, *a.seed, obs)
+        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed, obs)
     })?;
     let mut missing = Vec::new();
     let mut curves = Vec::new();
     let mut md = format!(
         "σ_t alone, α fixed at 0.9, grey medium (σ_t = 80), {views} views {res}², {iterations} \
          iterations from σ_t = 50{}\n\n| run | final σ_t | error % | s/it | seconds |\n|---|---|---|---|---|\n",
-        if *a.quick {
+        if a.quick {
             " — QUICK: a smoke test, not a measurement"
         } else {
             ""
@@ -124,7 +109,7 @@ pub fn run(a: &VolumetricArgs, obs: &dyn Observer) -> Result<()> {
         };
         s.schedule.params.fix_albedo = true;
         s.schedule.params.monochrome = true;
-        s.schedule.seed = *a.seed;
+        s.schedule.seed = a.seed;
         s.checks.final_spp = 16;
         s.bias_correction.correction.enabled = false;
         // The paper's method is the learned model alone: no volumetric refinement.

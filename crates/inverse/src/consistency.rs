@@ -30,8 +30,8 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 use volpath::{RenderSettings, VolpathSettings};
 
+use crate::error::InverseError;
 use crate::forward::ViewRenderer;
-use crate::optimize::InverseError;
 
 /// A channel's mean ratio may differ from 1 by at most this.
 pub const RATIO_TOLERANCE: f64 = 0.05;

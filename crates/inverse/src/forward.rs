@@ -33,7 +33,7 @@ use indicatif::ProgressBar;
 use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 
 /// The progress of a render: advanced by one per image row when given.
 pub type Progress<'a> = Option<&'a ProgressBar>;
@@ -76,7 +76,7 @@ pub trait ViewRenderer {
         loss: Loss,
     ) -> Result<LossGradient, InverseError> {
         let d = self.derivatives(rs, None)?;
-        Ok(crate::optimize::decorrelated_gradient(
+        Ok(crate::optimize::gradient::decorrelated_gradient(
             &d.value, &d, target, loss,
         ))
     }

@@ -12,9 +12,9 @@ use bssrdf::render::RenderSettings;
 use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 
+use crate::error::InverseError;
 use crate::forward::ModelSpec;
 use crate::forward::learned::LearnedSpec;
-use crate::optimize::InverseError;
 
 /// One estimator's derivative images and render time.
 pub struct EstimatorImages {

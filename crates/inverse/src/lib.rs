@@ -13,13 +13,13 @@
 
 pub mod bootstrap;
 pub mod consistency;
+mod error;
 pub mod forward;
 pub mod gradcheck;
 pub mod health;
+pub mod observer;
 pub mod optimize;
 pub mod params;
-pub mod recovery;
-pub mod report;
 pub mod sensitivity;
 pub mod timing;
 pub mod uncertainty;

@@ -30,7 +30,7 @@
 //! (docs/notes/uncertainty.md, item 5).
 
 use crate::consistency::CheckView;
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 use geometry::Accel;
 use scene::{Image, Medium};
 use serde::{Deserialize, Serialize};

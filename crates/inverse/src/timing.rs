@@ -9,8 +9,9 @@ use geometry::Accel;
 use scene::Medium;
 use serde::{Deserialize, Serialize};
 
+use crate::error::InverseError;
 use crate::forward::{ModelChoice, ModelKind};
-use crate::optimize::{InverseError, OptimizeConfig, Optimizer, TargetView};
+use crate::optimize::{OptimizeConfig, Optimizer, TargetView};
 use crate::params::Params;
 
 /// The workload of a timing run.

@@ -17,8 +17,8 @@ use scene::setting::Setting;
 use scene::{Dataset, Image, Medium};
 use volpath::{Lit, Progressive, RenderSettings, ShadowTransmittance, VolpathSettings};
 
+use crate::error::InverseError;
 use crate::forward::{ForwardModel, ModelSpec};
-use crate::optimize::InverseError;
 
 /// The images of a list of views and the time each took.
 pub struct RenderReport {
@@ -235,7 +235,7 @@ pub fn make_dataset(
     opts: RenderOpts,
     out: &Path,
     overwrite: bool,
-    obs: &dyn crate::recovery::Observer,
+    obs: &dyn crate::observer::Observer,
 ) -> Result<Dataset, InverseError> {
     let desc = SceneDesc {
         mesh,

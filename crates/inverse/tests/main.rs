@@ -2,11 +2,9 @@
 //! instead of one per file): `cargo test -p translucent-inverse --test integration NAME`
 //! runs the tests whose path contains NAME (a file's module, e.g. `boundary::`).
 
-mod boundary;
 mod common;
 mod forward;
 mod optimize;
 mod properties;
-mod recovery;
 mod sensitivity;
 mod toy_model;

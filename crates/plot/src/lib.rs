@@ -286,6 +286,112 @@ fn ranges(panel: &Panel) -> Option<(f64, f64, f64, f64)> {
     Some((xs.0, xs.1, ys.0, ys.1))
 }
 
+/// The body of a panel, drawn into `$chart` (an `x0..x1` chart, linear or logarithmic in y,
+/// whose coordinate types differ; hence a macro rather than a function): the mesh, the bands,
+/// the series (faint ones first), the reference lines and the legend. `$ok` says which y values
+/// the axis can show. Returns early from the caller with the drawing error as a string.
+macro_rules! draw_body {
+    ($chart:expr, $panel:expr, $x0:expr, $x1:expr, $ok:expr) => {{
+        let (panel, x0, x1): (&Panel, f64, f64) = ($panel, $x0, $x1);
+        let mut chart = $chart;
+        chart
+            .configure_mesh()
+            .x_desc(&panel.x_label)
+            .y_desc(&panel.y_label)
+            .label_style(("sans-serif", 13))
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        for b in &panel.bands {
+            let colour = PALETTE[b.colour % PALETTE.len()];
+            let pts: Vec<(f64, f64, f64)> = b
+                .points
+                .iter()
+                .copied()
+                .filter(|&(x, lo, hi)| x.is_finite() && $ok(lo) && $ok(hi))
+                .collect();
+            if pts.len() < 2 {
+                continue;
+            }
+            let outline: Vec<(f64, f64)> = pts
+                .iter()
+                .map(|&(x, lo, _)| (x, lo))
+                .chain(pts.iter().rev().map(|&(x, _, hi)| (x, hi)))
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    colour.mix(0.18).filled(),
+                )))
+                .map_err(|e| e.to_string())?
+                .label(&b.label)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 18, y + 5)], colour.mix(0.18).filled())
+                });
+        }
+        // Faint series first, so that the others are drawn over them.
+        let order = panel
+            .series
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.faint)
+            .chain(panel.series.iter().enumerate().filter(|(_, s)| !s.faint));
+        for (i, s) in order {
+            let colour = PALETTE[i % PALETTE.len()];
+            let style = if s.faint {
+                colour.mix(0.3).stroke_width(1)
+            } else {
+                colour.stroke_width(2)
+            };
+            let pts: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .copied()
+                .filter(|&(x, y)| x.is_finite() && $ok(y))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(pts, style))
+                .map_err(|e| e.to_string())?
+                .label(&s.label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+        }
+        // Reference line k is dashed in the colour of series k (e.g. the truth of channel k
+        // next to its estimate); black when there are more lines than series.
+        for (k, (label, y)) in panel.reference_lines.iter().enumerate() {
+            let y = *y;
+            if !$ok(y) {
+                continue;
+            }
+            let colour = if k < panel.series.len() {
+                PALETTE[k % PALETTE.len()]
+            } else {
+                BLACK
+            };
+            let dashes = dashed_segments(x0, x1, 60);
+            chart
+                .draw_series(
+                    dashes.into_iter().map(|(a, b)| {
+                        PathElement::new(vec![(a, y), (b, y)], colour.stroke_width(1))
+                    }),
+                )
+                .map_err(|e| e.to_string())?
+                .label(label.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], colour));
+        }
+        if !panel.series.is_empty() || !panel.reference_lines.is_empty() || !panel.bands.is_empty()
+        {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(|e| e.to_string())?;
+        }
+    }};
+}
+
 fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     area: &DrawingArea<DB, plotters::coord::Shift>,
@@ -301,116 +407,16 @@ fn draw_panel<DB: DrawingBackend>(
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(70);
-    macro_rules! body {
-        ($chart:expr, $ok:expr) => {{
-            let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(&panel.x_label)
-                .y_desc(&panel.y_label)
-                .label_style(("sans-serif", 13))
-                .x_label_formatter(&|v| tick(*v))
-                .y_label_formatter(&|v| tick(*v))
-                .draw()
-                .map_err(|e| e.to_string())?;
-            for b in &panel.bands {
-                let colour = PALETTE[b.colour % PALETTE.len()];
-                let pts: Vec<(f64, f64, f64)> = b
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|&(x, lo, hi)| x.is_finite() && $ok(lo) && $ok(hi))
-                    .collect();
-                if pts.len() < 2 {
-                    continue;
-                }
-                let outline: Vec<(f64, f64)> = pts
-                    .iter()
-                    .map(|&(x, lo, _)| (x, lo))
-                    .chain(pts.iter().rev().map(|&(x, _, hi)| (x, hi)))
-                    .collect();
-                chart
-                    .draw_series(std::iter::once(Polygon::new(
-                        outline,
-                        colour.mix(0.18).filled(),
-                    )))
-                    .map_err(|e| e.to_string())?
-                    .label(&b.label)
-                    .legend(move |(x, y)| {
-                        Rectangle::new([(x, y - 5), (x + 18, y + 5)], colour.mix(0.18).filled())
-                    });
-            }
-            // Faint series first, so that the others are drawn over them.
-            let order = panel
-                .series
-                .iter()
-                .enumerate()
-                .filter(|(_, s)| s.faint)
-                .chain(panel.series.iter().enumerate().filter(|(_, s)| !s.faint));
-            for (i, s) in order {
-                let colour = PALETTE[i % PALETTE.len()];
-                let style = if s.faint {
-                    colour.mix(0.3).stroke_width(1)
-                } else {
-                    colour.stroke_width(2)
-                };
-                let pts: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|&(x, y)| x.is_finite() && $ok(y))
-                    .collect();
-                chart
-                    .draw_series(LineSeries::new(pts, style))
-                    .map_err(|e| e.to_string())?
-                    .label(&s.label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
-            }
-            // Reference line k is dashed in the colour of series k (e.g. the truth of channel k
-            // next to its estimate); black when there are more lines than series.
-            for (k, (label, y)) in panel.reference_lines.iter().enumerate() {
-                let y = *y;
-                if !$ok(y) {
-                    continue;
-                }
-                let colour = if k < panel.series.len() {
-                    PALETTE[k % PALETTE.len()]
-                } else {
-                    BLACK
-                };
-                let dashes = dashed_segments(x0, x1, 60);
-                chart
-                    .draw_series(dashes.into_iter().map(|(a, b)| {
-                        PathElement::new(vec![(a, y), (b, y)], colour.stroke_width(1))
-                    }))
-                    .map_err(|e| e.to_string())?
-                    .label(label.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], colour));
-            }
-            if !panel.series.is_empty()
-                || !panel.reference_lines.is_empty()
-                || !panel.bands.is_empty()
-            {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 13))
-                    .draw()
-                    .map_err(|e| e.to_string())?;
-            }
-        }};
-    }
     if panel.log_y {
         let chart = builder
             .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
             .map_err(|e| e.to_string())?;
-        body!(chart, |y: f64| y.is_finite() && y > 0.0);
+        draw_body!(chart, panel, x0, x1, |y: f64| y.is_finite() && y > 0.0);
     } else {
         let chart = builder
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| e.to_string())?;
-        body!(chart, |y: f64| y.is_finite());
+        draw_body!(chart, panel, x0, x1, |y: f64| y.is_finite());
     }
     Ok(())
 }

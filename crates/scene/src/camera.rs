@@ -303,6 +303,45 @@ impl Camera {
     }
 }
 
+/// A camera from a row-major 4×4 Mitsuba to_world, validated (finite, last row [0, 0, 0, 1],
+/// orthonormal right-handed rotation, resolution, fov).
+pub(crate) fn camera_from_matrix(
+    m: &[[f64; 4]; 4],
+    fov: f32,
+    width: u32,
+    height: u32,
+    ctx: &str,
+) -> Result<Camera, SceneError> {
+    if m.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(SceneError::Invalid {
+            location: format!("{ctx}.to_world"),
+            reason: "contains NaN or infinite entries; fix: write finite numbers".into(),
+        });
+    }
+    let last = m[3];
+    if last[0].abs() > 1e-6
+        || last[1].abs() > 1e-6
+        || last[2].abs() > 1e-6
+        || (last[3] - 1.0).abs() > 1e-6
+    {
+        return Err(SceneError::Invalid {
+            location: format!("{ctx}.to_world[3] = {last:?}"),
+            reason: "the last row of a camera to_world must be [0, 0, 0, 1] (rows are stored \
+                     first: to_world[r][c]); fix: check that the matrix is row-major"
+                .into(),
+        });
+    }
+    let rows = m.map(|r| r.map(|v| v as f32));
+    let cam = Camera::from_to_world(rows, fov, width, height);
+    let probe = Camera {
+        rotation: glam::Mat3::IDENTITY,
+        ..cam.clone()
+    };
+    probe.validate_named(ctx, "fov_x_deg")?;
+    cam.validate_named(ctx, "fov_x_deg")?;
+    Ok(cam)
+}
+
 #[cfg(test)]
 #[allow(clippy::excessive_precision, clippy::type_complexity)] // numbers copied verbatim from Mitsuba's scene.json
 mod tests {

@@ -20,7 +20,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::scene_file::{RenderInfo, ViewDesc, base_dir};
+use crate::scene_file::desc::{RenderInfo, ViewDesc};
+use crate::scene_file::parse::base_dir;
 use crate::{Camera, Image, Medium, MeshSource, Object, PointLight, SceneDesc, SceneError};
 
 mod json;
@@ -258,43 +259,4 @@ fn load_view_image(
     let img = Image::read_exr(&path)?;
     check_image_size(&img, camera, &format!("{location} = \"{name}\""))?;
     Ok((img, path))
-}
-
-/// A camera from a row-major 4×4 Mitsuba to_world, validated (finite, last row [0, 0, 0, 1],
-/// orthonormal right-handed rotation, resolution, fov).
-pub(crate) fn camera_from_matrix(
-    m: &[[f64; 4]; 4],
-    fov: f32,
-    width: u32,
-    height: u32,
-    ctx: &str,
-) -> Result<Camera, SceneError> {
-    if m.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(SceneError::Invalid {
-            location: format!("{ctx}.to_world"),
-            reason: "contains NaN or infinite entries; fix: write finite numbers".into(),
-        });
-    }
-    let last = m[3];
-    if last[0].abs() > 1e-6
-        || last[1].abs() > 1e-6
-        || last[2].abs() > 1e-6
-        || (last[3] - 1.0).abs() > 1e-6
-    {
-        return Err(SceneError::Invalid {
-            location: format!("{ctx}.to_world[3] = {last:?}"),
-            reason: "the last row of a camera to_world must be [0, 0, 0, 1] (rows are stored \
-                     first: to_world[r][c]); fix: check that the matrix is row-major"
-                .into(),
-        });
-    }
-    let rows = m.map(|r| r.map(|v| v as f32));
-    let cam = Camera::from_to_world(rows, fov, width, height);
-    let probe = Camera {
-        rotation: glam::Mat3::IDENTITY,
-        ..cam.clone()
-    };
-    probe.validate_named(ctx, "fov_x_deg")?;
-    cam.validate_named(ctx, "fov_x_deg")?;
-    Ok(cam)
 }

@@ -31,7 +31,7 @@ use std::path::Path;
 use glam::{DMat4, DVec3};
 use roxmltree::{Document, Node};
 
-use crate::scene_file::{MeshSource, RenderInfo, SceneDesc, ViewDesc};
+use crate::scene_file::desc::{MeshSource, RenderInfo, SceneDesc, ViewDesc};
 use crate::{Camera, Medium, PointLight, SceneError};
 
 mod object;
@@ -312,7 +312,7 @@ fn sensor(doc: &Doc, n: Node) -> Result<(Camera, Option<u32>), SceneError> {
     };
     let rows = to_world.transpose().to_cols_array_2d();
     let fov_x = (2.0 * tan_x.atan()).to_degrees() as f32;
-    let cam = crate::dataset::camera_from_matrix(&rows, fov_x, width, height, &doc.at(n))?;
+    let cam = crate::camera::camera_from_matrix(&rows, fov_x, width, height, &doc.at(n))?;
     Ok((cam, spp))
 }
 

@@ -8,7 +8,7 @@
 
 use glam::Vec3;
 
-use crate::scene_file::ViewDesc;
+use crate::scene_file::desc::ViewDesc;
 use crate::{Camera, PointLight, SceneError};
 
 /// Azimuth of the first direction (radians), as in the reference renders.

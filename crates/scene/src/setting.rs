@@ -79,6 +79,30 @@ pub enum Setting {
     NoC19Quirk,
     /// Making training data into a folder (an action, not a value: the front end's command).
     MakeTrainingData,
+    /// The one case of an experiment a job runs.
+    Case,
+    /// Listing an experiment's cases as jobs instead of running them.
+    ListJobs,
+    /// The cases of an experiment's suite to run.
+    Cases,
+    /// The shapes of an experiment's datasets.
+    Shapes,
+    /// The methods an experiment compares.
+    Methods,
+    /// The hidden media per shape of an experiment.
+    Media,
+    /// The random initialisations of an experiment.
+    Inits,
+    /// The case of an experiment's random initialisations.
+    InitsCase,
+    /// The independent repetitions of an experiment's cases.
+    Seeds,
+    /// Who renders an experiment's target images.
+    Targets,
+    /// The mesh file of an experiment's shape.
+    Mesh,
+    /// The script that renders with Mitsuba 3.
+    MitsubaScript,
 }
 
 impl Setting {
@@ -115,6 +139,18 @@ impl Setting {
             Setting::Clip => "clip",
             Setting::NoC19Quirk => "no_c19_quirk",
             Setting::MakeTrainingData => "make_training_data",
+            Setting::Case => "case",
+            Setting::ListJobs => "list_jobs",
+            Setting::Cases => "cases",
+            Setting::Shapes => "shapes",
+            Setting::Methods => "methods",
+            Setting::Media => "media",
+            Setting::Inits => "inits",
+            Setting::InitsCase => "inits_case",
+            Setting::Seeds => "seeds",
+            Setting::Targets => "targets",
+            Setting::Mesh => "mesh",
+            Setting::MitsubaScript => "mitsuba_script",
         }
     }
 }

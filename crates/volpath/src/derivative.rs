@@ -39,7 +39,7 @@
 
 use scene::Image;
 
-use crate::integrator::{PathScore, Tally};
+use crate::tally::{PathScore, Tally};
 
 /// One path's radiance and its derivatives with respect to σ_t, α and g, per channel
 /// ([`crate::trace`] with this tally).

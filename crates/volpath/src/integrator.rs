@@ -26,123 +26,25 @@
 //! as Mitsuba 3 does, combined with a connection from the scattering vertices near it guided by
 //! the smooth refraction ([`crate::rough`]). Environment light works for every boundary.
 //!
-//! Queries. Free flights ask [`Accel::closest`] (which skips the BVH when the clearance grid
-//! rules out a hit); the shadow rays read the light's lists ([`LightBins`]); a camera ray and
-//! the path's queries along its line until the first scattering (index-matched boundary) read
-//! the camera's per-pixel lists ([`CameraLine`]). Every list answers exactly as the BVH would.
+//! Queries. Free flights ask [`Accel::closest`] (which skips the BVH when the clearance grid rules
+//! out a hit); the shadow rays read the light's lists ([`geometry::LightBins`]); a camera ray and
+//! the path's queries along its line until the first scattering (index-matched boundary) read the
+//! camera's per-pixel lists ([`CameraLine`]). Every list answers exactly as the BVH would.
 //!
 //! Limitations: the camera must be outside the object; the mesh must be closed.
 
-use geometry::{Accel, FilmCursor, Hit, LightBins, PixelBins, bvh::offset_origin};
+use geometry::{Accel, FilmCursor, Hit, PixelBins};
 use glam::Vec3;
-use scene::{Environment, Medium, PointLight};
 
-use crate::fresnel::{fresnel_dielectric, reflect, refract};
-use crate::manifold;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
 use crate::rough;
-use crate::shadow::ShadowTransmittance;
-use crate::spectral::SpectralWeight;
+use crate::vertex::{Estimates, score};
 
-/// How RGB extinction is sampled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum ChannelSampling {
-    /// Hero channel with the balance heuristic over the three channels (default; bounded weights).
-    #[default]
-    SpectralMis,
-    /// One channel per path with ratio reweighting (what Mitsuba 3's RGB volpath does).
-    SingleChannel,
-}
-
-/// Where a ray continues after crossing the object's boundary.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum SpawnOffset {
-    /// The medium starts where the mesh says (default).
-    ///
-    /// [`offset_origin`]: a few hundred ulps off the surface (about 2·10⁻⁶ at |p| ≈ 0.1), the
-    /// least that avoids self-intersection.
-    #[default]
-    Robust,
-    /// Mitsuba 3's 10⁻⁴ ray offset, for like-for-like comparisons with its renders.
-    ///
-    /// What Mitsuba 3's `Interaction::spawn_ray` does: p + (1 + max_i |p_i|)·ε_ray·n, with
-    /// ε_ray = 1500·2⁻²⁴ ≈ 8.9·10⁻⁵ and n the geometric normal on the ray's side (checked against
-    /// Mitsuba 3.9.1: 9.99·10⁻⁵ at |p| = 0.125). A ray entering the medium skips a sliver of that
-    /// thickness, so every path starts about 10⁻⁴ deeper and its light is attenuated by roughly
-    /// exp(−σ_t·10⁻⁴/cos θ_light) more: Mitsuba's renders of the reference sphere are 0.9–2.2 %
-    /// darker than exact single scattering and 0.1–0.7 % darker in total
-    /// (docs/notes/tracer-mitsuba-agreement.md, "Our +0.1–0.7 %: Mitsuba's ray offset"). For
-    /// like-for-like comparisons with Mitsuba only.
-    Mitsuba,
-}
-
-/// Mitsuba 3's `math::RayEpsilon<float>` (1500 · 2⁻²⁴).
-const MITSUBA_RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
-
-impl SpawnOffset {
-    /// The origin of the ray leaving the surface point `p` (geometric normal `ng`, either
-    /// orientation) in direction `dir`.
-    #[inline]
-    pub fn spawn(self, p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
-        match self {
-            SpawnOffset::Robust => offset_origin(p, ng, dir),
-            SpawnOffset::Mitsuba => {
-                let mag = (1.0 + p.abs().max_element()) * MITSUBA_RAY_EPSILON;
-                let n = ng.normalize();
-                p + if dir.dot(n) < 0.0 { -mag } else { mag } * n
-            }
-        }
-    }
-}
-
-/// Integrator settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VolpathSettings {
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    pub channel_sampling: ChannelSampling,
-    /// Estimator of the shadow rays' transmittance ([`crate::shadow`]).
-    pub shadow: ShadowTransmittance,
-    /// Let [`crate::render_image`] answer the exact shadow rays from per-direction triangle
-    /// lists around the light ([`LightBins`]; the same values as the BVH, faster). Off: the BVH
-    /// answers every shadow ray (the reference, for tests and benchmarks).
-    pub light_lists: bool,
-    /// Ray origins after boundary crossings ([`SpawnOffset`]).
-    pub spawn_offset: SpawnOffset,
-}
-
-/// The maximum depth of a render or dataset that states none (Mitsuba 3 `volpath`'s default
-/// would be unbounded; 32 keeps high-albedo paths finite at a bias below the noise).
-pub const DEFAULT_MAX_DEPTH: u32 = 32;
-
-impl Default for VolpathSettings {
-    fn default() -> Self {
-        VolpathSettings {
-            max_depth: DEFAULT_MAX_DEPTH,
-            rr_depth: 5,
-            channel_sampling: ChannelSampling::SpectralMis,
-            shadow: ShadowTransmittance::default(),
-            light_lists: true,
-            spawn_offset: SpawnOffset::Robust,
-        }
-    }
-}
-
-/// What the tracer sees: geometry, medium and emitters.
-#[derive(Clone, Copy)]
-pub struct VolpathScene<'a> {
-    pub accel: &'a Accel,
-    pub medium: Medium,
-    pub light: Option<PointLight>,
-    pub environment: Option<Environment>,
-    /// Shadow-ray lists around `light` ([`LightBins`], built for `light.position` over `accel`):
-    /// the exact shadow transmittance reads its inside lengths from them (identical values, a
-    /// few triangle tests instead of an all-hits traversal). [`crate::render_image`] builds them
-    /// when this is `None` and [`VolpathSettings::light_lists`] is on.
-    pub light_bins: Option<&'a LightBins>,
-}
+pub use crate::settings::{
+    ChannelSampling, DEFAULT_MAX_DEPTH, SpawnOffset, VolpathScene, VolpathSettings,
+};
+pub use crate::tally::{PathScore, Tally};
 
 /// Upper bound on interface events per path (guards against numerical ping-pong).
 const MAX_INTERFACE_EVENTS: u32 = 1024;
@@ -186,6 +88,26 @@ impl<'a> CameraLine<'a> {
         }
     }
 
+    /// `accel.closest(o, d, 0, tmax)`: from the lists of `line` where it is given and they can
+    /// answer it, else from the BVH.
+    #[inline]
+    fn closest_on(
+        line: Option<&mut Self>,
+        accel: &Accel,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<Hit> {
+        line.and_then(|l| l.closest(accel, o, d, tmax))
+            .unwrap_or_else(|| accel.closest(o, d, 0.0, tmax))
+    }
+
+    /// The camera ray's first hit along `d` (`accel.closest(camera, d, 0, ∞)`), from the lists.
+    #[inline]
+    fn first(&mut self, accel: &Accel, d: Vec3) -> Option<Hit> {
+        (self.bins).closest_first(accel, &mut self.cursor, d, 0.0, f32::INFINITY)
+    }
+
     /// `accel.closest(o, d, 0, tmax)` from the lists, or `None` when they cannot answer it.
     #[inline]
     fn closest(&mut self, accel: &Accel, o: Vec3, d: Vec3, tmax: f32) -> Option<Option<Hit>> {
@@ -209,65 +131,6 @@ pub fn radiance_primary(
     trace::<[f32; 3]>(scene, settings, origin, dir, line, s)
 }
 
-/// What a contribution's weight depends on the medium by: the real scatterings `k` before it,
-/// its length `len` inside the medium up to the light (its free flights, plus the shadow
-/// segment's inside length for a next-event estimate), and `phase`, the sum of ∂ ln p/∂g over
-/// its phase-function factors ([`HenyeyGreenstein::d_log_dg`]; 0 unless the tally asks for it,
-/// [`Tally::SCORES_PHASE`]). The path's throughput depends on σ_t and α only through
-/// (α σ_t)^k e^{−σ_t ℓ}, and on g only through its phase-function factors.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PathScore {
-    pub k: u32,
-    pub len: f32,
-    pub phase: f32,
-}
-
-/// What a traced path adds up: the radiance alone (`[f32; 3]`) or the radiance with its
-/// derivatives with respect to the medium ([`crate::derivative::PathDerivatives`]). Every
-/// contribution of a path (a next-event estimate or the environment at its escape) is handed
-/// over with its [`PathScore`], which is what the derivatives need.
-pub trait Tally: Copy + Default + Send + Sync {
-    /// A pixel's running sum of tallies.
-    type Sum: Copy + Default + Send + Sync;
-    /// Whether [`PathScore::phase`] is wanted (the value alone skips its arithmetic).
-    const SCORES_PHASE: bool;
-    /// Adds this tally to a pixel's sum.
-    fn add_to(&self, sum: &mut Self::Sum);
-    /// Adds the contribution `c` (per channel, the estimator's weight included) of a path with
-    /// `score`, in a medium of `sigma_t`, `albedo`.
-    fn record(&mut self, c: [f32; 3], score: PathScore, sigma_t: &[f32; 3], albedo: &[f32; 3]);
-    /// Replaces non-finite values by 0 (a path that lost its numbers contributes nothing).
-    fn finish(&mut self);
-}
-
-impl Tally for [f32; 3] {
-    type Sum = [f64; 3];
-    const SCORES_PHASE: bool = false;
-
-    #[inline]
-    fn add_to(&self, sum: &mut [f64; 3]) {
-        for (s, v) in sum.iter_mut().zip(self) {
-            *s += *v as f64;
-        }
-    }
-
-    #[inline]
-    fn record(&mut self, c: [f32; 3], _score: PathScore, _st: &[f32; 3], _al: &[f32; 3]) {
-        for (l, c) in self.iter_mut().zip(c) {
-            *l += c;
-        }
-    }
-
-    #[inline]
-    fn finish(&mut self) {
-        for v in self {
-            if !v.is_finite() {
-                *v = 0.0;
-            }
-        }
-    }
-}
-
 /// [`radiance_primary`] for any [`Tally`]: the path loop of the tracer.
 pub fn trace<T: Tally>(
     scene: &VolpathScene,
@@ -279,26 +142,12 @@ pub fn trace<T: Tally>(
 ) -> T {
     let m = &scene.medium;
     let phase = HenyeyGreenstein { g: m.g };
-    let hero = s.next_below(3) as usize;
-    let mut w = match settings.channel_sampling {
-        ChannelSampling::SpectralMis => SpectralWeight::new(hero),
-        ChannelSampling::SingleChannel => SpectralWeight::new_single_channel(hero),
-    };
+    let mut w = settings.channel_sampling.start(s.next_below(3) as usize);
     let mut l = T::default();
     // The path's length inside the medium so far (its free flights).
     let mut len = 0.0f32;
     // Σ ∂ ln p/∂g over the phase-function directions sampled so far (with T::SCORES_PHASE).
     let mut phase_score = 0.0f32;
-    // The score of a contribution after `k` scatterings and `len`, with `cos` the angle of a
-    // connection's own phase-function factor at the last vertex (`None`: none).
-    let score = |k: u32, len: f32, phase_score: f32, cos: Option<f32>| PathScore {
-        k,
-        len,
-        phase: match cos {
-            Some(cos) if T::SCORES_PHASE => phase_score + phase.d_log_dg(cos),
-            _ => phase_score,
-        },
-    };
     let mut o = origin;
     let mut d = dir;
     let mut inside = false;
@@ -322,12 +171,15 @@ pub fn trace<T: Tally>(
     // scattering yet), so the camera's lists can answer its queries.
     let mut line = line;
     let mut on_line = m.eta == 1.0;
+    let estimates = Estimates {
+        scene,
+        settings,
+        phase: &phase,
+        rough: rough.as_ref(),
+    };
     // The closest hit along `o + t·d`, `t < tmax`.
     let closest = |line: &mut Option<CameraLine>, on_line: bool, o: Vec3, d: Vec3, tmax: f32| {
-        line.as_mut()
-            .filter(|_| on_line)
-            .and_then(|l| l.closest(scene.accel, o, d, tmax))
-            .unwrap_or_else(|| scene.accel.closest(o, d, 0.0, tmax))
+        CameraLine::closest_on(line.as_mut().filter(|_| on_line), scene.accel, o, d, tmax)
     };
 
     loop {
@@ -353,46 +205,9 @@ pub fn trace<T: Tally>(
                 if depth >= settings.max_depth {
                     break;
                 }
-                if let Some(light) = &scene.light {
-                    let nee = if m.eta == 1.0 {
-                        next_event(scene, settings.shadow, &phase, light, o, d, &w, s)
-                    } else if rough.is_none() {
-                        next_event_refracted(scene, &phase, light, o, d, &w)
-                    } else {
-                        // Behind a rough boundary the light is reached from its vertices.
-                        None
-                    };
-                    if let Some((c, shadow_len, cos)) = nee {
-                        let sc = score(k, len + shadow_len, phase_score, Some(cos));
-                        l.record(c, sc, &m.sigma_t, &m.albedo);
-                    }
-                }
-                if depth > settings.rr_depth {
-                    // Roulette only paths whose weight fell below 1 (pbrt-v4): survival
-                    // q = max β. Unlike Mitsuba's q = min(max β, 0.95) this never inflates
-                    // weights above 1, which matters for long, weakly absorbing walks; the
-                    // expectation is the same.
-                    let q = w.max();
-                    if q < 1.0 {
-                        if q <= 0.0 || s.next_f32() >= q {
-                            break;
-                        }
-                        w.scale(1.0 / q);
-                    }
-                }
-                guide = None;
-                if let (Some(bsdf), Some(light)) = (&rough, &scene.light)
-                    && depth + 1 < settings.max_depth
-                {
-                    guide = rough::Guide::at(scene, bsdf, light, o, d);
-                    let spawn = settings.spawn_offset;
-                    if let Some(g) = &guide
-                        && let Some((c, seg, cos)) =
-                            g.connect(scene, bsdf, spawn, &phase, light, o, &w, s)
-                    {
-                        let sc = score(k, len + seg, phase_score, Some(cos));
-                        l.record(c, sc, &m.sigma_t, &m.albedo);
-                    }
+                let sc = score::<T>(&phase, k, len, phase_score, None);
+                if !estimates.at_scattering(o, d, sc, depth, &mut w, &mut guide, &mut l, s) {
+                    break;
                 }
                 let (u1, u2) = (s.next_f32(), s.next_f32());
                 let d_new = phase.sample(d, u1, u2);
@@ -403,161 +218,37 @@ pub fn trace<T: Tally>(
                 continue;
             }
         } else {
-            let hit = if escaped {
-                None
-            } else if interface_events == 0
-                && let Some(l) = &mut line
-            {
-                l.bins
-                    .closest_first(scene.accel, &mut l.cursor, d, 0.0, f32::INFINITY)
-            } else {
-                closest(&mut line, on_line, o, d, f32::INFINITY)
+            let hit = match &mut line {
+                _ if escaped => None,
+                Some(l) if interface_events == 0 => l.first(scene.accel, d),
+                _ => closest(&mut line, on_line, o, d, f32::INFINITY),
             };
             let Some(hit) = hit else {
-                if let Some(env) = &scene.environment {
-                    let c = std::array::from_fn(|c| w.beta[c] * env.radiance[c]);
-                    l.record(c, score(k, len, phase_score, None), &m.sigma_t, &m.albedo);
-                }
+                estimates.escape(score::<T>(&phase, k, len, phase_score, None), &w, &mut l);
                 break;
             };
             hit
         };
         interface_events += 1;
-        let spawn = settings.spawn_offset;
         if interface_events > MAX_INTERFACE_EVENTS {
             break;
         }
-        if let Some(bsdf) = &rough {
-            depth += 1;
-            if depth >= settings.max_depth {
-                break;
-            }
-            if let Some(light) = &scene.light
-                && let Some(c) = rough::next_event(scene, bsdf, spawn, light, &hit, d, &w)
-            {
-                let c = c.map(|c| c * flight_weight);
-                l.record(c, score(k, len, phase_score, None), &m.sigma_t, &m.albedo);
-            }
-            flight_weight = 1.0;
-            if !rough::cross(bsdf, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
-                break;
-            }
-        } else if !cross_interface(m.eta, spawn, &hit, &mut o, &mut d, &mut inside, &mut w, s) {
+        let sc = score::<T>(&phase, k, len, phase_score, None);
+        let ray = (&mut o, &mut d, &mut inside);
+        if !estimates.at_boundary(
+            &hit,
+            sc,
+            &mut depth,
+            &mut flight_weight,
+            ray,
+            &mut w,
+            &mut l,
+            s,
+        ) {
             break;
         }
         escaped = !inside && d.dot(hit.ng) > 0.0 && scene.accel.exit_is_final(hit.tri);
     }
     l.finish();
     l
-}
-
-/// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
-/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]),
-/// ℓ_inside and the phase function's cos θ = d·ω_l (`None`: no contribution).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn next_event(
-    scene: &VolpathScene,
-    shadow: ShadowTransmittance,
-    phase: &HenyeyGreenstein,
-    light: &PointLight,
-    p: Vec3,
-    d: Vec3,
-    w: &SpectralWeight,
-    s: &mut Sampler,
-) -> Option<([f32; 3], f32, f32)> {
-    let to_l = light.position - p;
-    let r2 = to_l.length_squared();
-    if r2 <= 0.0 {
-        return None;
-    }
-    let dir_l = to_l / r2.sqrt();
-    let f = phase.eval(d, dir_l) / r2;
-    let (tr, len) = shadow.estimate_with_length(
-        scene.accel,
-        scene.light_bins,
-        &scene.medium.sigma_t,
-        p,
-        light.position,
-        s,
-    );
-    Some((
-        std::array::from_fn(|c| w.beta[c] * f * tr[c] * light.intensity[c]),
-        len,
-        d.dot(dir_l),
-    ))
-}
-
-/// NEE to a point light through the dielectric boundary (η ≠ 1) by manifold NEE
-/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥, ℓ and the
-/// phase function's cos θ = d·ω.
-#[inline]
-fn next_event_refracted(
-    scene: &VolpathScene,
-    phase: &HenyeyGreenstein,
-    light: &PointLight,
-    p: Vec3,
-    d: Vec3,
-    w: &SpectralWeight,
-) -> Option<([f32; 3], f32, f32)> {
-    let c = manifold::connect(scene.accel, p, light.position, scene.medium.eta)?;
-    let f = phase.eval(d, c.dir) * c.transmittance * c.flux_factor;
-    let st = &scene.medium.sigma_t;
-    Some((
-        std::array::from_fn(|k| {
-            w.beta[k] * f * (-st[k] * c.inside_length).exp() * light.intensity[k]
-        }),
-        c.inside_length,
-        d.dot(c.dir),
-    ))
-}
-
-/// Interaction with the boundary at `hit`. η = 1: the ray crosses unchanged. η > 1: specular
-/// reflection with probability F (TIR: F = 1), otherwise refraction with the radiance factor
-/// 1/η_rel². Updates position (offset off the surface), direction and the inside flag.
-/// Returns false when the path must end (shading-normal inconsistency).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn cross_interface(
-    eta: f32,
-    spawn: SpawnOffset,
-    hit: &Hit,
-    o: &mut Vec3,
-    d: &mut Vec3,
-    inside: &mut bool,
-    w: &mut SpectralWeight,
-    s: &mut Sampler,
-) -> bool {
-    let entering = hit.entering(*d);
-    if eta == 1.0 {
-        *inside = entering;
-        *o = spawn.spawn(hit.p, hit.ng, *d);
-        return true;
-    }
-    let eta_rel = if entering { eta } else { 1.0 / eta };
-    let n = hit.ns;
-    let cos_i = d.dot(n).abs();
-    let f = fresnel_dielectric(cos_i, eta_rel);
-    let side_in = d.dot(hit.ng);
-    if s.next_f32() < f {
-        let r = reflect(*d, n);
-        if r.dot(hit.ng) * side_in >= 0.0 {
-            return false; // reflected through the surface: shading normal too far from ng
-        }
-        *d = r;
-        *o = spawn.spawn(hit.p, hit.ng, r);
-        *inside = !entering;
-    } else {
-        let Some(t) = refract(*d, n, eta_rel) else {
-            return false;
-        };
-        if t.dot(hit.ng) * side_in <= 0.0 {
-            return false;
-        }
-        w.scale(1.0 / (eta_rel * eta_rel));
-        *d = t;
-        *o = spawn.spawn(hit.p, hit.ng, t);
-        *inside = entering;
-    }
-    true
 }

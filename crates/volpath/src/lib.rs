@@ -21,9 +21,12 @@ pub mod integrator;
 pub mod manifold;
 pub mod render;
 pub mod rough;
+pub mod settings;
 pub mod setup;
 pub mod shadow;
 pub mod spectral;
+pub mod tally;
+mod vertex;
 
 pub use derivative::{DerivativeImages, PathDerivatives};
 pub use integrator::{

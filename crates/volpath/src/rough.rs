@@ -34,9 +34,9 @@ use geometry::{Frame, Hit};
 use glam::Vec3;
 use scene::PointLight;
 
-use crate::integrator::{SpawnOffset, VolpathScene};
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
+use crate::settings::{SpawnOffset, VolpathScene};
 use crate::spectral::SpectralWeight;
 
 /// The local frame of the boundary at `hit` (z: the outward shading normal) and `-d` in it, or

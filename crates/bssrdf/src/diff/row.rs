@@ -152,19 +152,7 @@ pub(super) fn offset_row<E: SampleEstimator>(
                 (yk, s_abs)
             }
         });
-        // σ_t offset pair: S_abs^±·L(x_i^±), and the means of L and S_abs·∂L/∂α.
-        let pair = E::PAIR.then(|| {
-            let ([hi, lo], [st_hi, st_lo]) = (k.sn_t[c], k.st_t[c]);
-            let ((yp, sp), (ym, sm)) = (offsets[0], offsets[1]);
-            let (vp, dvp) = offset_light(scene, view, p, yp, (hi, st_hi));
-            let (vm, dvm) = offset_light(scene, view, p, ym, (lo, st_lo));
-            (
-                sp * vp,
-                sm * vm,
-                0.5 * (vp + vm),
-                0.5 * (sp * dvp + sm * dvm),
-            )
-        });
+        let pair = E::PAIR.then(|| offset_pair(scene, view, p, k, &offsets));
         // v = L(x_i); dv_law = S_abs·∂L/∂α through the exit law (the α-dependence of the
         // light side, [`crate::exit`]), from the pair when it gives the value.
         let (hit, v, dv_law) = match pair {
@@ -230,6 +218,29 @@ pub(super) fn offset_row<E: SampleEstimator>(
         *d = d.map(|v| v * inv_spp);
     }
     Ok(())
+}
+
+/// The σ_t offset pair of sample `p` from its offset sets 0 and 1 (decoder output, S_abs):
+/// S_abs^±·L(x_i^±), and the means of L and of S_abs·∂L/∂α over the pair.
+#[inline]
+fn offset_pair(
+    scene: &LearnedScene,
+    view: &ViewRays,
+    p: &Pending,
+    k: &Consts,
+    offsets: &[([f32; POSITION_DIM], f32); 4],
+) -> (f32, f32, f32, f32) {
+    let c = p.channel as usize;
+    let ([hi, lo], [st_hi, st_lo]) = (k.sn_t[c], k.st_t[c]);
+    let ((yp, sp), (ym, sm)) = (offsets[0], offsets[1]);
+    let (vp, dvp) = offset_light(scene, view, p, yp, (hi, st_hi));
+    let (vm, dvm) = offset_light(scene, view, p, ym, (lo, st_lo));
+    (
+        sp * vp,
+        sm * vm,
+        0.5 * (vp + vm),
+        0.5 * (sp * dvp + sm * dvm),
+    )
 }
 
 /// The networks of offset set `j` on the row's samples (same z): the descriptor (and, for the α

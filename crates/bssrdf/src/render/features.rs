@@ -6,7 +6,11 @@ use scene::Medium;
 
 use super::{RenderError, channel_sigma_n};
 use crate::fit::ConstraintCloud;
-use crate::polynomial::Poly3;
+use crate::model::FrameConvention;
+use crate::polynomial::{Poly3, align_direction, light_space_frame};
+use base::fresnel::refract;
+use geometry::Frame;
+use glam::Vec3;
 
 /// Per-vertex world-axis polynomials of each colour channel, fitted with the kernel of a medium
 /// (docs/model.md §3.4: once per mesh and channel; SON24 keeps them fixed while σ_t, α change).
@@ -92,3 +96,36 @@ impl VertexFeatures {
 
 /// Step in ln σ_n of the central difference of [`VertexFeatures::fit_with_derivative`].
 pub const DFIT_STEP: f32 = 0.1;
+
+/// The light-space axes (e1, e2, e3) of the shape descriptor and the outgoing frame at a camera
+/// ray's entry point (direction `d`, shading normal `n_o`, boundary η `eta`, local surface
+/// `poly`), in the model's frame `convention` (docs/model.md A4): VKJ19 rotates into the frame
+/// of the refracted ray, aligned with the polynomial's normal; SON24 into the camera ray's.
+#[inline]
+pub(crate) fn light_space(
+    convention: FrameConvention,
+    d: Vec3,
+    n_o: Vec3,
+    eta: f32,
+    poly: &Poly3,
+) -> ([Vec3; 3], Frame) {
+    match convention {
+        FrameConvention::Vkj19 => {
+            let d_in = if eta == 1.0 {
+                d
+            } else {
+                refract(d, n_o, eta).unwrap_or(d)
+            };
+            let d_in = match poly.normal() {
+                Some(n_p) => align_direction(d_in, n_o, n_p),
+                None => d_in,
+            };
+            let f = light_space_frame(d_in);
+            ([f.s, f.t, f.n], f)
+        }
+        FrameConvention::Son24Compat => {
+            let f = Frame::from_normal(-d);
+            ([-f.s, -f.t, f.n], Frame::from_normal(n_o))
+        }
+    }
+}

@@ -1,4 +1,4 @@
-//! The options of the parametric-bootstrap bias correction (`inverse::recovery::bias_correction`).
+//! The options of the parametric-bootstrap bias correction (`recovery::bias_correction`).
 
 use clap::Args;
 
@@ -53,9 +53,9 @@ impl BiasCorrectionArgs {
     }
 
     /// The library's settings of the correction.
-    pub fn settings(&self) -> inverse::recovery::settings::BiasCorrectionSettings {
-        inverse::recovery::settings::BiasCorrectionSettings {
-            correction: inverse::recovery::BiasCorrection {
+    pub fn settings(&self) -> recovery::settings::BiasCorrectionSettings {
+        recovery::settings::BiasCorrectionSettings {
+            correction: recovery::BiasCorrection {
                 enabled: self.enabled(),
                 steps: self.bias_correction_steps,
                 spp: self.bias_correction_spp,

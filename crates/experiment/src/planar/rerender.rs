@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use inverse::consistency::CheckView;
-use inverse::recovery::Observer;
+use recovery::Observer;
 use scene::{Image, Medium};
 use serde::{Deserialize, Serialize};
 

@@ -4,6 +4,7 @@
 //! squares), each with its medium from the paper's ranges and its scene scaled to the size; the
 //! rig of a case and its mesh.
 
+use scene::setting::Setting;
 use std::path::Path;
 
 use glam::Vec3;
@@ -271,8 +272,9 @@ pub(super) fn mesh_source(
     } else {
         let (mut mesh, _) = geometry::io::load_mesh(mesh_file).with_context(|| {
             format!(
-                "{}: the robustness suite's third shape (run from the repository root, or pass --mesh)",
-                mesh_file.display()
+                "{}: the robustness suite's third shape (run from the repository root, or set {})",
+                mesh_file.display(),
+                Setting::Mesh
             )
         })?;
         let (lo, hi) = mesh.bounds();

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use inverse::optimize::OptimizeConfig;
 
-use super::{Outcome, RobustnessArgs, Targets};
+use super::{Outcome, RobustnessConfig, Targets};
 
 fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
@@ -26,12 +26,12 @@ const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_tru
 
 /// The Markdown header, then a table with its summary per set of cases (index-matched or
 /// dielectric; a heading each when both ran), and the CSV.
-pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, String) {
+pub(super) fn report(a: &RobustnessConfig, outcomes: &[Outcome]) -> (String, String) {
     let mut md = String::new();
-    let (views, res, spp) = if *a.quick {
+    let (views, res, spp) = if a.quick {
         (6, 24, 8)
     } else {
-        (*a.views, *a.res, a.target_spp)
+        (a.views, a.res, a.target_spp)
     };
     let _ = writeln!(
         md,
@@ -41,10 +41,10 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             inverse::forward::ModelKind::Learned => String::new(),
             m => format!("the {m} model, "),
         },
-        if *a.quick { 12 } else { a.budget.iterations },
-        if *a.quick { 4 } else { a.budget.spp },
+        if a.quick { 12 } else { a.budget.iterations },
+        if a.quick { 4 } else { a.budget.spp },
         {
-            let iterations = if *a.quick { 12 } else { a.budget.iterations };
+            let iterations = if a.quick { 12 } else { a.budget.iterations };
             let default = OptimizeConfig::default_refinement(a.model, iterations);
             match a.refine.unwrap_or(default) {
                 0 if a.model == inverse::forward::ModelKind::Learned => {
@@ -59,8 +59,8 @@ pub(super) fn report(a: &RobustnessArgs, outcomes: &[Outcome]) -> (String, Strin
             }
         },
         a.seeds,
-        *a.seed,
-        if *a.quick {
+        a.seed,
+        if a.quick {
             " — QUICK: a smoke test, not a measurement"
         } else {
             ""

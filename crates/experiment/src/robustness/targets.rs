@@ -2,32 +2,29 @@
 //! or by Mitsuba 3 (through `--mitsuba-script`), made once and reused, and which renderers a
 //! run uses.
 
+use scene::setting::Setting;
 use std::path::Path;
 
-use inverse::recovery::Observer;
 use inverse::views::{RenderOpts, make_dataset};
+use recovery::Observer;
 use scene::{Dataset, MeshSource, RenderInfo, SceneDesc};
 
 use super::cases::{mesh_source, rig};
-use super::{Case, RobustnessArgs, Targets};
+use super::{Case, RobustnessConfig, Targets};
 use crate::bail;
 use crate::error::{Context, Result};
 
 /// Render the dataset unless `dir` holds it already.
 pub(super) fn ensure_dataset(
-    a: &RobustnessArgs,
+    a: &RobustnessConfig,
     case: &Case,
     rep: u64,
     targets: Targets,
     dir: &Path,
     obs: &dyn Observer,
 ) -> Result<()> {
-    let spp = if *a.quick { 8 } else { a.target_spp };
-    let (views, res) = if *a.quick {
-        (6, 24)
-    } else {
-        (*a.views, *a.res)
-    };
+    let spp = if a.quick { 8 } else { a.target_spp };
+    let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
         let by_mitsuba = ds
@@ -66,7 +63,7 @@ pub(super) fn ensure_dataset(
                 case.medium,
                 RenderOpts {
                     spp,
-                    seed: *a.seed + rep,
+                    seed: a.seed + rep,
                     max_depth: MAX_DEPTH,
                     shadow: Default::default(),
                 },
@@ -77,7 +74,7 @@ pub(super) fn ensure_dataset(
         }
         Targets::Mitsuba => {
             let mesh = mesh_source(case, &a.mesh, &mesh_dir, true)?;
-            render_with_mitsuba(a, case, mesh, (views, res, spp), *a.seed + rep, dir)?;
+            render_with_mitsuba(a, case, mesh, (views, res, spp), a.seed + rep, dir)?;
         }
     }
     Ok(())
@@ -91,7 +88,7 @@ const MAX_DEPTH: u32 = 128;
 /// into `DIR.mitsuba`, and that is saved as `dir` with PNG previews. A staged render that
 /// finished is reused.
 fn render_with_mitsuba(
-    a: &RobustnessArgs,
+    a: &RobustnessConfig,
     case: &Case,
     mesh: MeshSource,
     (views, res, spp): (usize, u32, u32),
@@ -150,11 +147,12 @@ fn render_with_mitsuba(
 }
 
 /// Whether `--mitsuba-script --check` finds Mitsuba 3: `Ok(version line)` or `Err(why not)`.
-fn mitsuba_available(a: &RobustnessArgs) -> std::result::Result<String, String> {
+fn mitsuba_available(a: &RobustnessConfig) -> std::result::Result<String, String> {
     if !a.mitsuba_script.exists() {
         return Err(format!(
-            "{} not found (run from the repository root, or pass --mitsuba-script)",
-            a.mitsuba_script.display()
+            "{} not found (run from the repository root, or set {})",
+            a.mitsuba_script.display(),
+            Setting::MitsubaScript
         ));
     }
     let out = std::process::Command::new(&a.python)
@@ -173,24 +171,29 @@ fn mitsuba_available(a: &RobustnessArgs) -> std::result::Result<String, String> 
 
 /// The target renderers of this run (`--targets`, or the default: ours, and Mitsuba's when
 /// found and not `--quick`).
-pub(super) fn target_renderers(a: &RobustnessArgs, obs: &dyn Observer) -> Result<Vec<Targets>> {
+pub(super) fn target_renderers(a: &RobustnessConfig, obs: &dyn Observer) -> Result<Vec<Targets>> {
     if let Some(t) = &a.targets {
-        crate::ensure!(!t.is_empty(), "--targets: name volpath, mitsuba or both");
+        crate::ensure!(
+            !t.is_empty(),
+            "{}: name volpath, mitsuba or both",
+            Setting::Targets
+        );
         if t.contains(&Targets::Mitsuba)
             && let Err(why) = mitsuba_available(a)
         {
             bail!(
-                "--targets mitsuba: Mitsuba 3 is not usable: {why}; fix: `pip install mitsuba numpy` \
-                 (on Debian also `apt-get install libllvm19`), or leave mitsuba out"
+                "{} mitsuba: Mitsuba 3 is not usable: {why}; fix: `pip install mitsuba numpy` \
+                 (on Debian also `apt-get install libllvm19`), or leave mitsuba out",
+                Setting::Targets
             );
         }
         return Ok(t.clone());
     }
-    if *a.quick {
+    if a.quick {
         return Ok(vec![Targets::Volpath]);
     }
     // A list of jobs is only the commands.
-    let say = !a.jobs.list_jobs;
+    let say = a.jobs.list.is_none();
     match mitsuba_available(a) {
         Ok(v) => {
             if say {

@@ -12,7 +12,7 @@ use scene::{Camera, Image, Medium, PointLight};
 
 use super::fd::Differencing;
 use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 
 /// The dipole over one mesh.
 pub struct Dipole<'a> {

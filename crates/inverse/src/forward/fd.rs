@@ -15,7 +15,7 @@ use bssrdf::diff::{DiffImages, DiffSettings};
 use scene::{Image, Medium};
 
 use super::TracerEstimator;
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 
 /// The estimator of a model whose choices are `ad` (its own analytic derivatives) and `fd`,
 /// with the steps of the latter.

@@ -18,7 +18,7 @@ use geometry::Accel;
 use scene::{Camera, Image, Medium, PointLight};
 
 use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 
 /// What the learned model is built from ([`super::ModelSpec::Learned`]).
 #[derive(Clone, Copy)]

@@ -14,7 +14,7 @@ use volpath::{Lit, SharedLists, VolpathScene, VolpathSettings};
 
 use super::fd::Differencing;
 use super::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
-use crate::optimize::InverseError;
+use crate::error::InverseError;
 
 /// The volumetric path tracer over one mesh.
 pub struct Volpath<'a> {

@@ -17,6 +17,42 @@ use super::{
 };
 use crate::mlp_grad::dense_backward;
 
+/// The loss of `rows` samples, each term weighted by `w` and scaled by `inv`: the mean squared
+/// error of the decoded exit position `xhat` against `target`, the KL divergence of the
+/// encoder's posterior N(μ, e^{log σ²}) from N(0, I), and the squared error of the absorption
+/// probability sigmoid(logit) against `p_abs`.
+fn loss_parts(
+    rows: usize,
+    (xhat, target): (&[f32], &[f32]),
+    (mu, lv): (&[f32], &[f32]),
+    (logits, p_abs): (&[f32], &[f32]),
+    w: &LossWeights,
+    inv: f32,
+) -> LossParts {
+    let mut parts = LossParts::default();
+    let inv64 = inv as f64;
+    for i in 0..rows {
+        let se: f64 = (0..POSITION_DIM)
+            .map(|k| ((xhat[i * 3 + k] - target[i * 3 + k]) as f64).powi(2))
+            .sum::<f64>()
+            / 3.0;
+        let kl: f64 = (0..LATENT_DIM)
+            .map(|k| {
+                let (m, l) = (mu[i * 4 + k] as f64, lv[i * 4 + k] as f64);
+                0.5 * (m * m + l.exp() - l - 1.0)
+            })
+            .sum();
+        let ae = (sigmoid(logits[i]) as f64 - p_abs[i] as f64).powi(2);
+        parts.position_mse += se * inv64;
+        parts.absorption_mse += ae * inv64;
+        parts.position += w.position as f64 * se * inv64;
+        parts.kl += w.kl as f64 * kl * inv64;
+        parts.absorption += w.absorption as f64 * ae * inv64;
+    }
+    parts.total = parts.position + parts.kl + parts.absorption;
+    parts
+}
+
 /// Loss parts of rows `r` (each divided by the batch size via `inv`); parameter gradients are
 /// added to `grad` (flat order) when given.
 pub(super) fn run(
@@ -72,27 +108,8 @@ pub(super) fn run(
     // Loss.
     let xhat = t.dec.output();
     let logits = t.abs.output();
-    let mut parts = LossParts::default();
-    let inv64 = inv as f64;
-    for i in 0..rows {
-        let se: f64 = (0..POSITION_DIM)
-            .map(|k| ((xhat[i * 3 + k] - target[i * 3 + k]) as f64).powi(2))
-            .sum::<f64>()
-            / 3.0;
-        let kl: f64 = (0..LATENT_DIM)
-            .map(|k| {
-                let (m, l) = (t.mu[i * 4 + k] as f64, t.lv[i * 4 + k] as f64);
-                0.5 * (m * m + l.exp() - l - 1.0)
-            })
-            .sum();
-        let ae = (sigmoid(logits[i]) as f64 - p_abs[i] as f64).powi(2);
-        parts.position_mse += se * inv64;
-        parts.absorption_mse += ae * inv64;
-        parts.position += w.position as f64 * se * inv64;
-        parts.kl += w.kl as f64 * kl * inv64;
-        parts.absorption += w.absorption as f64 * ae * inv64;
-    }
-    parts.total = parts.position + parts.kl + parts.absorption;
+    let (latent, absorption) = ((&t.mu[..], &t.lv[..]), (logits, p_abs));
+    let parts = loss_parts(rows, (xhat, target), latent, absorption, w, inv);
     let Some(grad) = grad else {
         return parts;
     };

@@ -8,9 +8,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::{
-    DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View,
-    camera_from_matrix, load_view_image,
+    DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View, load_view_image,
 };
+use crate::camera::camera_from_matrix;
 use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{

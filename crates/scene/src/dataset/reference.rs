@@ -7,10 +7,8 @@ use std::path::Path;
 use glam::Vec3;
 use serde_json::Value;
 
-use super::{
-    Dataset, DatasetKind, DatasetMetadata, REFERENCE_FILE, View, camera_from_matrix,
-    load_view_image,
-};
+use super::{Dataset, DatasetKind, DatasetMetadata, REFERENCE_FILE, View, load_view_image};
+use crate::camera::camera_from_matrix;
 use crate::rig::check_intensity;
 use crate::scene_file::{RenderInfo, check_finite3, look_at_checked, resolve_mesh_path};
 use crate::{Camera, Medium, MeshSource, Object, PointLight, SceneError};

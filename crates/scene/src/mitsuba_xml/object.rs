@@ -9,7 +9,7 @@ use roxmltree::Node;
 
 use super::values::Doc;
 use super::{elements, plugin_type, props, unknown};
-use crate::scene_file::MeshSource;
+use crate::scene_file::desc::MeshSource;
 use crate::{Medium, SceneError};
 
 /// The translucent object: a mesh shape, its boundary and its interior medium.
@@ -69,8 +69,8 @@ pub(super) fn shape(doc: &Doc, root: Node, n: Node) -> Result<(MeshSource, Mediu
         roughness: roughness as f32,
         ..medium
     };
-    let base = crate::scene_file::base_dir(Path::new(&doc.file));
-    let path = crate::scene_file::resolve_mesh_path(Path::new(&file), &base, &doc.at(n))?;
+    let base = crate::scene_file::parse::base_dir(Path::new(&doc.file));
+    let path = crate::scene_file::parse::resolve_mesh_path(Path::new(&file), &base, &doc.at(n))?;
     let mesh = if to_world == DMat4::IDENTITY {
         MeshSource::File(path)
     } else {

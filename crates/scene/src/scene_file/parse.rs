@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::Deserialize;
 
-use super::{MediumSpec, MeshSource, RenderInfo, Rgb, SceneDesc, ShapeSpec, ViewDesc};
+use super::desc::{MeshSource, RenderInfo, SceneDesc, ViewDesc};
+use super::spec::{MediumSpec, Rgb, ShapeSpec};
 use crate::rig::{Rig, RigLight, check_intensity};
 use crate::{Camera, PointLight, SceneError};
 

@@ -5,6 +5,7 @@
 use glam::Vec3;
 
 use super::*;
+use crate::{Camera, Medium, PointLight};
 
 const FULL_TOML: &str = r#"
 mesh = "meshes/object.ply"

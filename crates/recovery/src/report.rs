@@ -6,8 +6,8 @@ use std::path::Path;
 use scene::image::Image;
 use serde_json::json;
 
-use crate::optimize::{InverseError, IterationRecord, OptimizeConfig};
-use crate::params::Params;
+use inverse::optimize::{InverseError, IterationRecord, OptimizeConfig};
+use inverse::params::Params;
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
@@ -135,8 +135,8 @@ pub fn result_json(
 /// `determined` and `uncertainty` to a `result.json` value.
 pub fn add_assessment(
     result: &mut serde_json::Value,
-    problems: &[crate::health::Problem],
-    uncertainty: Option<&crate::uncertainty::Uncertainty>,
+    problems: &[inverse::health::Problem],
+    uncertainty: Option<&inverse::uncertainty::Uncertainty>,
 ) {
     let obj = result.as_object_mut().expect("result.json is an object");
     obj.insert(
@@ -155,7 +155,7 @@ const WIDE: f64 = 100.0;
 /// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel (in words where it spans orders
 /// of magnitude: `anything above 20.0 fits these images`), and in plain words what the images
 /// leave open and which capture would settle it.
-pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<String> {
+pub fn interval_lines(est: &Params, u: &inverse::uncertainty::Uncertainty) -> Vec<String> {
     const CH: [&str; 3] = ["R", "G", "B"];
     // A bound too large or too small for `p` decimals reads in scientific notation: an interval
     // of a flat valley can span many decades.
@@ -221,7 +221,7 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
              images alone spans more than ±{:.0} %): more views, more samples per iteration, or \
              views with the light beside or behind the object narrow it.",
             open_t.join(", "),
-            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
+            50.0 * (inverse::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     } else if !open_t.is_empty() {
         out.push(format!(
@@ -231,14 +231,14 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
              light at the camera barely does, however many views. More views, or more samples \
              per iteration, narrow the interval of any capture.",
             open_t.join(", "),
-            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
+            50.0 * (inverse::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     }
     if !open_a.is_empty() {
         out.push(format!(
             "α is NOT determined by these images in {} (its interval is wider than ±{}).",
             open_a.join(", "),
-            crate::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
+            inverse::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
         ));
     }
     if u.light_scale.is_some_and(|k| !k.determined) {
@@ -246,7 +246,7 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
             "The light's strength is NOT determined by these images (its interval spans more \
              than ±{:.0} %): a brighter light trades against α (and σ_t). A calibrated light, or \
              a reference of known reflectance in the images, settles it.",
-            50.0 * (crate::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
+            50.0 * (inverse::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     }
     if u.g.is_some_and(|g| !g.determined) {
@@ -255,7 +255,7 @@ pub fn interval_lines(est: &Params, u: &crate::uncertainty::Uncertainty) -> Vec<
              scatters many times only the reduced scattering σ_t·α·(1 − g) shows, so g trades \
              against σ_t and α. Views whose light crossed little of the object (thin parts, \
              grazing or back light) carry the single scattering that sets g.",
-            crate::uncertainty::DETERMINED_G_HALF_WIDTH
+            inverse::uncertainty::DETERMINED_G_HALF_WIDTH
         ));
     }
     out
@@ -309,6 +309,50 @@ pub const CONTACT_COLUMNS: usize = 4;
 mod tests {
     use super::*;
 
+    /// A fixed albedo stays fixed, without an interval, through the widening along the σ_t
+    /// valley and through a correction, and reads as fixed in the report's interval lines.
+    #[test]
+    fn a_fixed_albedo_stays_fixed_and_reads_as_fixed() {
+        use inverse::sensitivity::Sensitivity;
+        use inverse::uncertainty::Uncertainty;
+        let narrow = Some([0.02f64.powi(2), 0.0, 0.0]);
+        let at = Params {
+            sigma_t: [80.0; 3],
+            albedo: [0.9; 3],
+            g: None,
+            light_scale: None,
+        };
+        let mut u = Uncertainty::new(at.sigma_t, at.albedo, [narrow; 3], [narrow; 3], 8);
+        u.albedo = [None; 3];
+        u.sd_albedo = [None; 3];
+        u.determined_albedo = [false; 3];
+        u.fixed = [false, true];
+        let s = Sensitivity {
+            slope: [0.0; 3],
+            learned: [1.0; 3],
+            volpath: [0.5; 3],
+            volpath_se: [0.0; 3],
+            ratio: [2.0; 3],
+            views: vec![0],
+            spp: 16,
+        };
+        let corrected = Params {
+            sigma_t: [82.0; 3],
+            ..at
+        };
+        for (what, v) in [
+            ("widened", u.with_sensitivity(&at, &s)),
+            ("corrected", u.corrected(&at, &corrected)),
+        ] {
+            assert_eq!(v.fixed, [false, true], "{what}");
+            assert_eq!(v.albedo, [None; 3], "{what}");
+            let lines = interval_lines(&at, &v).join("\n");
+            assert!(lines.contains("α = 0.9000 (fixed)"), "{what}: {lines}");
+            assert!(!lines.contains("α is NOT determined"), "{what}: {lines}");
+            assert!(!lines.contains("no finite interval"), "{what}: {lines}");
+        }
+    }
+
     fn record(iteration: u32, view: usize, loss: f64) -> IterationRecord {
         IterationRecord {
             iteration,
@@ -334,7 +378,7 @@ mod tests {
     /// not blamed on a trade with α.
     #[test]
     fn a_fixed_albedo_is_reported_as_fixed() {
-        use crate::uncertainty::Uncertainty;
+        use inverse::uncertainty::Uncertainty;
         let wide = Some([0.3f64.powi(2), 0.0, 0.0]);
         let mut u = Uncertainty::new([72.0; 3], [0.9; 3], [wide; 3], [wide; 3], 4);
         (u.albedo, u.fixed) = ([None; 3], [false, true]);
@@ -355,7 +399,7 @@ mod tests {
     /// "[0.0, 358671928.4]"; bounds of moderately wide ones in scientific notation when small.
     #[test]
     fn a_decades_wide_interval_prints_as_what_it_means() {
-        use crate::uncertainty::Uncertainty;
+        use inverse::uncertainty::Uncertainty;
         let narrow = Some([0.1f64.powi(2), 0.0, 1e-4]);
         let flat = Some([3.9f64.powi(2), 0.0, 1e-4]);
         let u = Uncertainty::new([70.3; 3], [0.9; 3], [narrow, flat, narrow], [narrow; 3], 4);

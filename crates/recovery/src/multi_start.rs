@@ -16,8 +16,8 @@ use super::reuse::{read_json, run_or_reuse};
 use scene::setting::Setting;
 
 use super::{BiasCorrection, Observer, RecoveryConfig, RecoveryError};
-use crate::forward::ModelKind;
-use crate::params::Params;
+use inverse::forward::ModelKind;
+use inverse::params::Params;
 
 /// One start's outcome.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -6,9 +6,9 @@ use std::path::Path;
 use plot::{Band, Figure, Panel, Series};
 
 use super::CHANNELS;
-use crate::optimize::{InverseError, IterationRecord};
-use crate::params::Params;
-use crate::uncertainty::SharedUncertainty;
+use inverse::optimize::{InverseError, IterationRecord};
+use inverse::params::Params;
+use inverse::uncertainty::SharedUncertainty;
 
 /// `convergence.png` and `.svg` beside it: σ_t and α per channel against the iteration, with
 /// the truth dashed and the 95 % interval of this fit shaded when they are known, and the loss
@@ -19,7 +19,7 @@ pub fn write_plots(
     history: &[IterationRecord],
     final_params: &Params,
     truth: Option<&Params>,
-    uncertainty: Option<&crate::uncertainty::Uncertainty>,
+    uncertainty: Option<&inverse::uncertainty::Uncertainty>,
     path: &Path,
 ) -> Result<(), InverseError> {
     let n = history.len();
@@ -173,7 +173,7 @@ fn shared_panels(
     history: &[IterationRecord],
     final_params: &Params,
     truth: Option<&Params>,
-    uncertainty: Option<&crate::uncertainty::Uncertainty>,
+    uncertainty: Option<&inverse::uncertainty::Uncertainty>,
 ) -> Vec<Panel> {
     type Of = fn(&Params) -> Option<f64>;
     let n = history.len();

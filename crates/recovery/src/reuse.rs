@@ -7,7 +7,7 @@ use std::path::Path;
 use scene::setting::Setting;
 
 use super::{Observer, RecoveryConfig, RecoveryError};
-use crate::params::Params;
+use inverse::params::Params;
 
 /// What a finished run reports (from its `result.json`).
 #[derive(Clone, Copy, Debug)]
@@ -112,7 +112,7 @@ pub struct SettingDifference {
 }
 
 /// The top-level settings in which a run's recorded configuration `recorded` differs from
-/// `expected` (both the JSON form of an [`crate::optimize::OptimizeConfig`]), the iteration
+/// `expected` (both the JSON form of an [`inverse::optimize::OptimizeConfig`]), the iteration
 /// count aside: a run may be extended. Numbers compare at f32 precision, as the files write them
 /// either way.
 pub fn differing_settings(

@@ -10,11 +10,11 @@ use super::prepare::Prepared;
 use super::{
     Observer, RecoveryConfig, RecoveryError, bias_correction, estimate_lines, outputs, write_result,
 };
-use crate::forward::ModelKind;
-use crate::optimize::{InverseError, Optimizer};
-use crate::params::Params;
 use crate::report;
-use crate::uncertainty::Uncertainty;
+use inverse::forward::ModelKind;
+use inverse::optimize::{InverseError, Optimizer};
+use inverse::params::Params;
+use inverse::uncertainty::Uncertainty;
 
 /// Runs the loop to the configured iterations, writing checkpoints and `iterations.csv`;
 /// returns the loop's seconds. A run that breaks down numerically leaves its record (the
@@ -52,7 +52,7 @@ pub(super) fn fit(
         report::write_csv(opt.history(), &csv)?;
         let failed = json!({
             "status": "failed",
-            "problems": [crate::health::Problem::NonFinite { detail: e.to_string() }],
+            "problems": [inverse::health::Problem::NonFinite { detail: e.to_string() }],
             "iterations": opt.history().len(),
             "config": opt.config(),
         });

@@ -1,20 +1,20 @@
 //! The recovery's last stage: the reported medium rendered by the volumetric path tracer against
-//! the targets ([`crate::consistency`]), the tracer's own curvature along the σ_t valley
-//! ([`crate::sensitivity`]), which widens the intervals where the learned model is too sure, the
-//! health checks ([`crate::health`]), and the complete result.json with its summary lines.
+//! the targets ([`inverse::consistency`]), the tracer's own curvature along the σ_t valley
+//! ([`inverse::sensitivity`]), which widens the intervals where the learned model is too sure, the
+//! health checks ([`inverse::health`]), and the complete result.json with its summary lines.
 
 use serde_json::json;
 
 use super::prepare::Prepared;
 use super::{Observer, RecoveryConfig, RecoveryError, write_result};
-use crate::consistency::{CheckView, Consistency};
-use crate::forward::ModelKind;
-use crate::health::Problem;
-use crate::optimize::{Optimizer, TargetView};
-use crate::params::Params;
 use crate::report;
-use crate::sensitivity::Sensitivity;
-use crate::uncertainty::Uncertainty;
+use inverse::consistency::{CheckView, Consistency};
+use inverse::forward::ModelKind;
+use inverse::health::Problem;
+use inverse::optimize::{Optimizer, TargetView};
+use inverse::params::Params;
+use inverse::sensitivity::Sensitivity;
+use inverse::uncertainty::Uncertainty;
 
 /// The checks of the reported medium `shown` (intervals `shown_u`; `uncertainty`: the fit's
 /// own), folded into `result`, which is written complete; prints the summary.
@@ -48,7 +48,7 @@ pub(super) fn check(
         .then(|| {
             let views: Vec<_> = check_views.iter().map(|(_, v)| *v).collect();
             let pb = obs.progress(0, "consistency (volumetric path tracer)");
-            let c = crate::consistency::check(
+            let c = inverse::consistency::check(
                 &p.accel,
                 &shown.medium(&p.base),
                 &views,
@@ -86,7 +86,7 @@ pub(super) fn check(
         0 => 0,
         r => c.iterations.saturating_sub(r) as usize,
     };
-    let mut problems = crate::health::assess(
+    let mut problems = inverse::health::assess(
         opt.history(),
         final_from,
         &shown,
@@ -150,7 +150,7 @@ fn sensitivity(
         0,
         "sensitivity along the σ_t valley (volumetric path tracer)",
     );
-    let s = crate::sensitivity::measure(
+    let s = inverse::sensitivity::measure(
         &p.accel,
         &shown.medium(&p.base),
         &views,
@@ -159,7 +159,7 @@ fn sensitivity(
         if u.fixed[1] {
             [0.0; 3]
         } else {
-            crate::sensitivity::valley_slope(&u.bread())
+            inverse::sensitivity::valley_slope(&u.bread())
         },
         check_spp(p),
         check_depth(p),

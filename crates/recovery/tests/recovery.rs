@@ -1,13 +1,13 @@
-//! The recovery behind `optimize` as library code ([`inverse::recovery`]): a dataset folder
+//! The recovery behind `optimize` as library code ([`recovery`]): a dataset folder
 //! rendered by [`inverse::views::render_dataset`] in, `result.json` and the re-renders out; a
-//! second call reuses the finished run; [`inverse::recovery::reuse::finished`] reads it without
+//! second call reuses the finished run; [`recovery::reuse::finished`] reads it without
 //! running, and only for the settings it was made with; a folder holding a run made with other
 //! settings is refused, naming the setting.
 
 use geometry::{Shape, Vec3};
 use indicatif::ProgressBar;
-use inverse::recovery::{self, RecoveryConfig, RecoveryError, Silent};
 use inverse::views::{RenderOpts, render_dataset};
+use recovery::{self, RecoveryConfig, RecoveryError, Silent};
 use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
 use scene::{Camera, Medium, MeshSource, PointLight};
 

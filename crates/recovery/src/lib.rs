@@ -1,7 +1,8 @@
-//! A recovery from a dataset folder into an output folder: the whole of `translucent optimize`
-//! behind one typed configuration ([`RecoveryConfig`]).
+//! The recovery application: a recovery from a dataset folder into an output folder, the whole
+//! of `translucent optimize` behind one typed configuration ([`RecoveryConfig`]), over the
+//! inverse core (`inverse`: the forward models, the loop, the intervals and the checks).
 //!
-//! [`run`] loads the dataset, runs the Adam loop ([`crate::optimize::Optimizer`]) with atomic
+//! [`run`] loads the dataset, runs the Adam loop ([`inverse::optimize::Optimizer`]) with atomic
 //! checkpoints, and writes:
 //!
 //! | file | content |
@@ -13,10 +14,10 @@
 //! | `OUT/final/` | re-renders beside the targets, false-colour differences, a contact sheet |
 //! | `OUT/mitsuba/` | the reported medium as Mitsuba 3 XML: `medium.xml` (boundary and interior), the dataset's scene with it, `object.ply` |
 //!
-//! After the loop: the intervals ([`crate::uncertainty`]), the bias correction of a learned-model
+//! After the loop: the intervals ([`inverse::uncertainty`]), the bias correction of a learned-model
 //! run without refinement ([`bias_correction`]), the consistency check by the volumetric path
-//! tracer ([`crate::consistency`]), the tracer's sensitivity along the σ_t valley
-//! ([`crate::sensitivity`]) and the health checks ([`crate::health`]). Several initialisations
+//! tracer ([`inverse::consistency`]), the tracer's sensitivity along the σ_t valley
+//! ([`inverse::sensitivity`]) and the health checks ([`inverse::health`]). Several initialisations
 //! first with `starts > 1` ([`multi_start`]). [`reuse::run_or_reuse`] is the step of multi-run
 //! commands (experiments, the correction's own recoveries, the starts) that runs, resumes or
 //! reuses a run folder.
@@ -26,14 +27,13 @@
 
 use std::path::{Path, PathBuf};
 
-use indicatif::ProgressBar;
 use scene::Dataset;
 use scene::setting::Setting;
 use serde_json::json;
 
-use crate::optimize::{Checkpoint, InverseError, OptimizeConfig};
-use crate::params::Params;
-use crate::uncertainty::UncertaintySettings;
+use inverse::optimize::{Checkpoint, InverseError, OptimizeConfig};
+use inverse::params::Params;
+use inverse::uncertainty::UncertaintySettings;
 
 pub mod bias_correction;
 mod checks;
@@ -41,10 +41,12 @@ mod fit;
 pub mod multi_start;
 mod outputs;
 mod prepare;
+pub mod report;
 pub mod reuse;
 pub mod settings;
 
 pub use bias_correction::BiasCorrection;
+pub use inverse::observer::{Observer, Silent};
 pub use reuse::{RunResult, run_or_reuse};
 pub use settings::RecoverySettings;
 
@@ -172,24 +174,6 @@ impl From<serde_json::Error> for RecoveryError {
     fn from(source: serde_json::Error) -> Self {
         RecoveryError::Json { path: None, source }
     }
-}
-
-/// Where a recovery reports to: the lines a user reads and the progress bars.
-pub trait Observer: Sync {
-    /// A progress bar of `len` steps (0: no length) labelled `label`.
-    fn progress(&self, len: u64, label: &str) -> ProgressBar;
-    /// One line of the report.
-    fn say(&self, line: &str);
-}
-
-/// An observer that shows nothing.
-pub struct Silent;
-
-impl Observer for Silent {
-    fn progress(&self, _len: u64, _label: &str) -> ProgressBar {
-        ProgressBar::hidden()
-    }
-    fn say(&self, _line: &str) {}
 }
 
 /// The (iterations, refinement) a resumed run goes on with: the configuration's iterations, and

@@ -18,10 +18,10 @@ use bssrdf::render::LearnedSettings;
 use scene::setting::Setting;
 
 use super::{BiasCorrection, RecoveryConfig, RecoveryError};
-use crate::forward::{ModelChoice, ModelKind};
-use crate::optimize::OptimizeConfig;
-use crate::params::{ParamSpec, Params};
-use crate::uncertainty::UncertaintySettings;
+use inverse::forward::{ModelChoice, ModelKind};
+use inverse::optimize::OptimizeConfig;
+use inverse::params::{ParamSpec, Params};
+use inverse::uncertainty::UncertaintySettings;
 
 /// A recovery's settings, nested by concern; [`Default`] is the product's recovery.
 #[derive(Clone, Debug, PartialEq)]
@@ -141,6 +141,78 @@ pub struct BiasCorrectionSettings {
     pub correction: BiasCorrection,
     /// The learned model alone with the correction, instead of the tracer's refinement.
     pub instead_of_refinement: bool,
+}
+
+/// The iterations and samples of a run (the part of [`Schedule`] that runs at another scale
+/// change); by default the product's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Budget {
+    pub iterations: u32,
+    pub spp: u32,
+    pub views_per_iter: usize,
+    pub crop: Option<u32>,
+}
+
+impl Default for Budget {
+    fn default() -> Self {
+        let s = RecoverySettings::default().schedule;
+        Budget {
+            iterations: s.iterations,
+            spp: s.spp,
+            views_per_iter: s.views_per_iter,
+            crop: s.crop,
+        }
+    }
+}
+
+impl Budget {
+    /// Sets the schedule's budget to this one.
+    pub fn apply(&self, s: &mut Schedule) {
+        s.iterations = self.iterations;
+        s.spp = self.spp;
+        s.views_per_iter = self.views_per_iter;
+        s.crop = self.crop;
+    }
+}
+
+/// The forward model, its learned networks' file and the learned renderer's settings (the
+/// estimator aside); by default the product's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LearnedModel {
+    pub kind: ModelKind,
+    /// The learned model's networks from a file instead of the shipped ones.
+    pub file: Option<PathBuf>,
+    pub renderer: LearnedSettings,
+}
+
+impl Default for LearnedModel {
+    fn default() -> Self {
+        let s = RecoverySettings::default();
+        LearnedModel {
+            kind: s.model.kind,
+            file: s.model.file,
+            renderer: s.learned.renderer,
+        }
+    }
+}
+
+impl LearnedModel {
+    /// Sets the model, its file and the learned renderer's settings of `s` to these (the
+    /// estimator stays).
+    pub fn apply(&self, s: &mut RecoverySettings) {
+        s.model.kind = self.kind;
+        s.model.file = self.file.clone();
+        s.learned.renderer = self.renderer;
+    }
+
+    /// One line naming the model and the renderer's settings (report headers).
+    pub fn describe(&self) -> String {
+        let model = self
+            .file
+            .as_ref()
+            .map_or("shipped".to_string(), |p| p.display().to_string());
+        format!("model {model}, {}", self.renderer.describe())
+    }
 }
 
 impl Default for RecoverySettings {

@@ -1,5 +1,5 @@
 //! The parametric-bootstrap correction of a recovered medium (`optimize --bias-correction`;
-//! [`crate::bootstrap`], where the estimator and its iteration are derived).
+//! [`inverse::bootstrap`], where the estimator and its iteration are derived).
 //!
 //! The learned BSSRDF is not the light transport that made the images, so the optimiser's
 //! estimate θ̂ carries a bias b(θ) = F(V(θ)) − θ. Step k simulates the dataset again with the
@@ -23,8 +23,8 @@ use serde_json::json;
 
 use super::reuse::run_or_reuse;
 use super::{Observer, RecoveryConfig, RecoveryError};
-use crate::params::Params;
-use crate::views::{RenderOpts, render_dataset, total_rows};
+use inverse::params::Params;
+use inverse::views::{RenderOpts, render_dataset, total_rows};
 
 /// Whether and how the correction runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,7 +41,7 @@ impl Default for BiasCorrection {
     fn default() -> Self {
         Self {
             enabled: true,
-            steps: crate::bootstrap::DEFAULT_STEPS,
+            steps: inverse::bootstrap::DEFAULT_STEPS,
             spp: None,
         }
     }
@@ -110,7 +110,7 @@ pub fn correct(
         o.uncertainty.views = 0;
         o.consistency_views = 0;
         let refit = run_or_reuse(&o, obs, &format!("bootstrap step {k}"))?;
-        let corrected = crate::bootstrap::bootstrap_step(&current, estimate, &refit.estimate)
+        let corrected = inverse::bootstrap::bootstrap_step(&current, estimate, &refit.estimate)
             .ok_or_else(|| {
                 RecoveryError::Invalid(format!(
                     "{}: the bootstrap recovery is not a valid medium ({:?})",
@@ -118,7 +118,7 @@ pub fn correct(
                     refit.estimate
                 ))
             })?;
-        let (bs, ba) = crate::bootstrap::estimated_bias(&current, &refit.estimate);
+        let (bs, ba) = inverse::bootstrap::estimated_bias(&current, &refit.estimate);
         obs.say(&format!(
             "bootstrap step {k}: bias at σ_t = {:.2?}, α = {:.4?}: σ_t {:+.1?} %, α {:+.4?}; \
              corrected σ_t = {:.2?}, α = {:.4?}",
@@ -194,7 +194,7 @@ pub fn corrected_result(
     mut result: serde_json::Value,
     c: &Correction,
     truth: Option<&Params>,
-    uncertainty: Option<&crate::uncertainty::Uncertainty>,
+    uncertainty: Option<&inverse::uncertainty::Uncertainty>,
 ) -> serde_json::Value {
     let Some(last) = c.steps.last() else {
         return result;

@@ -13,8 +13,8 @@ use geometry::{Shape, Vec3};
 use indicatif::ProgressBar;
 use inverse::forward::{ModelChoice, TracerEstimator};
 use inverse::params::Params;
-use inverse::recovery::{self, RecoveryConfig, Silent};
 use inverse::views::{RenderOpts, render_dataset};
+use recovery::{self, RecoveryConfig, Silent};
 use scene::scene_file::{RenderInfo, SceneDesc, ViewDesc};
 use scene::{Camera, Medium, MeshSource, PointLight};
 

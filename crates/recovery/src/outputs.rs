@@ -10,9 +10,9 @@ use scene::mitsuba_xml::MitsubaExport;
 use scene::{Dataset, Image, Medium};
 
 use super::{Observer, RecoveryConfig, RecoveryError};
-use crate::optimize::Optimizer;
-use crate::params::Params;
 use crate::report;
+use inverse::optimize::Optimizer;
+use inverse::params::Params;
 
 /// Views re-rendered at the end of a run, at most: evenly spread over larger datasets.
 const RERENDER_VIEWS: usize = 48;

@@ -10,10 +10,10 @@ use scene::setting::Setting;
 use scene::{Dataset, Medium, Object};
 
 use super::{RecoveryConfig, RecoveryError, check_resume_settings, resume_budget, select_views};
-use crate::forward::ModelKind;
-use crate::optimize::{Checkpoint, Optimizer, TargetView};
-use crate::params::Params;
-use crate::views::build_accel;
+use inverse::forward::ModelKind;
+use inverse::optimize::{Checkpoint, Optimizer, TargetView};
+use inverse::params::Params;
+use inverse::views::build_accel;
 
 /// What a run works on, loaded and checked.
 pub(super) struct Prepared {
@@ -209,7 +209,7 @@ impl Prepared {
 }
 
 /// Says which unknowns besides σ_t and α the run recovers, where they start and when they move.
-fn say_free(c: &crate::optimize::OptimizeConfig, object: &Object, stated: bool) {
+fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool) {
     if c.params.free_light_scale {
         tracing::info!(
             "the lights' strength is recovered: a factor k on every light's stated intensity, \
