@@ -233,11 +233,12 @@ def _to_world(c):
     return look_at(c["origin"], c["target"], c.get("up", [0.0, 1.0, 0.0]))
 
 
-def _view(c, fov, fov_axis, width, height, light_position, intensity, image):
+def _view(c, fov, fov_axis, width, height, light_position, intensity, image, offset=(0.0, 0.0)):
     return dict(
         to_world=_to_world(c),
         fov=float(fov),
         fov_axis=fov_axis,
+        principal_point_offset=offset,
         width=int(width),
         height=int(height),
         light_position=[float(x) for x in light_position],
@@ -256,16 +257,29 @@ def load_dataset(folder):
         views = []
         for i, v in enumerate(d["views"]):
             c, l = v["camera"], v["light"]
+            fov, offset = c.get("fov_x_deg"), (0.0, 0.0)
+            if "intrinsics" in c:
+                # A calibrated camera (DATASET.md): Mitsuba's principal-point offsets are
+                # fractions of the film, the optical axis meeting it at 1/2 - offset.
+                k = c["intrinsics"]
+                if abs(k["fy"] / k["fx"] - 1.0) > 1e-6:
+                    sys.exit(
+                        f"error: {folder}/dataset.json: views[{i}].camera.intrinsics: fy != fx "
+                        "(non-square pixels) has no Mitsuba perspective sensor"
+                    )
+                fov = math.degrees(2.0 * math.atan(0.5 * c["width"] / k["fx"]))
+                offset = (0.5 - k["cx"] / c["width"], 0.5 - k["cy"] / c["height"])
             views.append(
                 _view(
                     c,
-                    c["fov_x_deg"],
+                    fov,
                     "x",
                     c["width"],
                     c["height"],
                     l["position"],
                     rgb3(l["intensity"], f"views[{i}].light.intensity"),
                     folder / v["image"],
+                    offset,
                 )
             )
         truth = d.get("truth")
@@ -492,6 +506,7 @@ def main():
                 v["width"],
                 v["height"],
                 a.spp,
+                offset=v["principal_point_offset"],
             )
         )
         for v in ds["views"]

@@ -159,7 +159,10 @@ def main():
         params[k_li] = dr.opaque(mi.Color3f, v["intensity"])
         params.update()
         sensor = mi.load_dict(
-            sensor_dict(v["fov"], v["fov_axis"], mi.ScalarTransform4f(v["to_world"]), v["width"], v["height"], per_pass)
+            sensor_dict(
+                v["fov"], v["fov_axis"], mi.ScalarTransform4f(v["to_world"]), v["width"], v["height"],
+                per_pass, offset=v["principal_point_offset"],
+            )
         )
         t0 = time.perf_counter()
         passes = a.spp // per_pass

@@ -22,10 +22,11 @@ import time
 from pathlib import Path
 
 
-def sensor_dict(fov, fov_axis, to_world, width, height, spp, clip=None):
+def sensor_dict(fov, fov_axis, to_world, width, height, spp, clip=None, offset=(0.0, 0.0)):
     """Mitsuba's description of one of our cameras: a perspective sensor (`fov` degrees along
     `fov_axis`), `to_world` an `mi.ScalarTransform4f`, box filter, linear RGB `hdrfilm`,
-    independent sampler at `spp`; `clip` = (near, far) when the folder gives them."""
+    independent sampler at `spp`; `clip` = (near, far) when the folder gives them; `offset` the
+    principal-point offsets (fractions of the film) of a calibrated camera."""
     d = {
         "type": "perspective",
         "fov": fov,
@@ -42,6 +43,8 @@ def sensor_dict(fov, fov_axis, to_world, width, height, spp, clip=None):
     }
     if clip is not None:
         d["near_clip"], d["far_clip"] = clip
+    if tuple(offset) != (0.0, 0.0):
+        d["principal_point_offset_x"], d["principal_point_offset_y"] = offset
     return d
 
 

@@ -5,7 +5,8 @@ reading of the file (and our tracer) against Mitsuba's own.
 
 `--example DIR` first writes an example scene into DIR (an icosphere mesh, object.ply, placed by a
 `to_world` of rotate, scale and translate; a GGX `roughdielectric` with int_ior "water" around an
-HG medium; four sensors with fov along x, along y, along the diagonal and by a focal length; a
+HG medium; five sensors with fov along x, along y, along the diagonal, with an off-centre
+principal point and by a focal length; a
 gaussian reconstruction filter; one point light) and renders that.
 
     python3 tools/mitsuba/render_xml.py --example /tmp/xml-check --spp 1024 --out /tmp/xml-check/mitsuba
@@ -44,6 +45,13 @@ EXAMPLE = """<scene version="3.0.0">
         <string name="fov_axis" value="diagonal"/>
         <transform name="to_world"><lookat origin="-1.5, 1.5, 1.5" target="0.1, 0, 0" up="0, 1, 0"/></transform>
         <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="64"/></film>
+    </sensor>
+    <sensor type="perspective">
+        <float name="fov" value="35"/>
+        <float name="principal_point_offset_x" value="0.15"/>
+        <float name="principal_point_offset_y" value="-0.1"/>
+        <transform name="to_world"><lookat origin="0.4, 0.5, 2.4" target="0.1, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
     </sensor>
     <sensor type="perspective">
         <string name="focal_length" value="70mm"/>

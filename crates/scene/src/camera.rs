@@ -4,12 +4,20 @@
 //! x = normalize(cross(up, z)) (image LEFT), y = cross(z, x) (image up). With t = tan(fov_x/2),
 //! film coordinates (px, py) in pixels (py down):
 //! d_cam = ((1 − 2px/W)·t, (1 − 2py/H)·t·H/W, 1), d_world = normalize(R·d_cam).
+//!
+//! A calibrated camera (COLMAP, OpenCV, a NeRF `transforms.json`) whose principal point is off
+//! the film's centre, or whose pixels are not square, carries its intrinsics ([`Pinhole`]):
+//! d_cam = ((c_x − p_x)/f_x, (c_y − p_y)/f_y, 1) with f_x = W/(2t).
 
 use geometry::{Accel, PixelBins};
 use glam::{Mat3, Vec3};
 
 use crate::SceneError;
 use serde::{Deserialize, Serialize};
+
+mod pinhole;
+
+pub use pinhole::{Intrinsics, Pinhole};
 
 /// A pinhole perspective camera.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -27,6 +35,10 @@ pub struct Camera {
     /// film is `width × height`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<Crop>,
+    /// The intrinsics of a calibrated camera where they differ from the centred, square-pixel
+    /// camera that `fov_x_deg` describes ([`Pinhole`]); `None`: that camera.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pinhole: Option<Pinhole>,
 }
 
 /// [`Camera::ray`] with the camera's constants precomputed (the same arithmetic, bit for bit).
@@ -37,6 +49,8 @@ pub struct RayGen {
     tan_half_fov: f32,
     /// (x0, y0, film width, film height) in pixels.
     film: [f32; 4],
+    /// A calibrated camera's (c_x, c_y, 1/f_x, 1/f_y) in pixels of the full film.
+    pinhole: Option<[f32; 4]>,
 }
 
 impl RayGen {
@@ -46,11 +60,14 @@ impl RayGen {
         let t = self.tan_half_fov;
         let [x0, y0, w, h] = self.film;
         let (px, py) = (px + x0, py + y0);
-        let d = Vec3::new(
-            (1.0 - 2.0 * px / w) * t,
-            (1.0 - 2.0 * py / h) * t * h / w,
-            1.0,
-        );
+        let d = match self.pinhole {
+            None => Vec3::new(
+                (1.0 - 2.0 * px / w) * t,
+                (1.0 - 2.0 * py / h) * t * h / w,
+                1.0,
+            ),
+            Some([cx, cy, ifx, ify]) => Vec3::new((cx - px) * ifx, (cy - py) * ify, 1.0),
+        };
         (self.origin, (self.rotation * d).normalize())
     }
 }
@@ -85,6 +102,7 @@ impl Camera {
             width,
             height,
             crop: None,
+            pinhole: None,
         }
     }
 
@@ -97,11 +115,47 @@ impl Camera {
     /// The constants of [`ray`](Self::ray), computed once for generating many rays.
     pub fn ray_gen(&self) -> RayGen {
         let (x0, y0, w, h) = self.film();
+        let tan_half_fov = (0.5 * self.fov_x_deg.to_radians()).tan();
         RayGen {
             origin: self.origin,
             rotation: self.rotation,
-            tan_half_fov: (0.5 * self.fov_x_deg.to_radians()).tan(),
+            tan_half_fov,
             film: [x0, y0, w, h],
+            pinhole: self.pinhole.map(|p| {
+                let inv_fx = 2.0 * tan_half_fov / w;
+                [p.cx, p.cy, inv_fx, inv_fx / p.aspect]
+            }),
+        }
+    }
+
+    /// The intrinsics (f_x, f_y, c_x, c_y) in pixels of the full film (a crop's included).
+    pub fn intrinsics(&self) -> Intrinsics {
+        let (_, _, w, h) = self.film();
+        let fx = 0.5 * w / (0.5 * self.fov_x_deg.to_radians()).tan();
+        match self.pinhole {
+            None => Intrinsics {
+                fx,
+                fy: fx,
+                cx: 0.5 * w,
+                cy: 0.5 * h,
+            },
+            Some(p) => Intrinsics {
+                fx,
+                fy: fx * p.aspect,
+                cx: p.cx,
+                cy: p.cy,
+            },
+        }
+    }
+
+    /// This camera with the intrinsics `k` (pixels of its full film): the field of view from
+    /// f_x, and a [`Pinhole`] unless `k` is the centred, square-pixel camera.
+    pub fn with_intrinsics(self, k: &Intrinsics) -> Camera {
+        let (_, _, w, h) = self.film();
+        Camera {
+            fov_x_deg: 2.0 * (0.5 * w / k.fx).atan().to_degrees(),
+            pinhole: Pinhole::of(k, w as u32, h as u32),
+            ..self
         }
     }
 
@@ -122,13 +176,22 @@ impl Camera {
         let t = (0.5 * self.fov_x_deg.to_radians()).tan();
         let (x0, y0, w, h) = self.film();
         let (to_cam, origin) = (self.rotation.transpose(), self.origin);
+        let pinhole = self.pinhole.map(|p| {
+            let fx = 0.5 * w / t;
+            [p.cx, p.cy, fx, fx * p.aspect]
+        });
         move |p| {
             let d = to_cam * (p - origin);
             if d.z <= 0.0 {
                 return None;
             }
-            let px = (1.0 - d.x / d.z / t) * 0.5 * w;
-            let py = (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h;
+            let (px, py) = match pinhole {
+                None => (
+                    (1.0 - d.x / d.z / t) * 0.5 * w,
+                    (1.0 - d.y / d.z / (t * h / w)) * 0.5 * h,
+                ),
+                Some([cx, cy, fx, fy]) => (cx - fx * d.x / d.z, cy - fy * d.y / d.z),
+            };
             Some((px - x0, py - y0, d.z))
         }
     }
@@ -215,6 +278,7 @@ impl Camera {
             width,
             height,
             crop: None,
+            pinhole: None,
         }
     }
 
@@ -270,6 +334,10 @@ impl Camera {
                     "= {f}: horizontal field of view must be in (0, 180) degrees; fix: use e.g. 40"
                 ),
             ));
+        }
+        if let Some(p) = &self.pinhole {
+            let (_, _, w, h) = self.film();
+            p.validate(context, w as u32, h as u32)?;
         }
         if !self.origin.is_finite() {
             return Err(bad(
@@ -356,6 +424,74 @@ mod tests {
             w,
             h,
         )
+    }
+
+    fn calibrated(w: u32, h: u32) -> Camera {
+        cam(w, h).with_intrinsics(&Intrinsics {
+            fx: 61.5,
+            fy: 66.0,
+            cx: 0.5 * w as f32 + 7.25,
+            cy: 0.5 * h as f32 - 4.5,
+        })
+    }
+
+    /// A calibrated camera's rays and projections are inverse (a crop's too), and its
+    /// intrinsics read back as given.
+    #[test]
+    fn a_calibrated_camera_projects_its_rays_back_to_their_pixels() {
+        let c = calibrated(64, 48);
+        let k = c.intrinsics();
+        assert!(
+            (k.fx - 61.5).abs() < 1e-3 && (k.fy - 66.0).abs() < 1e-3,
+            "{k:?}"
+        );
+        assert_eq!((k.cx, k.cy), (39.25, 19.5));
+        for cam in [c.clone(), c.cropped(6, 3, 40, 30).unwrap()] {
+            for (px, py) in [(0.0, 0.0), (3.5, 2.25), (21.0, 17.5), (39.9, 29.9)] {
+                let (o, d) = cam.ray(px, py);
+                let (qx, qy) = cam.project(o + 2.5 * d).unwrap();
+                assert!(
+                    (qx - px).abs() < 2e-3 && (qy - py).abs() < 2e-3,
+                    "{px},{py}: {qx},{qy}"
+                );
+            }
+        }
+        // The ray through the principal point is the view direction.
+        let (_, d) = c.ray(k.cx, k.cy);
+        assert!((d - c.direction()).length() < 1e-6, "{d:?}");
+        let back: Camera = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+        assert_eq!(back, c);
+    }
+
+    /// The centred, square-pixel intrinsics are the plain camera (no pinhole, the same rays);
+    /// a principal point moved by whole pixels moves the image by as many pixels.
+    #[test]
+    fn the_centred_intrinsics_are_the_plain_camera() {
+        let plain = cam(64, 48);
+        let same = plain.clone().with_intrinsics(&plain.intrinsics());
+        assert_eq!(same.pinhole, None);
+        assert!((same.fov_x_deg - plain.fov_x_deg).abs() < 1e-4);
+        let k = plain.intrinsics();
+        let shifted = plain.clone().with_intrinsics(&Intrinsics {
+            cx: k.cx + 3.0,
+            cy: k.cy - 2.0,
+            ..k
+        });
+        for (px, py) in [(0.5, 0.5), (10.25, 30.75), (40.0, 20.0)] {
+            let (_, a) = plain.ray(px, py);
+            let (_, b) = shifted.ray(px + 3.0, py - 2.0);
+            assert!((a - b).length() < 1e-6, "{px},{py}: {a:?} {b:?}");
+        }
+        let e = plain
+            .clone()
+            .with_intrinsics(&Intrinsics { cx: 500.0, ..k })
+            .validate("test")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("test.cx") && e.contains("within one image size"),
+            "{e}"
+        );
     }
 
     /// A crop sees exactly what the full camera sees at the shifted pixels, crops compose, and

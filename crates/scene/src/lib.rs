@@ -29,7 +29,7 @@ pub mod rig;
 pub mod scene_file;
 pub mod setting;
 
-pub use camera::{Camera, Crop, RayGen};
+pub use camera::{Camera, Crop, Intrinsics, Pinhole, RayGen};
 pub use dataset::{Dataset, DatasetKind, DatasetMetadata, View, load_reference_folder};
 pub use error::SceneError;
 pub use image::Image;

@@ -11,8 +11,10 @@
 //!   or by `<ref id="…"/>` to a top-level declaration.
 //! - **the cameras**: every `perspective` sensor is a view: `to_world` (`lookat`, `matrix`, …),
 //!   `fov` along `fov_axis` (`x`, `y`, `diagonal`, `smaller`, `larger`) or `focal_length`
-//!   (35 mm equivalent, default 50mm), `hdrfilm` `width` × `height` (default 768 × 576); the
-//!   first sensor's `sample_count` becomes the render's samples per pixel.
+//!   (35 mm equivalent, default 50mm), `principal_point_offset_x`/`_y` (fractions of the film:
+//!   the optical axis meets it at ½ − offset of its size), `hdrfilm` `width` × `height`
+//!   (default 768 × 576); the first sensor's `sample_count` becomes the render's samples per
+//!   pixel.
 //! - **the light**: one `point` emitter (`position` or a `to_world` translation; `intensity` in
 //!   W/sr), lighting every view (a capture with a light per image is one scene file per view).
 //! - the integrator's `max_depth` (−1, Mitsuba's unbounded, leaves the tracer's default), and
@@ -20,7 +22,7 @@
 //!
 //! Refused with a message: other shapes beside the object (a floor, a backdrop), other emitters,
 //! an `exterior` medium, spectra from files or by wavelength, anisotropic or Beckmann roughness,
-//! principal-point offsets and film crops, `<include>`, and any property of these plugins that
+//! film crops, `<include>`, and any property of these plugins that
 //! would change the physics and is not listed above. Ignored, because they do not change the
 //! image the tracer computes: `near_clip`, `far_clip`, the film's `rfilter` and pixel format, the
 //! sampler's type, `rr_depth`, `hide_emitters`, `sample_emitters`, `sample_visible`,
@@ -258,6 +260,7 @@ fn sensor(doc: &Doc, n: Node) -> Result<(Camera, Option<u32>), SceneError> {
         ));
     }
     let (mut fov, mut axis, mut focal) = (None, "x".to_string(), None);
+    let mut offset = [0.0f64; 2];
     let mut to_world = DMat4::IDENTITY;
     let (mut width, mut height, mut spp) = (768u32, 576u32, None);
     for c in elements(n) {
@@ -268,14 +271,8 @@ fn sensor(doc: &Doc, n: Node) -> Result<(Camera, Option<u32>), SceneError> {
             (_, Some("fov_axis")) => axis = doc.string(c)?,
             (_, Some("focal_length")) => focal = Some(focal_length(doc, c)?),
             (_, Some("to_world")) => to_world = doc.transform(c)?,
-            (_, Some(k @ ("principal_point_offset_x" | "principal_point_offset_y"))) => {
-                if doc.float(c)? != 0.0 {
-                    return Err(doc.err(
-                        c,
-                        format!("{k}: an off-centre principal point is not modelled"),
-                    ));
-                }
-            }
+            (_, Some("principal_point_offset_x")) => offset[0] = doc.float(c)?,
+            (_, Some("principal_point_offset_y")) => offset[1] = doc.float(c)?,
             _ => unknown(doc, n, c, &["near_clip", "far_clip", "srf", "id"])?,
         }
     }
@@ -313,6 +310,20 @@ fn sensor(doc: &Doc, n: Node) -> Result<(Camera, Option<u32>), SceneError> {
     let rows = to_world.transpose().to_cols_array_2d();
     let fov_x = (2.0 * tan_x.atan()).to_degrees() as f32;
     let cam = crate::camera::camera_from_matrix(&rows, fov_x, width, height, &doc.at(n))?;
+    if offset == [0.0; 2] {
+        return Ok((cam, spp));
+    }
+    // Mitsuba adds the offsets (fractions of the film) to the film position a ray is sampled
+    // at: the optical axis meets the film at (1/2 − offset) of its size.
+    let k = cam.intrinsics();
+    let cam = cam.with_intrinsics(&crate::camera::Intrinsics {
+        cx: ((0.5 - offset[0]) * w) as f32,
+        cy: ((0.5 - offset[1]) * h) as f32,
+        ..k
+    });
+    if let Some(p) = &cam.pinhole {
+        p.validate(&doc.at(n), width, height)?;
+    }
     Ok((cam, spp))
 }
 

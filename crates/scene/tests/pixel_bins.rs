@@ -80,6 +80,25 @@ fn cameras(center: Vec3, radius: f32) -> Vec<Camera> {
         80,
     );
     out.push(full.cropped(30, 21, 37, 29).unwrap());
+    // A calibrated camera: the principal point off the centre, f_y ≠ f_x; and a crop of it.
+    let k = scene::Intrinsics {
+        fx: 70.0,
+        fy: 77.5,
+        cx: 41.3,
+        cy: 33.9,
+    };
+    let calibrated = Camera::look_at(
+        center + Vec3::new(-0.5, 0.4, 0.9).normalize() * 3.0 * radius,
+        center,
+        Vec3::Y,
+        40.0,
+        64,
+        56,
+    )
+    .with_intrinsics(&k);
+    assert!(calibrated.pinhole.is_some());
+    out.push(calibrated.cropped(5, 9, 41, 30).unwrap());
+    out.push(calibrated);
     out
 }
 

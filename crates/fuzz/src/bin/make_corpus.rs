@@ -359,6 +359,13 @@ seed = 0
         "roughness": 0.2 }, "phase": { "type": "hg", "g": 0.7 } });
     let text = serde_json::to_string_pretty(&doc)?;
     std::fs::write(corpus(Reader::Dataset, "object-rough.json"), text)?;
+    // A calibrated camera (COLMAP's PINHOLE): the principal point off the centre, f_y ≠ f_x.
+    doc["views"][1]["camera"] = serde_json::json!({
+        "origin": [2.0, 0.0, 0.0], "target": [0.0, 0.0, 0.0],
+        "intrinsics": { "fx": 10.5, "fy": 11.0, "cx": 4.75, "cy": 2.5 }, "width": 8, "height": 6
+    });
+    let text = serde_json::to_string_pretty(&doc)?;
+    std::fs::write(corpus(Reader::Dataset, "calibrated.json"), text)?;
 
     // A Mitsuba reference folder as render_reference.py writes it (DATASET.md).
     let img0 = pattern(8, 6, 0.0);

@@ -10,7 +10,7 @@ use serde_json::Value;
 use super::{
     DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View, load_view_image,
 };
-use crate::camera::camera_from_matrix;
+use crate::camera::{Intrinsics, camera_from_matrix};
 use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{
@@ -253,16 +253,105 @@ pub(super) struct RawCamera {
     pub(super) up: Option<[f32; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) to_world: Option<[[f64; 4]; 4]>,
-    pub(super) fov_x_deg: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) fov_x_deg: Option<f32>,
+    /// A calibrated camera's intrinsics, instead of `fov_x_deg`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) intrinsics: Option<RawIntrinsics>,
     pub(super) width: u32,
     pub(super) height: u32,
 }
 
+/// A camera's intrinsic matrix in pixels of its image (DATASET.md).
+#[derive(Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawIntrinsics {
+    pub(super) fx: f32,
+    pub(super) fy: f32,
+    pub(super) cx: f32,
+    pub(super) cy: f32,
+}
+
+impl RawIntrinsics {
+    /// The camera's intrinsics as the file writes them.
+    pub(super) fn of(camera: &Camera) -> Self {
+        let k = camera.intrinsics();
+        RawIntrinsics {
+            fx: k.fx,
+            fy: k.fy,
+            cx: k.cx,
+            cy: k.cy,
+        }
+    }
+
+    /// The intrinsics, checked: positive, finite focal lengths (the principal point and their
+    /// ratio are checked with the camera).
+    fn checked(&self, ctx: &str) -> Result<Intrinsics, SceneError> {
+        for (field, f) in [("fx", self.fx), ("fy", self.fy)] {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(SceneError::Invalid {
+                    location: format!("{ctx}.intrinsics.{field}"),
+                    reason: format!(
+                        "= {f}: a focal length must be a positive number of pixels; fix: give \
+                         the calibration's f in pixels (e.g. COLMAP's PINHOLE fx)"
+                    ),
+                });
+            }
+        }
+        Ok(Intrinsics {
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+        })
+    }
+}
+
 impl RawCamera {
     fn to_camera(&self, ctx: &str) -> Result<Camera, SceneError> {
+        let (fov, k) = match (self.fov_x_deg, &self.intrinsics) {
+            (Some(fov), None) => (fov, None),
+            (None, Some(k)) => {
+                let k = k.checked(ctx)?;
+                (
+                    2.0 * (0.5 * self.width as f32 / k.fx).atan().to_degrees(),
+                    Some(k),
+                )
+            }
+            (Some(_), Some(_)) => {
+                return Err(SceneError::Invalid {
+                    location: format!("{ctx}.fov_x_deg"),
+                    reason: "given together with intrinsics; fix: describe the lens either by \
+                             fov_x_deg or by intrinsics {fx, fy, cx, cy}, not both"
+                        .into(),
+                });
+            }
+            (None, None) => {
+                return Err(SceneError::Invalid {
+                    location: format!("{ctx}.fov_x_deg"),
+                    reason: "missing; fix: give \"fov_x_deg\" (degrees, centred camera) or \
+                             \"intrinsics\": {\"fx\", \"fy\", \"cx\", \"cy\"} (pixels)"
+                        .into(),
+                });
+            }
+        };
+        let camera = self.placed(fov, ctx)?;
+        let Some(k) = k else {
+            return Ok(camera);
+        };
+        let camera = camera.with_intrinsics(&k);
+        if let Some(p) = &camera.pinhole {
+            p.validate(&format!("{ctx}.intrinsics"), self.width, self.height)?;
+        }
+        Ok(camera)
+    }
+
+    /// The camera's placement (`to_world`, or `origin` + `target` + `up`) with the field of view
+    /// `fov`.
+    fn placed(&self, fov: f32, ctx: &str) -> Result<Camera, SceneError> {
         match (&self.to_world, self.origin, self.target) {
             (Some(m), None, None) if self.up.is_none() => {
-                camera_from_matrix(m, self.fov_x_deg, self.width, self.height, ctx)
+                camera_from_matrix(m, fov, self.width, self.height, ctx)
             }
             (Some(_), ..) => Err(SceneError::Invalid {
                 location: format!("{ctx}.to_world"),
@@ -275,7 +364,7 @@ impl RawCamera {
                 o,
                 t,
                 self.up.unwrap_or([0.0, 1.0, 0.0]),
-                self.fov_x_deg,
+                fov,
                 "fov_x_deg",
                 self.width,
                 self.height,

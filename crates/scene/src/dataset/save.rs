@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::json::{RawCamera, RawDataset, RawLight, RawView};
+use super::json::{RawCamera, RawDataset, RawIntrinsics, RawLight, RawView};
 use super::{
     CONVENTIONS_NOTE, DATASET_FILE, DATASET_FORMAT, DATASET_VERSION, Dataset, UNITS_NOTE,
     check_image_size,
@@ -87,7 +87,8 @@ impl Dataset {
                     target: None,
                     up: None,
                     to_world: Some(rows),
-                    fov_x_deg: v.camera.fov_x_deg,
+                    fov_x_deg: v.camera.pinhole.is_none().then_some(v.camera.fov_x_deg),
+                    intrinsics: v.camera.pinhole.map(|_| RawIntrinsics::of(&v.camera)),
                     width: v.camera.width,
                     height: v.camera.height,
                 },

@@ -313,6 +313,76 @@ fn look_at_cameras_load() {
     );
 }
 
+/// A calibrated camera is written as its `intrinsics` block and read back with the same rays;
+/// the block and `fov_x_deg` exclude each other, and bad values name their field.
+#[test]
+fn calibrated_cameras_round_trip_as_intrinsics() {
+    let src = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let mut ds = sample_dataset(src.path());
+    let k = crate::Intrinsics {
+        fx: 14.5,
+        fy: 15.25,
+        cx: 6.75,
+        cy: 3.5,
+    };
+    ds.views[1].camera = ds.views[1].camera.clone().with_intrinsics(&k);
+    ds.save(out.path(), false).unwrap();
+    let text = std::fs::read_to_string(out.path().join("dataset.json")).unwrap();
+    let v: Value = serde_json::from_str(&text).unwrap();
+    assert!(v["views"][0]["camera"]["intrinsics"].is_null());
+    assert!(v["views"][1]["camera"]["fov_x_deg"].is_null());
+    assert_eq!(v["views"][1]["camera"]["intrinsics"]["cx"], 6.75);
+    let back = Dataset::load(out.path()).unwrap();
+    let (a, b) = (&ds.views[1].camera, &back.views[1].camera);
+    let kb = b.intrinsics();
+    assert!(
+        (kb.fx - k.fx).abs() < 1e-4 && (kb.fy - k.fy).abs() < 1e-4,
+        "{kb:?}"
+    );
+    assert_eq!((kb.cx, kb.cy), (k.cx, k.cy));
+    for (px, py) in [(0.5, 0.5), (11.0, 7.5)] {
+        assert!((a.ray(px, py).1 - b.ray(px, py).1).length() < 1e-6);
+    }
+    assert_eq!(back.views[0].camera.pinhole, None);
+    let cases: Vec<(Box<dyn Fn(&mut Value)>, &[&str])> = vec![
+        (
+            Box::new(|v| v["views"][1]["camera"]["fov_x_deg"] = 40.into()),
+            &["views[1].camera.fov_x_deg", "not both"],
+        ),
+        (
+            Box::new(|v| {
+                v["views"][1]["camera"]
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("intrinsics");
+            }),
+            &["views[1].camera.fov_x_deg", "missing", "intrinsics"],
+        ),
+        (
+            Box::new(|v| v["views"][1]["camera"]["intrinsics"]["fx"] = (-3).into()),
+            &["views[1].camera.intrinsics.fx", "positive"],
+        ),
+        (
+            Box::new(|v| v["views"][1]["camera"]["intrinsics"]["cy"] = 100.into()),
+            &["views[1].camera.intrinsics.cy", "within one image size"],
+        ),
+        (
+            Box::new(|v| v["views"][1]["camera"]["intrinsics"]["skew"] = 0.into()),
+            &["unknown field `skew`"],
+        ),
+    ];
+    for (edit, wants) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        ds.save(dir.path(), false).unwrap();
+        edit_json(dir.path(), edit);
+        let msg = load_err(dir.path());
+        for w in wants {
+            assert!(msg.contains(w), "{msg:?} should contain {w:?}");
+        }
+    }
+}
+
 /// A dataset.json's object block is read, written back, and checked against its truth.
 #[test]
 fn dataset_object_block_round_trips_and_must_agree_with_truth() {

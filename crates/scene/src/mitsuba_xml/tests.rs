@@ -41,6 +41,8 @@ const SCENE: &str = r#"<scene version="3.0.0">
     <sensor type="perspective">
         <float name="fov" value="30"/>
         <string name="fov_axis" value="y"/>
+        <float name="principal_point_offset_x" value="0.125"/>
+        <float name="principal_point_offset_y" value="-0.0625"/>
         <transform name="to_world"><lookat origin="4, 0, 0" target="0, 0, 0" up="0, 1, 0"/></transform>
         <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="32"/></film>
     </sensor>
@@ -81,6 +83,10 @@ fn a_mitsuba_scene_reads_as_written() {
     let c1 = &s.views[1].camera;
     let tan_x = (c1.fov_x_deg.to_radians() / 2.0).tan();
     assert!((tan_x - 15f32.to_radians().tan() * 2.0).abs() < 1e-5);
+    // Its principal point: the optical axis meets the film at ½ − offset of its size.
+    let k = c1.intrinsics();
+    assert_eq!((k.cx, k.cy), (24.0, 18.0));
+    assert!((k.fy / k.fx - 1.0).abs() < 1e-6 && c0.pinhole.is_none());
     assert_eq!(s.views[1].light.position, Vec3::new(1.0, 2.0, 3.0));
     assert_eq!(s.views[0].light.intensity, [5.0, 6.0, 7.0]);
     // The shape's to_world: scale by 2, then translate by x = 1.
@@ -144,8 +150,8 @@ fn what_cannot_be_honoured_is_refused_with_the_line_and_the_fix() {
         ),
         (
             r#"<float name="fov" value="40"/>"#,
-            r#"<float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/>"#,
-            "off-centre principal point",
+            r#"<float name="fov" value="40"/><float name="principal_point_offset_x" value="3"/>"#,
+            "the principal point must lie within one image size",
         ),
         (
             r#"<rgb name="albedo" value="0.9, 0.8, 0.7"/>"#,
@@ -184,8 +190,22 @@ fn an_exported_scene_reads_back_as_the_same_scene() {
         assert!(v.camera.rotation.abs_diff_eq(w.camera.rotation, 1e-6));
         assert_eq!(v.camera.origin, w.camera.origin);
         assert!((v.camera.fov_x_deg - w.camera.fov_x_deg).abs() < 1e-4);
+        let (kv, kw) = (v.camera.intrinsics(), w.camera.intrinsics());
+        assert!((kv.cx - kw.cx).abs() < 1e-4 && (kv.cy - kw.cy).abs() < 1e-4);
         assert_eq!(v.light, w.light);
     }
+    // Non-square pixels have no Mitsuba sensor.
+    let mut stretched = s.clone();
+    let k = stretched.views[0].camera.intrinsics();
+    stretched.views[0].camera =
+        (stretched.views[0].camera.clone()).with_intrinsics(&crate::Intrinsics {
+            fy: 1.1 * k.fx,
+            ..k
+        });
+    let e = MitsubaExport::of(&stretched, 64, 32)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("view 0") && e.contains("square pixels"), "{e}");
     let (m0, _) = s.load_mesh().unwrap();
     let (m1, _) = back.load_mesh().unwrap();
     assert_eq!(m0.bounds(), m1.bounds());

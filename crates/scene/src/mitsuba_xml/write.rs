@@ -73,6 +73,19 @@ impl MitsubaExport {
                     .into(),
             });
         }
+        if let Some(i) = desc
+            .views
+            .iter()
+            .position(|v| v.camera.pinhole.is_some_and(|p| p.aspect != 1.0))
+        {
+            return Err(SceneError::Invalid {
+                location: format!("{}: view {i}", desc.path.display()),
+                reason: "a camera whose focal lengths differ along x and y (non-square pixels) \
+                         has no Mitsuba perspective sensor; fix: resample the images to square \
+                         pixels"
+                    .into(),
+            });
+        }
         let (mesh, _) = desc.mesh.load()?;
         let shared = desc.views.iter().all(|v| v.light == desc.views[0].light);
         let files = if shared {
@@ -155,9 +168,21 @@ fn scene_xml(m: &Medium, views: &[ViewDesc], light: PointLight, spp: u32, depth:
             .flatten()
             .map(|x| format!("{x}"))
             .collect();
+        // Mitsuba's principal-point offsets are fractions of the film: the optical axis meets
+        // it at (1/2 − offset) of its size.
+        let k = c.intrinsics();
+        let offsets = match c.pinhole {
+            None => String::new(),
+            Some(_) => format!(
+                "        <float name=\"principal_point_offset_x\" value=\"{}\"/>\n        \
+                 <float name=\"principal_point_offset_y\" value=\"{}\"/>\n",
+                0.5 - k.cx / c.width as f32,
+                0.5 - k.cy / c.height as f32
+            ),
+        };
         let _ = writeln!(
             s,
-            "    <sensor type=\"perspective\">\n        <float name=\"fov\" value=\"{}\"/>\n        \
+            "    <sensor type=\"perspective\">\n        <float name=\"fov\" value=\"{}\"/>\n{offsets}        \
              <string name=\"fov_axis\" value=\"x\"/>\n        <transform name=\"to_world\">\n            \
              <matrix value=\"{}\"/>\n        </transform>\n        <sampler type=\"independent\">\n            \
              <integer name=\"sample_count\" value=\"$spp\"/>\n        </sampler>\n        \

@@ -124,6 +124,7 @@ pub(crate) fn look_at_checked(
         width,
         height,
         crop: None,
+        pinhole: None,
     };
     probe.validate_named(ctx, fov_field)?;
     let cam = Camera::look_at(o, t, u, fov, width, height);
@@ -355,6 +356,7 @@ fn rig_views(r: RawRig, file: &str) -> Result<Vec<ViewDesc>, SceneError> {
         width: r.width,
         height: r.height,
         crop: None,
+        pinhole: None,
     };
     probe.validate_named(&ctx, "fov")?;
     let views = rig.build();
