@@ -10,6 +10,7 @@ mod docs_options;
 mod experiment_cmd;
 mod generate_cmd;
 mod gradcheck_cmd;
+mod import_cmd;
 mod model_cmd;
 mod optimize_cmd;
 mod render_cmd;
@@ -82,6 +83,10 @@ enum Command {
     /// The paper's experiments and the robustness suite, with tables and plots.
     #[command(subcommand)]
     Experiment(experiment_cmd::ExperimentCommand),
+    /// A capture made with other tools (a COLMAP model with its images, mesh and lights) as a
+    /// dataset folder.
+    #[command(subcommand)]
+    Import(import_cmd::ImportCommand),
     /// Shell completions and man pages.
     #[command(subcommand)]
     Generate(generate_cmd::GenerateCommand),
@@ -168,6 +173,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(a) => compare::run(&a.a, &a.b, a.diff.as_deref(), a.overwrite).map(|_| ()),
         Command::ValidateMitsuba(a) => validate::run(&a),
         Command::Experiment(e) => Ok(experiment::run(&e.experiment(), &cmdline::Terminal)?),
+        Command::Import(i) => import_cmd::run(&i),
         Command::Generate(g) => generate_cmd::run(&g, Cli::command()),
         Command::Model(m) => model_cmd::run(&m),
         Command::Train(t) => train_cmd::run(&t),

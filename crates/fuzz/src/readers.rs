@@ -46,11 +46,20 @@ pub enum Reader {
     Tables,
     /// Tensors of the reference weights of Son et al. (`bssrdf::son24::read_bin`).
     Son24Bin,
+    /// COLMAP's `cameras.txt`, beside a fixed `images.txt` (`scene::colmap::ColmapModel::read`
+    /// and every image's camera).
+    ColmapCamerasTxt,
+    /// COLMAP's `images.txt`, beside a fixed `cameras.txt`.
+    ColmapImagesTxt,
+    /// COLMAP's `cameras.bin`, beside a fixed `images.bin`.
+    ColmapCamerasBin,
+    /// COLMAP's `images.bin`, beside a fixed `cameras.bin`.
+    ColmapImagesBin,
 }
 
 impl Reader {
     /// All readers.
-    pub const ALL: [Reader; 14] = [
+    pub const ALL: [Reader; 18] = [
         Reader::Ply,
         Reader::Obj,
         Reader::SceneToml,
@@ -65,6 +74,10 @@ impl Reader {
         Reader::Samples,
         Reader::Tables,
         Reader::Son24Bin,
+        Reader::ColmapCamerasTxt,
+        Reader::ColmapImagesTxt,
+        Reader::ColmapCamerasBin,
+        Reader::ColmapImagesBin,
     ];
 
     /// The reader's name: its corpus is `fuzz/corpus/<name>/`, its fixed companion files
@@ -85,6 +98,10 @@ impl Reader {
             Reader::Samples => "samples",
             Reader::Tables => "tables",
             Reader::Son24Bin => "son24-bin",
+            Reader::ColmapCamerasTxt => "colmap-cameras-txt",
+            Reader::ColmapImagesTxt => "colmap-images-txt",
+            Reader::ColmapCamerasBin => "colmap-cameras-bin",
+            Reader::ColmapImagesBin => "colmap-images-bin",
         }
     }
 
@@ -111,13 +128,21 @@ impl Reader {
             Reader::Samples => "train.samples",
             Reader::Tables => "table.json",
             Reader::Son24Bin => "tensor.bin",
+            Reader::ColmapCamerasTxt => "cameras.txt",
+            Reader::ColmapImagesTxt => "images.txt",
+            Reader::ColmapCamerasBin => "cameras.bin",
+            Reader::ColmapImagesBin => "images.bin",
         }
     }
 
     /// How the reader's files are laid out (for the mutator).
     pub fn layout(self) -> Layout {
         match self {
-            Reader::Ply | Reader::Exr | Reader::Son24Bin => Layout::Binary,
+            Reader::Ply
+            | Reader::Exr
+            | Reader::Son24Bin
+            | Reader::ColmapCamerasBin
+            | Reader::ColmapImagesBin => Layout::Binary,
             // safetensors: u64 header length, then the JSON header.
             Reader::Model => Layout::PrefixedJson {
                 len_at: 0,
@@ -305,6 +330,17 @@ impl Target {
                 }
             }
             Reader::Son24Bin => text(bssrdf::son24::read_bin(input)),
+            Reader::ColmapCamerasTxt
+            | Reader::ColmapImagesTxt
+            | Reader::ColmapCamerasBin
+            | Reader::ColmapImagesBin => {
+                let model =
+                    scene::colmap::ColmapModel::read(&self.dir).map_err(|e| e.to_string())?;
+                for im in &model.images {
+                    model.camera(im).map_err(|e| e.to_string())?;
+                }
+                Ok(())
+            }
         }
     }
 
@@ -312,7 +348,14 @@ impl Target {
     /// the folder.
     pub fn names_input(&self, message: &str) -> bool {
         message.contains(self.reader.input_name())
-            || (matches!(self.reader, Reader::Dataset | Reader::Reference)
-                && message.contains(&self.dir.display().to_string()))
+            || (matches!(
+                self.reader,
+                Reader::Dataset
+                    | Reader::Reference
+                    | Reader::ColmapCamerasTxt
+                    | Reader::ColmapImagesTxt
+                    | Reader::ColmapCamerasBin
+                    | Reader::ColmapImagesBin
+            ) && message.contains(&self.dir.display().to_string()))
     }
 }

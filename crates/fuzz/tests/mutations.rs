@@ -128,3 +128,23 @@ fn tables() {
 fn son24_bin() {
     pass(Reader::Son24Bin);
 }
+
+#[test]
+fn colmap_cameras_txt() {
+    pass(Reader::ColmapCamerasTxt);
+}
+
+#[test]
+fn colmap_images_txt() {
+    pass(Reader::ColmapImagesTxt);
+}
+
+#[test]
+fn colmap_cameras_bin() {
+    pass(Reader::ColmapCamerasBin);
+}
+
+#[test]
+fn colmap_images_bin() {
+    pass(Reader::ColmapImagesBin);
+}

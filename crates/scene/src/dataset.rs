@@ -33,7 +33,7 @@ mod reference_tests;
 mod save;
 #[cfg(test)]
 #[allow(clippy::type_complexity)]
-mod tests;
+pub(crate) mod tests;
 mod xml;
 
 pub use reference::load_reference_folder;

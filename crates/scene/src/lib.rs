@@ -16,6 +16,7 @@
 //!   reference-render folder format (`scene.json` + mesh + `view_XXX.exr`).
 
 pub mod camera;
+pub mod colmap;
 pub mod dataset;
 pub mod error;
 pub mod fsutil;

@@ -11,5 +11,6 @@ mod bad_input;
 mod dataset_render_compare;
 mod demo_validate;
 mod faults;
+mod import;
 mod inverse;
 mod train;

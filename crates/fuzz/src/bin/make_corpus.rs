@@ -44,6 +44,7 @@ fn main() -> Res {
     optimize_checkpoints(&work)?;
     samples_and_train_checkpoints(&work)?;
     son24_bins()?;
+    colmap_models()?;
 
     std::fs::remove_dir_all(&work)?;
     for r in Reader::ALL {
@@ -494,5 +495,82 @@ fn models(repo: &Path) -> Res {
         corpus(Reader::Model, "tiny-cvae.safetensors"),
         bssrdf::model::to_bytes(&model)?,
     )?;
+    Ok(())
+}
+
+/// A COLMAP model as COLMAP writes it, text and binary: a SIMPLE_PINHOLE and a PINHOLE camera
+/// (off-centre, f_y ≠ f_x) and three images (one seen from +z, one turned by 90° about y, one
+/// without 2D points). Each file is a reader's seed, the other file of its format its support.
+fn colmap_models() -> Res {
+    let cameras = [
+        (1u32, 0u32, vec![40.0f64, 32.0, 24.0]),
+        (7, 1, vec![42.0, 44.5, 30.25, 26.5]),
+    ];
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    // (id, rotation q, translation t, camera id, name, 2D points)
+    type Image<'a> = (u32, [f64; 4], [f64; 3], u32, &'a str, u64);
+    let images: [Image; 3] = [
+        (3, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 3.0], 1, "a.jpg", 2),
+        (5, [h, 0.0, h, 0.0], [0.1, -0.2, 2.5], 7, "sub dir/b.JPG", 0),
+        (9, [h, h, 0.0, 0.0], [0.0, 0.0, 2.0], 7, "c.png", 1),
+    ];
+    let mut ct = String::from("# Camera list with one line of data per camera:\n");
+    let mut cb = (cameras.len() as u64).to_le_bytes().to_vec();
+    for (id, model, params) in &cameras {
+        let name = ["SIMPLE_PINHOLE", "PINHOLE"][*model as usize];
+        let p: Vec<String> = params.iter().map(|v| v.to_string()).collect();
+        ct.push_str(&format!("{id} {name} 64 48 {}\n", p.join(" ")));
+        cb.extend(id.to_le_bytes());
+        cb.extend(model.to_le_bytes());
+        cb.extend(64u64.to_le_bytes());
+        cb.extend(48u64.to_le_bytes());
+        for v in params {
+            cb.extend(v.to_le_bytes());
+        }
+    }
+    let mut it = String::from("# Image list with two lines of data per image:\n");
+    let mut ib = (images.len() as u64).to_le_bytes().to_vec();
+    for (id, q, t, cam, name, points) in &images {
+        it.push_str(&format!(
+            "{id} {} {} {} {} {} {} {} {cam} {name}\n",
+            q[0], q[1], q[2], q[3], t[0], t[1], t[2]
+        ));
+        let pts: Vec<String> = (0..*points)
+            .map(|k| format!("{}.5 12.25 {}", k, k as i64 - 1))
+            .collect();
+        it.push_str(&format!("{}\n", pts.join(" ")));
+        ib.extend(id.to_le_bytes());
+        for v in q.iter().chain(t) {
+            ib.extend(v.to_le_bytes());
+        }
+        ib.extend(cam.to_le_bytes());
+        ib.extend(name.as_bytes());
+        ib.push(0);
+        ib.extend(points.to_le_bytes());
+        for k in 0..*points {
+            ib.extend((k as f64 + 0.5).to_le_bytes());
+            ib.extend(12.25f64.to_le_bytes());
+            ib.extend((k as i64 - 1).to_le_bytes());
+        }
+    }
+    for (seed, companion, seed_bytes, support_bytes) in [
+        (
+            Reader::ColmapCamerasTxt,
+            "images.txt",
+            ct.as_bytes(),
+            it.as_bytes(),
+        ),
+        (
+            Reader::ColmapImagesTxt,
+            "cameras.txt",
+            it.as_bytes(),
+            ct.as_bytes(),
+        ),
+        (Reader::ColmapCamerasBin, "images.bin", &cb[..], &ib[..]),
+        (Reader::ColmapImagesBin, "cameras.bin", &ib[..], &cb[..]),
+    ] {
+        std::fs::write(corpus(seed, "two-cameras"), seed_bytes)?;
+        std::fs::write(support(seed, companion), support_bytes)?;
+    }
     Ok(())
 }

@@ -4,7 +4,7 @@
 
 use super::*;
 
-pub(super) fn image(w: u32, h: u32, seed: f32) -> Image {
+pub(crate) fn image(w: u32, h: u32, seed: f32) -> Image {
     let mut img = Image::new(w, h);
     for y in 0..h {
         for x in 0..w {
