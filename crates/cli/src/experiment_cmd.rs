@@ -89,3 +89,48 @@ impl ExperimentCommand {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{accuracy, renderers, robustness};
+    use ::experiment as lib;
+    use cmdline::arg_defaults;
+
+    /// Every experiment's options default to its library settings' `Default`, the one place
+    /// the defaults are written.
+    #[test]
+    fn every_experiment_defaults_to_its_library_settings() {
+        assert_eq!(
+            arg_defaults::<accuracy::AccuracyArgs>(&[]).config(),
+            lib::accuracy::AccuracyConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<accuracy::InitsArgs>(&[]).config(),
+            lib::inits::InitsConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<accuracy::PlanarArgs>(&[]).config(),
+            lib::planar::PlanarConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<robustness::RobustnessArgs>(&[]).config(),
+            lib::robustness::RobustnessConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<renderers::TimingArgs>(&[]).config(),
+            lib::timing::TimingConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<renderers::GradientsArgs>(&[]).config(),
+            lib::gradients::GradientsConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<renderers::VolumetricArgs>(&[]).config(),
+            lib::volumetric::VolumetricConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<renderers::PrbArgs>(&[]).config(),
+            lib::prb::PrbConfig::default()
+        );
+    }
+}

@@ -83,8 +83,7 @@ enum Command {
     /// The paper's experiments and the robustness suite, with tables and plots.
     #[command(subcommand)]
     Experiment(experiment_cmd::ExperimentCommand),
-    /// A capture made with other tools (a COLMAP model with its images, mesh and lights) as a
-    /// dataset folder.
+    /// A COLMAP capture (model, images, mesh, lights) as a dataset folder
     #[command(subcommand)]
     Import(import_cmd::ImportCommand),
     /// Shell completions and man pages.

@@ -38,11 +38,7 @@ mod tests {
             ..OptimizeConfig::default().with_iterations(demo.budget.iterations)
         };
         assert_eq!(config_for(&demo.settings()), expected);
-        // The experiments' options default to the library's settings.
         let exp = experiment::accuracy::AccuracyConfig::default();
-        let accuracy_args =
-            cmdline::arg_defaults::<crate::experiment_cmd::accuracy::AccuracyArgs>(&[]);
-        assert_eq!(accuracy_args.config(), exp);
         let init = Params {
             sigma_t: [50.0; 3],
             albedo: [0.5; 3],
@@ -61,9 +57,6 @@ mod tests {
         assert_eq!(config_for(&run.settings), expected);
         // The robustness suite, which measures the defaults, runs them unchanged.
         let suite = experiment::robustness::RobustnessConfig::default();
-        let suite_args =
-            cmdline::arg_defaults::<crate::experiment_cmd::robustness::RobustnessArgs>(&[]);
-        assert_eq!(suite_args.config(), suite);
         let run = experiment::robustness::run_args(&suite, &d, &d, 0);
         let expected = OptimizeConfig {
             seed: suite.seed,

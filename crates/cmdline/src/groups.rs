@@ -12,6 +12,7 @@ use std::ops::Deref;
 use std::path::PathBuf;
 
 use clap::Arg;
+use clap::builder::OsStr;
 
 /// `--seed`: the base seed of a command's random streams.
 #[derive(clap::Args, Clone, Copy, Debug, PartialEq, Eq)]
@@ -134,12 +135,14 @@ value_of!(Views => count: usize, Resolution => pixels: u32, Spp => samples: u32,
 
 /// A command's own default and help of a flattened group's option (its value parsed as the
 /// group parses it; a required option becomes optional).
-pub fn default_and_help(default: &'static str, text: &'static str) -> impl FnOnce(Arg) -> Arg {
+pub fn default_and_help(default: impl Into<OsStr>, text: &'static str) -> impl FnOnce(Arg) -> Arg {
+    let default = default.into();
     move |a| a.default_value(default).required(false).help(text)
 }
 
 /// A command's own default of a flattened group's option (a required option becomes optional).
-pub fn default(value: &'static str) -> impl FnOnce(Arg) -> Arg {
+pub fn default(value: impl Into<OsStr>) -> impl FnOnce(Arg) -> Arg {
+    let value = value.into();
     move |a| a.default_value(value).required(false)
 }
 

@@ -56,7 +56,7 @@ pub use groups::{Output, Overwrite, Quick, Resolution, Seed, Spp, Views};
 /// The options every command of a program takes (`--threads`, `--quiet`).
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub struct GlobalArgs {
-    /// Worker threads (default: all cores). Same seed and thread count give the same output.
+    /// Worker threads (default: all cores; same seed and threads, same output).
     #[arg(long, global = true)]
     pub threads: Option<usize>,
     /// Less output (no progress bars).

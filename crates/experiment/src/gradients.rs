@@ -44,6 +44,19 @@ pub struct GradientsConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for GradientsConfig {
+    fn default() -> Self {
+        GradientsConfig {
+            out: PathBuf::from("out/experiment-gradients"),
+            res: 256,
+            spp: 64,
+            seed: 0,
+            quick: false,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 /// The estimators compared with the differences.
 const METHODS: [Estimator; 2] = [Estimator::Ours, Estimator::Naive];
 

@@ -35,6 +35,20 @@ pub struct InitsConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for InitsConfig {
+    fn default() -> Self {
+        InitsConfig {
+            out: PathBuf::from("out/experiment-inits"),
+            shape: "blob".into(),
+            inits: 8,
+            budget: Budget::default(),
+            seed: 0,
+            quick: false,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 pub fn run(a: &InitsConfig, obs: &dyn Observer) -> Result<()> {
     if a.inits < 2 {
         bail!(

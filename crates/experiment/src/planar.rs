@@ -57,6 +57,21 @@ pub struct PlanarConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for PlanarConfig {
+    fn default() -> Self {
+        PlanarConfig {
+            out: PathBuf::from("out/experiment-planar"),
+            shapes: ["blob", "torus", "cone"].map(String::from).to_vec(),
+            media: 2,
+            budget: Budget::default(),
+            seed: 0,
+            quick: false,
+            rerender_spp: 512,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 /// The methods compared (paper Fig. 6).
 const METHODS: [&str; 3] = ["ours", "naive", "dipole"];
 

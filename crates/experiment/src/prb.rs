@@ -37,6 +37,19 @@ pub struct PrbConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for PrbConfig {
+    fn default() -> Self {
+        PrbConfig {
+            out: PathBuf::from("out/experiment-prb"),
+            iterations: 300,
+            seed: 1,
+            mitsuba_python: None,
+            quick: false,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 /// σ_t within this relative error (RMS over the channels) counts as converged.
 const CONVERGED: f64 = 0.10;
 

@@ -42,6 +42,22 @@ pub struct TimingConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for TimingConfig {
+    /// The paper's workload: 256² × 32 spp, 16 iterations, seed 3.
+    fn default() -> Self {
+        TimingConfig {
+            out: PathBuf::from("out/experiment-timing"),
+            iterations: 16,
+            spp: 32,
+            res: 256,
+            seed: 3,
+            mitsuba_python: None,
+            quick: false,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 /// What `OUT/timing.json` holds.
 #[derive(Serialize, Deserialize)]
 struct Record {

@@ -36,6 +36,18 @@ pub struct VolumetricConfig {
     pub jobs: super::jobs::Jobs,
 }
 
+impl Default for VolumetricConfig {
+    fn default() -> Self {
+        VolumetricConfig {
+            out: PathBuf::from("out/experiment-volumetric"),
+            iterations: 300,
+            seed: 0,
+            quick: false,
+            jobs: super::jobs::Jobs::default(),
+        }
+    }
+}
+
 /// The true medium: grey, the paper's fixed α.
 const TRUTH: Medium = Medium {
     sigma_t: [80.0; 3],

@@ -11,7 +11,7 @@ use cmdline::optimize::{BiasCorrectionArgs, IterationArgs};
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-accuracy",
+        AccuracyConfig::default().out.display().to_string(),
         "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
     )
 ))]
@@ -19,10 +19,10 @@ use cmdline::optimize::{BiasCorrectionArgs, IterationArgs};
     "seed",
     cmdline::groups::help("Seed of the media, the renders and the runs")
 ))]
-#[command(mut_arg("views", cmdline::groups::default_and_help("40", "Views per dataset")))]
+#[command(mut_arg("views", cmdline::groups::default_and_help(AccuracyConfig::default().views.to_string(), "Views per dataset")))]
 #[command(mut_arg(
     "res",
-    cmdline::groups::default_and_help("256", "Image width and height")
+    cmdline::groups::default_and_help(AccuracyConfig::default().res.to_string(), "Image width and height")
 ))]
 pub struct AccuracyArgs {
     #[command(flatten)]
@@ -30,20 +30,20 @@ pub struct AccuracyArgs {
     /// Built-in shapes (comma-separated: sphere, cone, torus, rounded-box, blob), each with
     /// optional parameters as NAME[:KEY=VALUE]… (the keys of a scene file's `shape` table, e.g.
     /// `blob:amplitude=0.05`; its cases are named `blob-amplitude-0.05-m0`, …).
-    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
+    #[arg(long, default_value = AccuracyConfig::default().shapes.join(","), value_delimiter = ',')]
     pub shapes: Vec<String>,
     /// Hidden media per shape, drawn from the paper's ranges.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = AccuracyConfig::default().media)]
     pub media: u64,
     #[command(flatten)]
     pub views: cmdline::Views,
     #[command(flatten)]
     pub res: cmdline::Resolution,
     /// Samples per pixel of the volumetric target renders.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = AccuracyConfig::default().target_spp)]
     pub target_spp: u32,
     /// Optimisation methods (comma-separated).
-    #[arg(long, default_value = "ours,naive", value_delimiter = ',')]
+    #[arg(long, default_value = AccuracyConfig::default().methods.join(","), value_delimiter = ',')]
     pub methods: Vec<String>,
     #[command(flatten)]
     pub budget: IterationArgs,
@@ -55,7 +55,7 @@ pub struct AccuracyArgs {
     #[arg(long, default_value_t = AccuracyConfig::default().albedo_warmup)]
     pub albedo_warmup: u32,
     /// Random initialisations on one case (`--inits-case`) with the first method (0: none).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = AccuracyConfig::default().inits)]
     pub inits: u32,
     /// The case of the random initialisations (e.g. `torus-m0`; default: the first case).
     #[arg(long)]
@@ -101,7 +101,7 @@ impl AccuracyArgs {
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-inits",
+        InitsConfig::default().out.display().to_string(),
         "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
     )
 ))]
@@ -119,10 +119,10 @@ pub struct InitsArgs {
     #[command(flatten)]
     pub out: cmdline::Output,
     /// The built-in shape of the case (as `experiment accuracy --shapes`).
-    #[arg(long, default_value = "blob")]
+    #[arg(long, default_value = InitsConfig::default().shape)]
     pub shape: String,
     /// Random initialisations.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = InitsConfig::default().inits)]
     pub inits: u32,
     #[command(flatten)]
     pub budget: IterationArgs,
@@ -153,7 +153,7 @@ impl InitsArgs {
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-planar",
+        PlanarConfig::default().out.display().to_string(),
         "Output folder (datasets in OUT/data, runs in OUT/runs; reused by a later run)"
     )
 ))]
@@ -171,10 +171,10 @@ pub struct PlanarArgs {
     #[command(flatten)]
     pub out: cmdline::Output,
     /// Built-in shapes (comma-separated, as `experiment accuracy --shapes`).
-    #[arg(long, default_value = "blob,torus,cone", value_delimiter = ',')]
+    #[arg(long, default_value = PlanarConfig::default().shapes.join(","), value_delimiter = ',')]
     pub shapes: Vec<String>,
     /// Hidden media per shape, drawn from the paper's ranges.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = PlanarConfig::default().media)]
     pub media: u64,
     #[command(flatten)]
     pub budget: IterationArgs,
@@ -184,7 +184,7 @@ pub struct PlanarArgs {
     pub quick: cmdline::Quick,
     /// Samples per pixel of the re-renders of the first view (truth and each estimate, by the
     /// volumetric path tracer; module docs).
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = PlanarConfig::default().rerender_spp)]
     pub rerender_spp: u32,
     #[command(flatten)]
     pub jobs: super::JobArgs,

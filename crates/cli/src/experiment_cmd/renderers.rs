@@ -13,21 +13,21 @@ use experiment::volumetric::VolumetricConfig;
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-timing",
+        TimingConfig::default().out.display().to_string(),
         "Output folder (the dataset in OUT/data; timing.json, timing.md, timing.csv)"
     )
 ))]
 #[command(mut_arg(
     "seed",
-    cmdline::groups::default_and_help("3", "Seed of the medium, the targets and the runs")
+    cmdline::groups::default_and_help(TimingConfig::default().seed.to_string(), "Seed of the medium, the targets and the runs")
 ))]
 #[command(mut_arg(
     "spp",
-    cmdline::groups::default_and_help("32", "Samples per pixel per iteration (the paper: 32)")
+    cmdline::groups::default_and_help(TimingConfig::default().spp.to_string(), "Samples per pixel per iteration (the paper: 32)")
 ))]
 #[command(mut_arg(
     "res",
-    cmdline::groups::default_and_help("256", "Image width and height (the paper: 256)")
+    cmdline::groups::default_and_help(TimingConfig::default().res.to_string(), "Image width and height (the paper: 256)")
 ))]
 #[command(mut_arg(
     "quick",
@@ -37,7 +37,7 @@ pub struct TimingArgs {
     #[command(flatten)]
     pub out: cmdline::Output,
     /// Iterations per model × estimator (the first is not counted).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = TimingConfig::default().iterations)]
     pub iterations: u32,
     #[command(flatten)]
     pub spp: cmdline::Spp,
@@ -72,16 +72,16 @@ impl TimingArgs {
 }
 
 #[derive(Args)]
-#[command(mut_arg("out", cmdline::groups::default("out/experiment-gradients")))]
+#[command(mut_arg("out", cmdline::groups::default(GradientsConfig::default().out.display().to_string())))]
 #[command(mut_arg("seed", cmdline::groups::help("Seed of the renders")))]
 #[command(mut_arg(
     "res",
-    cmdline::groups::default_and_help("256", "Image width and height")
+    cmdline::groups::default_and_help(GradientsConfig::default().res.to_string(), "Image width and height")
 ))]
 #[command(mut_arg(
     "spp",
     cmdline::groups::default_and_help(
-        "64",
+        GradientsConfig::default().spp.to_string(),
         "Samples per pixel of the estimators' derivative renders (the differences: four times)"
     )
 ))]
@@ -122,7 +122,7 @@ impl GradientsArgs {
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-volumetric",
+        VolumetricConfig::default().out.display().to_string(),
         "Output folder (the dataset in OUT/data, runs in OUT/runs)"
     )
 ))]
@@ -137,7 +137,7 @@ pub struct VolumetricArgs {
     #[command(flatten)]
     pub out: cmdline::Output,
     /// Iterations per run.
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = VolumetricConfig::default().iterations)]
     pub iterations: u32,
     #[command(flatten)]
     pub seed: cmdline::Seed,
@@ -164,13 +164,13 @@ impl VolumetricArgs {
 #[command(mut_arg(
     "out",
     cmdline::groups::default_and_help(
-        "out/experiment-prb",
+        PrbConfig::default().out.display().to_string(),
         "Output folder (the dataset in OUT/data, runs in OUT/runs)"
     )
 ))]
 #[command(mut_arg(
     "seed",
-    cmdline::groups::default_and_help("1", "Seed of the medium, the renders and the runs")
+    cmdline::groups::default_and_help(PrbConfig::default().seed.to_string(), "Seed of the medium, the renders and the runs")
 ))]
 #[command(mut_arg(
     "quick",
@@ -182,7 +182,7 @@ pub struct PrbArgs {
     #[command(flatten)]
     pub out: cmdline::Output,
     /// Iterations per run.
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = PrbConfig::default().iterations)]
     pub iterations: u32,
     #[command(flatten)]
     pub seed: cmdline::Seed,

@@ -10,16 +10,16 @@ use cmdline::optimize::{FreeParam, IterationArgs};
 #[derive(Args)]
 #[command(mut_arg(
     "out",
-    cmdline::groups::default_and_help("out/robustness", "Output folder (datasets, runs, tables)")
+    cmdline::groups::default_and_help(RobustnessConfig::default().out.display().to_string(), "Output folder (datasets, runs, tables)")
 ))]
 #[command(mut_arg(
     "seed",
     cmdline::groups::help("Seed of the media (renders and runs use seed + repetition)")
 ))]
-#[command(mut_arg("views", cmdline::groups::default_and_help("24", "Views per dataset")))]
+#[command(mut_arg("views", cmdline::groups::default_and_help(RobustnessConfig::default().views.to_string(), "Views per dataset")))]
 #[command(mut_arg(
     "res",
-    cmdline::groups::default_and_help("128", "Image width and height")
+    cmdline::groups::default_and_help(RobustnessConfig::default().res.to_string(), "Image width and height")
 ))]
 #[command(mut_arg(
     "quick",
@@ -35,11 +35,11 @@ pub struct RobustnessArgs {
     #[command(flatten)]
     pub res: cmdline::Resolution,
     /// Samples per pixel of the volumetric target renders.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = RobustnessConfig::default().target_spp)]
     pub target_spp: u32,
     /// The forward model of the recoveries: `learned` (the default), `volpath` (the volumetric
     /// baseline, `optimize --model volpath`) or `dipole` (the planar dipole baseline).
-    #[arg(long, default_value = "learned")]
+    #[arg(long, default_value_t = RobustnessConfig::default().model)]
     pub model: inverse::forward::ModelKind,
     #[command(flatten)]
     pub budget: IterationArgs,
@@ -65,17 +65,17 @@ pub struct RobustnessArgs {
     #[arg(long, requires = "free")]
     pub init_light_scale: Option<f64>,
     /// Independent repetitions of every case (renders and runs).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = RobustnessConfig::default().seeds)]
     pub seeds: u64,
     /// Which cases: the twelve index-matched, isotropic ones (the default), the nine with a
     /// dielectric boundary and a forward-scattering medium, or all.
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_enum, default_value_t = RobustnessConfig::default().suite)]
     pub suite: Suite,
     /// Only these cases of the suite (names as in the table, e.g. `flash-15-blob`).
     #[arg(long, value_delimiter = ',')]
     pub cases: Option<Vec<String>>,
     /// The mesh file of the third shape.
-    #[arg(long, default_value = "data/meshes/spot.obj")]
+    #[arg(long, default_value_os_t = RobustnessConfig::default().mesh)]
     pub mesh: PathBuf,
     #[command(flatten)]
     pub quick: cmdline::Quick,
@@ -88,10 +88,10 @@ pub struct RobustnessArgs {
     pub targets: Option<Vec<Targets>>,
     /// The script that renders a dataset's views with Mitsuba 3 (`pip install mitsuba numpy`;
     /// on Debian also `apt-get install libllvm19`).
-    #[arg(long, default_value = "tools/mitsuba/render_dataset.py")]
+    #[arg(long, default_value_os_t = RobustnessConfig::default().mitsuba_script)]
     pub mitsuba_script: PathBuf,
     /// The Python interpreter (with Mitsuba 3) that runs `--mitsuba-script`.
-    #[arg(long = "mitsuba-python", default_value = "python3")]
+    #[arg(long = "mitsuba-python", default_value_os_t = RobustnessConfig::default().python)]
     pub python: PathBuf,
     #[command(flatten)]
     pub jobs: super::JobArgs,
