@@ -17,7 +17,7 @@ readers=("$@")
 if [ ${#readers[@]} -eq 0 ]; then
     readers=(ply obj scene-toml scene-json scene-xml dataset reference exr model optimize-checkpoint
              train-checkpoint samples tables son24-bin colmap-cameras-txt colmap-images-txt
-             colmap-cameras-bin colmap-images-bin)
+             colmap-cameras-bin colmap-images-bin transforms-json photo)
 fi
 cargo afl build --release
 export AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1 AFL_AUTORESUME=1

@@ -466,6 +466,9 @@ pub(crate) fn prepare_row(
 
     // Stage 1: camera rays, channel choice, shape descriptor, network inputs, latent samples.
     for x in 0..w {
+        if !view.camera.measures(x, y) {
+            continue;
+        }
         let pixel = y as u64 * w as u64 + x as u64;
         let mut plan = PixelPlan::new(
             scene.settings.sampling,

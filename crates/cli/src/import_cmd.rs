@@ -1,50 +1,87 @@
 //! `translucent import …`: a capture made with other tools as a dataset folder (dataset.json,
-//! the images, the mesh) that `optimize`, `render` and `compare` take.
+//! the images, the masks, the mesh) that `optimize`, `render` and `compare` take.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use glam::Vec3;
 use scene::Object;
-use scene::colmap::{Capture, CaptureLight, ColmapModel};
+use scene::capture::{Capture, CaptureLight, CapturedView};
+use scene::colmap::ColmapModel;
+use scene::image::{PhotoSettings, Transfer};
+use scene::nerf::NerfTransforms;
 
 use cmdline::parse_rgb;
 
 #[derive(Subcommand)]
 pub enum ImportCommand {
     /// A COLMAP sparse model (cameras and images, text or binary: PINHOLE, SIMPLE_PINHOLE, or a
-    /// distortion model with zero distortion) with a linear EXR per image, the object's mesh in
-    /// the model's frame and the light of each image.
+    /// distortion model with zero distortion) with its photos (PNG, JPEG or linear EXR) and
+    /// optional masks, the object's mesh in the model's frame and the light of each image.
     ///
     /// Lengths are the model's own: σ_t comes out in 1/those units. A light of unknown
     /// strength is given as 1 and recovered with `optimize --free light-scale`.
     Colmap(ColmapArgs),
+    /// A NeRF-style transforms.json (Blender scenes, instant-ngp, nerfstudio: camera_angle_x or
+    /// fl_x/fl_y/cx/cy, OpenGL camera-to-world matrices), a light per frame from the file
+    /// (light_position) or the command line, with its images and the object's mesh.
+    Nerf(NerfArgs),
 }
 
 #[derive(Args)]
 #[command(group(clap::ArgGroup::new("light").required(true).args(["flash", "light_positions"])))]
-#[command(mut_arg("out", cmdline::groups::help("The dataset folder to write")))]
-#[command(mut_arg("overwrite", cmdline::groups::help("Replace a dataset in --out")))]
 pub struct ColmapArgs {
     /// The model's folder (e.g. `sparse/0`, or the `sparse` folder `colmap image_undistorter`
     /// writes).
     pub model: PathBuf,
-    /// The folder of linear EXR images, named like the model's images with the extension
-    /// `.exr` (`IMG_0001.JPG` → `IMG_0001.exr`, subfolders kept).
+    /// The folder of images: the model's own (`IMG_0001.JPG`, 8/16-bit PNG or JPEG), or linear
+    /// EXRs named like them (`IMG_0001.exr`), subfolders kept. Saturated pixels leave the fit.
     #[arg(long, value_name = "DIR")]
     pub images: PathBuf,
-    /// The object's mesh (PLY or OBJ) in the model's frame and units (e.g. the
+    #[command(flatten)]
+    pub capture: CaptureArgs,
+}
+
+#[derive(Args)]
+pub struct NerfArgs {
+    /// The transforms.json.
+    pub transforms: PathBuf,
+    /// The folder the frames' file_path are relative to [default: the file's folder].
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
+    #[command(flatten)]
+    pub capture: CaptureArgs,
+}
+
+/// What every capture states beside its cameras.
+#[derive(Args)]
+#[command(mut_arg("out", cmdline::groups::help("The dataset folder to write")))]
+#[command(mut_arg("overwrite", cmdline::groups::help("Replace a dataset in --out")))]
+pub struct CaptureArgs {
+    /// A folder of masks, white where the pixel shows the object (`IMG_0001.JPG.png`, COLMAP's
+    /// naming, or `IMG_0001.png`): the pixels outside leave the fit.
+    #[arg(long, value_name = "DIR")]
+    pub masks: Option<PathBuf>,
+    /// The photos' transfer function [default: srgb for PNG and JPEG; EXR is linear].
+    #[arg(long, value_enum)]
+    pub transfer: Option<Transfer>,
+    /// A scale on every image's linear values (e.g. 2 for photos taken one stop darker than
+    /// the reference exposure).
+    #[arg(long, default_value_t = 1.0)]
+    pub exposure: f32,
+    /// The object's mesh (PLY or OBJ) in the cameras' frame and units (e.g. the
     /// `meshed-poisson.ply` of COLMAP's dense reconstruction).
     #[arg(long, value_name = "FILE")]
     pub mesh: PathBuf,
-    /// A flash fixed to the camera: its offset from the lens in COLMAP's camera frame (x to the
-    /// image's right, y down, z forward), in the model's units (`0,0,0`: at the lens).
+    /// A flash fixed to the camera: its offset from the lens in the camera frame of COLMAP and
+    /// OpenCV (x to the image's right, y down, z forward), in the cameras' units (`0,0,0`: at
+    /// the lens).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_negative_numbers = true)]
     pub flash: Option<Vec3>,
-    /// The light of each image: a text file of lines `NAME X Y Z` (the image's name in the
-    /// model, the light's position in the model's frame).
-    #[arg(long, value_name = "FILE")]
+    /// The light of each image: a text file of lines `NAME X Y Z` (the image's name as the
+    /// cameras' file gives it, the light's position in their frame).
+    #[arg(long, value_name = "FILE", conflicts_with = "flash")]
     pub light_positions: Option<PathBuf>,
     /// The light's radiant intensity in W/sr (one value or R,G,B): relative where it is not
     /// measured (recover its scale with `optimize --free light-scale`).
@@ -82,57 +119,114 @@ fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
 pub fn run(cmd: &ImportCommand) -> Result<()> {
     match cmd {
         ImportCommand::Colmap(a) => colmap(a),
+        ImportCommand::Nerf(a) => nerf(a),
     }
 }
 
 fn colmap(a: &ColmapArgs) -> Result<()> {
     let model = ColmapModel::read(&a.model)?;
-    let light = match (&a.flash, &a.light_positions) {
-        (Some(offset), _) => CaptureLight::Flash { offset: *offset },
-        (None, Some(p)) => CaptureLight::read_positions(p)?,
-        (None, None) => unreachable!("clap requires one of --flash, --light-positions"),
-    };
-    let object = (a.eta.is_some() || a.roughness.is_some() || a.g.is_some()).then(|| Object {
-        eta: a.eta.unwrap_or(1.0),
-        roughness: a.roughness.unwrap_or(0.0),
-        g: a.g.unwrap_or(0.0),
-    });
-    if let Some(o) = &object {
-        o.validate("command line: the object")?;
-    }
-    let capture = Capture {
-        images: a.images.clone(),
-        mesh: a.mesh.clone(),
-        light,
-        intensity: a.intensity,
-        object,
-    };
+    let light = a.capture.light()?.expect("clap requires a light");
+    let capture = a.capture.capture(&a.images, light)?;
     let ds = model.dataset(&capture)?;
-    ds.save(&a.out, *a.overwrite)
-        .with_context(|| format!("writing the dataset {}", a.out.display()))?;
-    println!(
-        "{} views from {} ({} cameras) -> {}",
-        ds.views.len(),
-        model.dir.display(),
-        model.cameras.len(),
-        a.out.display()
+    let from = format!("{} ({} cameras)", model.dir.display(), model.cameras.len());
+    a.capture.save(&ds, &from, "the model's")
+}
+
+fn nerf(a: &NerfArgs) -> Result<()> {
+    let t = NerfTransforms::read(&a.transforms)?;
+    let light = match (a.capture.light()?, t.lights()?) {
+        (Some(l), _) | (None, Some(l)) => l,
+        (None, None) => bail!(
+            "{}: no frame states a light; fix: give --flash X,Y,Z or --light-positions FILE",
+            a.transforms.display()
+        ),
+    };
+    let images = a.images.clone().unwrap_or_else(|| t.dir());
+    let capture = a.capture.capture(&images, light)?;
+    let views: Vec<CapturedView> = t.views(|name| capture.image_size(name))?;
+    let units = format!(
+        "lengths in the units of {} (sigma_t in 1/those units); light intensity in W/sr, \
+         relative unless measured; images linear radiance",
+        a.transforms.display()
     );
-    println!(
-        "object: {}",
-        match &ds.object {
-            Some(o) => o.describe(),
-            None => "nothing stated (a recovery assumes an index-matched, isotropic object)".into(),
+    let fix = "pass the images the poses were made from, or correct w and h";
+    let ds = capture.dataset(&views, units, "transforms.json import", fix)?;
+    a.capture
+        .save(&ds, &a.transforms.display().to_string(), "the file's")
+}
+
+impl CaptureArgs {
+    /// The light the command line states, if it states one.
+    fn light(&self) -> Result<Option<CaptureLight>> {
+        Ok(match (&self.flash, &self.light_positions) {
+            (Some(offset), _) => Some(CaptureLight::Flash { offset: *offset }),
+            (None, Some(p)) => Some(CaptureLight::read_positions(p)?),
+            (None, None) => None,
+        })
+    }
+
+    /// The capture of images in `images` lit by `light`.
+    fn capture(&self, images: &Path, light: CaptureLight) -> Result<Capture> {
+        let object =
+            (self.eta.is_some() || self.roughness.is_some() || self.g.is_some()).then(|| Object {
+                eta: self.eta.unwrap_or(1.0),
+                roughness: self.roughness.unwrap_or(0.0),
+                g: self.g.unwrap_or(0.0),
+            });
+        if let Some(o) = &object {
+            o.validate("command line: the object")?;
         }
-    );
-    println!(
-        "lengths are the model's own units: σ_t comes out in 1/those units; the light's \
-         intensity {:?} W/sr{}",
-        a.intensity,
-        if a.intensity == [1.0; 3] {
-            " (relative: recover its scale with `optimize --free light-scale`)"
-        } else {
-            ""
-        }
-    );
-    Ok(())
+        Ok(Capture {
+            images: images.to_path_buf(),
+            masks: self.masks.clone(),
+            photo: PhotoSettings {
+                transfer: self.transfer,
+                exposure: self.exposure,
+                saturation: None,
+            },
+            mesh: self.mesh.clone(),
+            light,
+            intensity: self.intensity,
+            object,
+        })
+    }
+
+    /// Writes the dataset and says what it holds (`from`: where the cameras came from; `units`:
+    /// whose lengths they are).
+    fn save(&self, ds: &scene::Dataset, from: &str, units: &str) -> Result<()> {
+        ds.save(&self.out, *self.overwrite)
+            .with_context(|| format!("writing the dataset {}", self.out.display()))?;
+        println!(
+            "{} views from {from} -> {}",
+            ds.views.len(),
+            self.out.display()
+        );
+        let (measured, total) = ds.views.iter().fold((0, 0), |(m, t), v| {
+            let n = v.camera.width as usize * v.camera.height as usize;
+            (m + v.camera.mask.as_ref().map_or(n, |k| k.count()), t + n)
+        });
+        println!(
+            "pixels in the fit: {measured} of {total} ({:.1} %; the rest saturated or masked out)",
+            100.0 * measured as f64 / total.max(1) as f64
+        );
+        println!(
+            "object: {}",
+            match &ds.object {
+                Some(o) => o.describe(),
+                None =>
+                    "nothing stated (a recovery assumes an index-matched, isotropic object)".into(),
+            }
+        );
+        println!(
+            "lengths are {units} own units: σ_t comes out in 1/those units; the light's \
+             intensity {:?} W/sr{}",
+            self.intensity,
+            if self.intensity == [1.0; 3] {
+                " (relative: recover its scale with `optimize --free light-scale`)"
+            } else {
+                ""
+            }
+        );
+        Ok(())
+    }
 }

@@ -164,6 +164,9 @@ fn render(
     rows.enumerate()
         .for_each_init(Vec::new, |buf, (y, ((value, d_sigma_t), d_albedo))| {
             for x in 0..w as usize {
+                if !view.camera.measures(x as u32, y as u32) {
+                    continue;
+                }
                 let s = pixel(scene, view, rs, x as u32, y as u32, derivatives, buf);
                 value[x] = s[0].map(|v| (v * inv) as f32);
                 if derivatives {

@@ -55,11 +55,17 @@ pub enum Reader {
     ColmapCamerasBin,
     /// COLMAP's `images.bin`, beside a fixed `cameras.bin`.
     ColmapImagesBin,
+    /// NeRF-style `transforms.json` (`scene::nerf::NerfTransforms::read`, every frame's camera
+    /// and the lights).
+    NerfTransforms,
+    /// Photos and masks, PNG or JPEG by their content (`scene::image::Photo::read`,
+    /// `scene::image::PixelMask::read`).
+    Photo,
 }
 
 impl Reader {
     /// All readers.
-    pub const ALL: [Reader; 18] = [
+    pub const ALL: [Reader; 20] = [
         Reader::Ply,
         Reader::Obj,
         Reader::SceneToml,
@@ -78,6 +84,8 @@ impl Reader {
         Reader::ColmapImagesTxt,
         Reader::ColmapCamerasBin,
         Reader::ColmapImagesBin,
+        Reader::NerfTransforms,
+        Reader::Photo,
     ];
 
     /// The reader's name: its corpus is `fuzz/corpus/<name>/`, its fixed companion files
@@ -102,6 +110,8 @@ impl Reader {
             Reader::ColmapImagesTxt => "colmap-images-txt",
             Reader::ColmapCamerasBin => "colmap-cameras-bin",
             Reader::ColmapImagesBin => "colmap-images-bin",
+            Reader::NerfTransforms => "transforms-json",
+            Reader::Photo => "photo",
         }
     }
 
@@ -132,6 +142,8 @@ impl Reader {
             Reader::ColmapImagesTxt => "images.txt",
             Reader::ColmapCamerasBin => "cameras.bin",
             Reader::ColmapImagesBin => "images.bin",
+            Reader::NerfTransforms => "transforms.json",
+            Reader::Photo => "photo.png",
         }
     }
 
@@ -142,7 +154,8 @@ impl Reader {
             | Reader::Exr
             | Reader::Son24Bin
             | Reader::ColmapCamerasBin
-            | Reader::ColmapImagesBin => Layout::Binary,
+            | Reader::ColmapImagesBin
+            | Reader::Photo => Layout::Binary,
             // safetensors: u64 header length, then the JSON header.
             Reader::Model => Layout::PrefixedJson {
                 len_at: 0,
@@ -340,6 +353,16 @@ impl Target {
                     model.camera(im).map_err(|e| e.to_string())?;
                 }
                 Ok(())
+            }
+            Reader::NerfTransforms => {
+                let t = scene::nerf::NerfTransforms::read(input).map_err(|e| e.to_string())?;
+                text(t.views(|_| Ok((64, 48))))?;
+                text(t.lights())
+            }
+            Reader::Photo => {
+                let settings = scene::image::PhotoSettings::default();
+                text(scene::image::Photo::read(input, &settings))?;
+                text(scene::image::PixelMask::read(input))
             }
         }
     }

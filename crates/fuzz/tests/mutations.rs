@@ -148,3 +148,13 @@ fn colmap_cameras_bin() {
 fn colmap_images_bin() {
     pass(Reader::ColmapImagesBin);
 }
+
+#[test]
+fn photo() {
+    pass(Reader::Photo);
+}
+
+#[test]
+fn transforms_json() {
+    pass(Reader::NerfTransforms);
+}

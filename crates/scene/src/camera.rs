@@ -12,7 +12,10 @@
 use geometry::{Accel, PixelBins};
 use glam::{Mat3, Vec3};
 
+use std::sync::Arc;
+
 use crate::SceneError;
+use crate::image::PixelMask;
 use serde::{Deserialize, Serialize};
 
 mod pinhole;
@@ -39,6 +42,12 @@ pub struct Camera {
     /// camera that `fov_x_deg` describes ([`Pinhole`]); `None`: that camera.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pinhole: Option<Pinhole>,
+    /// The film's pixels that measure the object (over the full film when cropped; a photo's
+    /// saturated or masked-out pixels are clear); `None`: every pixel. Renderers leave the
+    /// others black with zero derivatives ([`Camera::measures`]). Not serialised: it comes with
+    /// the view's images.
+    #[serde(skip)]
+    pub mask: Option<Arc<PixelMask>>,
 }
 
 /// [`Camera::ray`] with the camera's constants precomputed (the same arithmetic, bit for bit).
@@ -103,6 +112,7 @@ impl Camera {
             height,
             crop: None,
             pinhole: None,
+            mask: None,
         }
     }
 
@@ -231,6 +241,19 @@ impl Camera {
         }
     }
 
+    /// Whether this camera's pixel (x, y) measures the object (the mask's bit at the same pixel
+    /// of the full film; true without a mask).
+    #[inline]
+    pub fn measures(&self, x: u32, y: u32) -> bool {
+        match &self.mask {
+            None => true,
+            Some(m) => {
+                let (x0, y0) = self.crop.map_or((0, 0), |c| (c.x0, c.y0));
+                m.get(x0 + x, y0 + y)
+            }
+        }
+    }
+
     /// The camera that renders the `width × height` pixels from (x0, y0) of this camera's
     /// image: its pixel (px, py) sees exactly what pixel (x0 + px, y0 + py) of this one sees.
     pub fn cropped(&self, x0: u32, y0: u32, width: u32, height: u32) -> Result<Camera, SceneError> {
@@ -279,6 +302,7 @@ impl Camera {
             height,
             crop: None,
             pinhole: None,
+            mask: None,
         }
     }
 

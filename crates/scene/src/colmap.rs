@@ -23,12 +23,12 @@ use glam::{DMat3, DQuat, DVec3, Mat3};
 use crate::SceneError;
 use crate::camera::{Camera, Intrinsics};
 
-pub use capture::{Capture, CaptureLight};
+pub use crate::capture::{Capture, CaptureLight, CapturedView};
 
 mod binary;
 mod capture;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod text;
 
 /// One camera of `cameras.txt`/`.bin`: its model's name, its image size and its parameters.
@@ -168,6 +168,7 @@ impl ColmapModel {
             height: cam.height,
             crop: None,
             pinhole: None,
+            mask: None,
         }
         .with_intrinsics(&k);
         camera.validate(&ctx)?;

@@ -17,9 +17,11 @@
 //! dataset folder and `dataset/reference.rs` reads Mitsuba reference folders.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde_json::Value;
 
+use crate::image::{Photo, PhotoSettings, PixelMask};
 use crate::scene_file::desc::{RenderInfo, ViewDesc};
 use crate::scene_file::parse::base_dir;
 use crate::{Camera, Image, Medium, MeshSource, Object, PointLight, SceneDesc, SceneError};
@@ -234,12 +236,9 @@ fn check_image_size(img: &Image, camera: &Camera, location: &str) -> Result<(), 
     Ok(())
 }
 
-fn load_view_image(
-    dir: &Path,
-    name: &str,
-    location: &str,
-    camera: &Camera,
-) -> Result<(Image, PathBuf), SceneError> {
+/// The file `name` names, relative to `dir` unless absolute; an error naming `location` where it
+/// is missing.
+fn resolve(dir: &Path, name: &str, location: &str, what: &str) -> Result<PathBuf, SceneError> {
     let rel = Path::new(name);
     let path = if rel.is_absolute() {
         rel.to_path_buf()
@@ -250,13 +249,100 @@ fn load_view_image(
         return Err(SceneError::Invalid {
             location: format!("{location} = \"{name}\""),
             reason: format!(
-                "image file not found (looked for {}); fix: put the EXR in the dataset folder \
-                 or correct the name",
+                "{what} file not found (looked for {}); fix: put it in the dataset folder or \
+                 correct the name",
                 path.display()
             ),
         });
     }
+    Ok(path)
+}
+
+/// A linear EXR view image, checked against its camera.
+fn load_view_image(
+    dir: &Path,
+    name: &str,
+    location: &str,
+    camera: &Camera,
+) -> Result<(Image, PathBuf), SceneError> {
+    let path = resolve(dir, name, location, "image")?;
     let img = Image::read_exr(&path)?;
     check_image_size(&img, camera, &format!("{location} = \"{name}\""))?;
     Ok((img, path))
+}
+
+/// One view's photo (EXR, PNG or JPEG, [`Photo`]) and its optional mask image, checked against
+/// the camera: the linear image, zero where no pixel is measured, its path, and the measured
+/// pixels where some are not (`None`: all are).
+pub(crate) fn load_view_photo(
+    dir: &Path,
+    name: &str,
+    mask: Option<&str>,
+    photo: &PhotoSettings,
+    location: &str,
+    camera: &Camera,
+) -> Result<(Image, PathBuf, Option<Arc<PixelMask>>), SceneError> {
+    let path = resolve(dir, name, &format!("{location}.image"), "image")?;
+    let mask = match mask {
+        Some(m) => Some(resolve(dir, m, &format!("{location}.mask"), "mask")?),
+        None => None,
+    };
+    let fix = "render the image at the camera's resolution or correct the camera's width/height";
+    let (image, measured) = read_view_photo(&path, mask.as_deref(), photo, location, camera, fix)?;
+    Ok((image, path, measured))
+}
+
+/// A photo at `path` with its optional mask image at `mask`, checked against `camera` (errors
+/// name `location`; `fix` says how to mend an image of another size than the camera's): the
+/// linear image, zero where no pixel is measured, and the measured pixels where some are not
+/// (`None`: all are).
+pub(crate) fn read_view_photo(
+    path: &Path,
+    mask: Option<&Path>,
+    photo: &PhotoSettings,
+    location: &str,
+    camera: &Camera,
+    fix: &str,
+) -> Result<(Image, Option<Arc<PixelMask>>), SceneError> {
+    let mut p = Photo::read(path, photo)?;
+    if (p.image.width, p.image.height) != (camera.width, camera.height) {
+        return Err(SceneError::Invalid {
+            location: path.display().to_string(),
+            reason: format!(
+                "{}×{} pixels, but its camera is {}×{}; fix: {fix}",
+                p.image.width, p.image.height, camera.width, camera.height
+            ),
+        });
+    }
+    let mut measured = p.measured;
+    if let Some(mpath) = mask {
+        let mask = PixelMask::read(mpath)?;
+        if (mask.width, mask.height) != (camera.width, camera.height) {
+            return Err(SceneError::Invalid {
+                location: mpath.display().to_string(),
+                reason: format!(
+                    "the mask is {}×{} but its image is {}×{}; fix: give a mask of the image's \
+                     size",
+                    mask.width, mask.height, camera.width, camera.height
+                ),
+            });
+        }
+        measured = measured.and(&mask);
+    }
+    if measured.count() == 0 {
+        return Err(SceneError::Invalid {
+            location: location.to_string(),
+            reason: format!(
+                "no pixel of this view is measured ({} saturated, the rest masked out or \
+                 transparent); fix: check the mask (white = the object), or lower the exposure \
+                 of the capture",
+                p.saturated
+            ),
+        });
+    }
+    if measured.is_full() {
+        return Ok((p.image, None));
+    }
+    p.image.apply_mask(&measured);
+    Ok((p.image, Some(Arc::new(measured))))
 }

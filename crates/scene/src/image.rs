@@ -15,6 +15,10 @@
 use crate::SceneError;
 
 mod files;
+mod mask;
+mod photo;
+#[cfg(test)]
+mod photo_tests;
 mod stats;
 #[cfg(test)]
 // Numbers copied verbatim from Mitsuba's scene.json.
@@ -22,6 +26,8 @@ mod stats;
 mod tests;
 
 pub use files::to_srgb8;
+pub use mask::PixelMask;
+pub use photo::{PHOTO_MAX_BYTES, Photo, PhotoSettings, Transfer, is_photo_file, srgb_to_linear};
 pub use stats::{PairStats, pair_stats};
 
 /// A linear RGB float image, row-major, row 0 = top.

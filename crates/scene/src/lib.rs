@@ -10,12 +10,15 @@
 //!   roughness) and the phase function (g).
 //! * [`image`]: RGB float images with EXR (linear f32) and PNG (tone-mapped sRGB) I/O.
 //! * [`scene_file`]: the scene file format (TOML or JSON), validated with precise errors.
+//! * [`capture`]: a photographed object (images, masks, lights, mesh) as a dataset, with its
+//!   cameras from [`colmap`] or [`nerf`].
 //! * [`rig`]: multi-view rigs (N views on a Fibonacci sphere, light fixed or attached).
 //! * [`setting`]: the settings library errors ask the user to change, spelled by the front end.
 //! * [`dataset`]: dataset folders (`dataset.json` + EXRs, DATASET.md) and the Mitsuba
 //!   reference-render folder format (`scene.json` + mesh + `view_XXX.exr`).
 
 pub mod camera;
+pub mod capture;
 pub mod colmap;
 pub mod dataset;
 pub mod error;
@@ -25,6 +28,7 @@ pub mod light;
 pub mod loss;
 pub mod medium;
 pub mod mitsuba_xml;
+pub mod nerf;
 pub mod object;
 pub mod rig;
 pub mod scene_file;

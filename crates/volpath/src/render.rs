@@ -184,6 +184,7 @@ impl<'a, T: Tally> Progressive<'a, T> {
         let w = self.camera.width as usize;
         let project = self.camera.projector();
         let rays = self.camera.ray_gen();
+        let camera = &self.camera;
         let scene = &VolpathScene {
             light_bins: self.scene.light_bins.or(self.light_bins.as_ref()),
             ..self.scene
@@ -194,6 +195,9 @@ impl<'a, T: Tally> Progressive<'a, T> {
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, px) in row.iter_mut().enumerate() {
+                    if !camera.measures(x as u32, y as u32) {
+                        continue;
+                    }
                     let s = &mut px.stream;
                     for i in first..first + samples {
                         let (jx, jy) = pixel_jitter(i, px.key, s);

@@ -130,7 +130,7 @@ fn a_colmap_capture_imports_as_the_dataset_it_came_from() {
         back["truth"].is_null() && back["object"].is_null(),
         "{back}"
     );
-    // Nothing is overwritten without permission; the light is required; photos are refused.
+    // Nothing is overwritten without permission; the light is required.
     let again = import(&[]);
     assert_stderr_has(&again, &["already exists", "--overwrite"]);
     let no_light = fails(
@@ -140,7 +140,147 @@ fn a_colmap_capture_imports_as_the_dataset_it_came_from() {
         ],
     );
     assert_stderr_has(&no_light, &["--flash", "--light-positions"]);
-    std::fs::rename(d.join("photos/IMG_002.exr"), d.join("photos/IMG_002.JPG")).unwrap();
-    let photo = import(&["--overwrite", "--eta", "1.4"]);
-    assert_stderr_has(&photo, &["IMG_002.exr", "is a photo", "linear EXR"]);
+    // A photo in place of an EXR (a JPEG, sRGB-decoded, one pixel saturated) and masks in
+    // COLMAP's naming: the pixels they leave out are zero in the dataset, which keeps the masks.
+    std::fs::remove_file(d.join("photos/IMG_002.exr")).unwrap();
+    let mut jpeg = image::RgbImage::from_pixel(12, 12, image::Rgb([90, 90, 90]));
+    // In another 8 × 8 block than the pixel checked below (the JPEG rings within a block).
+    jpeg.put_pixel(1, 10, image::Rgb([255, 255, 255]));
+    jpeg.save_with_format(d.join("photos/IMG_002.JPG"), image::ImageFormat::Jpeg)
+        .unwrap();
+    std::fs::create_dir_all(d.join("masks")).unwrap();
+    for i in 0..3 {
+        image::GrayImage::from_fn(12, 12, |x, _| image::Luma([if x < 6 { 255 } else { 0 }]))
+            .save(d.join(format!("masks/IMG_{i:03}.JPG.png")))
+            .unwrap();
+    }
+    let photo = import(&["--overwrite", "--eta", "1.4", "--masks", "masks"]);
+    assert_eq!(photo.code, Some(0), "{}", photo.describe());
+    // 3 views × 72 pixels inside the masks, less the saturated one.
+    assert_stdout_has(&photo, &["pixels in the fit: 215 of 432 (49.8 %"]);
+    let back = read_json(&d.join("imported/dataset.json"));
+    assert_eq!(back["views"][2]["mask"], "mask_002.png");
+    let img = scene::Image::read_exr(&d.join("imported/view_002.exr")).unwrap();
+    // sRGB 90 is 0.1022 linear (the JPEG's rounding within 5 %).
+    let want = scene::image::srgb_to_linear(90.0 / 255.0);
+    assert!(img.get(7, 3) == [0.0; 3] && img.get(1, 10) == [0.0; 3]);
+    assert!(
+        (img.get(3, 3)[0] - want).abs() < 0.05 * want,
+        "{:?}",
+        img.get(3, 3)
+    );
+    let half = import(&["--overwrite", "--masks", "masks", "--exposure", "0.5"]);
+    assert_eq!(half.code, Some(0), "{}", half.describe());
+    let img = scene::Image::read_exr(&d.join("imported/view_002.exr")).unwrap();
+    assert!(
+        (img.get(3, 3)[0] - 0.5 * want).abs() < 0.025 * want,
+        "{:?}",
+        img.get(3, 3)
+    );
+}
+
+/// A dataset's views written as a NeRF `transforms.json` (OpenGL camera-to-world, x right, y up,
+/// looking along −z; the field of view as `camera_angle_x`; a light per frame), imported back
+/// into the same cameras, lights and images.
+#[test]
+fn a_transforms_json_imports_as_the_dataset_it_came_from() {
+    let dir = tmp();
+    let d = dir.path();
+    write(&d.join("cube.ply"), cube_ply());
+    ok(
+        d,
+        &[
+            "-q", "dataset", "--mesh", "cube.ply", "--views", "2", "--res", "10", "--spp", "4",
+            "--out", "ds",
+        ],
+    );
+    let ds = read_json(&d.join("ds/dataset.json"));
+    let views = ds["views"].as_array().unwrap();
+    let frames: Vec<serde_json::Value> = views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let m = &v["camera"]["to_world"];
+            let e = |r: usize, k: usize| m[r][k].as_f64().unwrap();
+            let rows: Vec<Vec<f64>> = (0..3)
+                .map(|r| vec![-e(r, 0), e(r, 1), -e(r, 2), e(r, 3)])
+                .chain([vec![0.0, 0.0, 0.0, 1.0]])
+                .collect();
+            serde_json::json!({
+                "file_path": format!("view_{i:03}"),
+                "transform_matrix": rows,
+                "light_position": v["light"]["position"],
+            })
+        })
+        .collect();
+    let fov = views[0]["camera"]["fov_x_deg"].as_f64().unwrap();
+    let doc = serde_json::json!({
+        "camera_angle_x": fov.to_radians(),
+        "frames": frames,
+    });
+    write(&d.join("ds/transforms.json"), doc.to_string());
+    let intensity = views[0]["light"]["intensity"][0].to_string();
+    let run = translucent(
+        d,
+        &[
+            "import",
+            "nerf",
+            "ds/transforms.json",
+            "--mesh",
+            "cube.ply",
+            "--intensity",
+            &intensity,
+            "--out",
+            "imported",
+        ],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.describe());
+    assert_stdout_has(&run, &["2 views from ds/transforms.json", "100.0 %"]);
+    let back = read_json(&d.join("imported/dataset.json"));
+    for (i, (v, w)) in views
+        .iter()
+        .zip(back["views"].as_array().unwrap())
+        .enumerate()
+    {
+        let num = |x: &serde_json::Value| x.as_f64().unwrap();
+        for r in 0..3 {
+            for k in 0..4 {
+                let (a, b) = (
+                    num(&v["camera"]["to_world"][r][k]),
+                    num(&w["camera"]["to_world"][r][k]),
+                );
+                assert!((a - b).abs() < 1e-5, "view {i} to_world[{r}][{k}]: {a} {b}");
+            }
+        }
+        let (a, b) = (
+            num(&v["camera"]["fov_x_deg"]),
+            num(&w["camera"]["fov_x_deg"]),
+        );
+        assert!((a - b).abs() < 1e-4, "view {i} fov: {a} {b}");
+        assert_eq!(v["light"], w["light"], "view {i}");
+        let name = format!("view_{i:03}.exr");
+        assert_eq!(
+            read(&d.join("ds").join(&name)),
+            read(&d.join("imported").join(&name))
+        );
+    }
+    // Without a light in the file or on the command line: refused, with the fix.
+    let mut bare = doc.clone();
+    for f in bare["frames"].as_array_mut().unwrap() {
+        f.as_object_mut().unwrap().remove("light_position");
+    }
+    write(&d.join("ds/transforms.json"), bare.to_string());
+    let e = fails(
+        d,
+        &[
+            "import",
+            "nerf",
+            "ds/transforms.json",
+            "--mesh",
+            "cube.ply",
+            "--out",
+            "x",
+        ],
+    );
+    assert_stderr_has(&e, &["no frame states a light", "--flash"]);
 }

@@ -120,7 +120,7 @@ fn model_binary(cams: &[Camera]) -> (Vec<u8>, Vec<u8>) {
     (c, i)
 }
 
-fn assert_same_rays(a: &Camera, b: &Camera) {
+pub(crate) fn assert_same_rays(a: &Camera, b: &Camera) {
     assert_eq!((a.width, a.height), (b.width, b.height));
     assert!(
         (a.origin - b.origin).length() < 1e-5,
@@ -304,6 +304,8 @@ fn a_capture_is_a_dataset() {
         },
         intensity: [2.0; 3],
         object: None,
+        masks: None,
+        photo: Default::default(),
     };
     let ds = model.dataset(&capture).unwrap();
     assert_eq!(ds.views.len(), 3);
@@ -339,17 +341,57 @@ fn a_capture_is_a_dataset() {
         e.contains("lights.txt:1") && e.contains("NAME X Y Z"),
         "{e}"
     );
-    // A photo instead of an EXR, and an image of another size.
+    // The photo itself (8-bit sRGB, with a saturated pixel) instead of an EXR, with masks in
+    // COLMAP's naming (`c.png.png`) and the plain one (`a.png`).
     capture.light = CaptureLight::Flash { offset: Vec3::ZERO };
-    std::fs::rename(images.join("c.exr"), images.join("c.png")).unwrap();
+    std::fs::remove_file(images.join("c.exr")).unwrap();
+    let mut photo = image::RgbImage::from_pixel(64, 48, image::Rgb([188, 188, 188]));
+    photo.put_pixel(3, 2, image::Rgb([255, 10, 10]));
+    photo.save(images.join("c.png")).unwrap();
+    let masks = d.path().join("masks");
+    std::fs::create_dir_all(masks.join("sub dir")).unwrap();
+    let mut m = image::GrayImage::from_pixel(64, 48, image::Luma([255]));
+    m.put_pixel(10, 20, image::Luma([0]));
+    m.save(masks.join("c.png.png")).unwrap();
+    m.save(masks.join("a.png")).unwrap();
+    m.save(masks.join("sub dir/b.png")).unwrap();
+    capture.masks = Some(masks.clone());
+    let ds = model.dataset(&capture).unwrap();
+    let c = &ds.views[2];
+    let mask = c.camera.mask.as_ref().unwrap();
+    assert_eq!(mask.count(), 64 * 48 - 2);
+    assert!(!c.camera.measures(3, 2) && !c.camera.measures(10, 20) && c.camera.measures(0, 0));
+    // sRGB 188/255 is 0.5029 linear; the left-out pixels are zero.
+    let v = c.image.as_ref().unwrap();
+    assert!(
+        (v.get(0, 0)[1] - 0.502886).abs() < 1e-4,
+        "{:?}",
+        v.get(0, 0)
+    );
+    assert_eq!((v.get(3, 2), v.get(10, 20)), ([0.0; 3], [0.0; 3]));
+    // Masks round-trip through a saved dataset.
+    let out = tempfile::tempdir().unwrap();
+    ds.save(out.path(), false).unwrap();
+    let back = Dataset::load(out.path()).unwrap();
+    assert_eq!(back.views[2].camera.mask, c.camera.mask);
+    assert_eq!(back.views[2].image, c.image);
+    // A missing mask, and an image of another size.
+    std::fs::remove_file(masks.join("a.png")).unwrap();
     let e = model.dataset(&capture).unwrap_err().to_string();
     assert!(
-        e.contains("c.exr") && e.contains("is a photo") && e.contains("linear EXR"),
+        e.contains("a.jpg.png") && e.contains("leave the masks out"),
         "{e}"
     );
-    crate::dataset::tests::image(32, 48, 0.2)
-        .write_exr(&images.join("c.exr"), false)
+    capture.masks = None;
+    image::RgbImage::new(32, 48)
+        .save(images.join("c.png"))
         .unwrap();
     let e = model.dataset(&capture).unwrap_err().to_string();
     assert!(e.contains("32×48 pixels") && e.contains("64×48"), "{e}");
+    std::fs::remove_file(images.join("c.png")).unwrap();
+    let e = model.dataset(&capture).unwrap_err().to_string();
+    assert!(
+        e.contains("c.png") && e.contains("c.exr") && e.contains("missing"),
+        "{e}"
+    );
 }

@@ -8,9 +8,10 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::{
-    DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View, load_view_image,
+    DATASET_FORMAT, DATASET_VERSION, Dataset, DatasetKind, DatasetMetadata, View, load_view_photo,
 };
 use crate::camera::{Intrinsics, camera_from_matrix};
+use crate::image::{PhotoSettings, Transfer};
 use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{
@@ -163,9 +164,15 @@ fn load_view(v: RawView, dir: &Path, ctx: &str) -> Result<View, SceneError> {
     let camera = v.camera.to_camera(&format!("{ctx}.camera"))?;
     let position = check_finite3(v.light.position, &format!("{ctx}.light.position"))?;
     check_intensity(&v.light.intensity.0, &format!("{ctx}.light.intensity"))?;
-    let (image, image_path) = load_view_image(dir, &v.image, &format!("{ctx}.image"), &camera)?;
+    let photo = PhotoSettings {
+        transfer: v.transfer,
+        exposure: v.exposure.unwrap_or(1.0),
+        saturation: v.saturation,
+    };
+    let (image, image_path, mask) =
+        load_view_photo(dir, &v.image, v.mask.as_deref(), &photo, ctx, &camera)?;
     Ok(View {
-        camera,
+        camera: Camera { mask, ..camera },
         light: PointLight {
             position,
             intensity: v.light.intensity.0,
@@ -233,6 +240,18 @@ pub(super) struct RawView {
     pub(super) camera: RawCamera,
     pub(super) light: RawLight,
     pub(super) image: String,
+    /// A mask image: white where the pixel measures the object.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) mask: Option<String>,
+    /// The image's transfer function (default: sRGB for PNG/JPEG, linear for EXR).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) transfer: Option<Transfer>,
+    /// The exposure scale k: linear radiance = k · decoded value (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) exposure: Option<f32>,
+    /// An EXR's clipping level: pixels with a channel at or above it leave the loss.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) saturation: Option<f32>,
 }
 
 #[derive(Serialize, Deserialize)]

@@ -373,6 +373,7 @@ fn camera_of(d: &Doc, doc: &Value, name: &str) -> Result<(f32, u32, u32), SceneE
         height,
         crop: None,
         pinhole: None,
+        mask: None,
     };
     probe.validate_named(&format!("{name}: camera"), "fov_deg")?;
     Ok((fov_x, width, height))

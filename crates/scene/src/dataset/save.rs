@@ -74,6 +74,14 @@ impl Dataset {
         for (i, (v, img)) in self.views.iter().zip(&images).enumerate() {
             let exr_name = format!("view_{i:03}.exr");
             img.write_exr(&dir.join(&exr_name), overwrite)?;
+            let mask = match &v.camera.mask {
+                Some(m) => {
+                    let name = format!("mask_{i:03}.png");
+                    m.write_png(&dir.join(&name), overwrite)?;
+                    Some(name)
+                }
+                None => None,
+            };
             img.write_png(&dir.join(format!("view_{i:03}.png")), exposure, overwrite)?;
             // Through the shortest decimal of each f32, so that the file shows "0.8660254", not
             // "0.8660253882408142".
@@ -97,6 +105,10 @@ impl Dataset {
                     intensity: Rgb(v.light.intensity),
                 },
                 image: exr_name,
+                mask,
+                transfer: None,
+                exposure: None,
+                saturation: None,
             });
         }
         let raw = RawDataset {

@@ -23,7 +23,7 @@ pub(crate) fn image(w: u32, h: u32, seed: f32) -> Image {
 }
 
 /// A scene (2 views, mesh file in `src`) turned into a dataset with images.
-pub(super) fn sample_dataset(src: &Path) -> Dataset {
+pub(crate) fn sample_dataset(src: &Path) -> Dataset {
     std::fs::write(
         src.join("object.ply"),
         b"ply\nformat ascii 1.0\nend_header\n",

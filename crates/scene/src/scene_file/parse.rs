@@ -125,6 +125,7 @@ pub(crate) fn look_at_checked(
         height,
         crop: None,
         pinhole: None,
+        mask: None,
     };
     probe.validate_named(ctx, fov_field)?;
     let cam = Camera::look_at(o, t, u, fov, width, height);
@@ -357,6 +358,7 @@ fn rig_views(r: RawRig, file: &str) -> Result<Vec<ViewDesc>, SceneError> {
         height: r.height,
         crop: None,
         pinhole: None,
+        mask: None,
     };
     probe.validate_named(&ctx, "fov")?;
     let views = rig.build();
