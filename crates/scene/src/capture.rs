@@ -158,7 +158,7 @@ impl Capture {
                 Some(dir) => Some(mask_path(dir, &v.name)?),
                 None => None,
             };
-            let location = format!("image {:?}", v.name);
+            let location = format!("image {:?} ({})", v.name, path.display());
             let (image, mask) = read_view_photo(
                 &path,
                 mask.as_deref(),

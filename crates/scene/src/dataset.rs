@@ -288,7 +288,8 @@ pub(crate) fn load_view_photo(
         None => None,
     };
     let fix = "render the image at the camera's resolution or correct the camera's width/height";
-    let (image, measured) = read_view_photo(&path, mask.as_deref(), photo, location, camera, fix)?;
+    let at = format!("{location}.image = \"{name}\"");
+    let (image, measured) = read_view_photo(&path, mask.as_deref(), photo, &at, camera, fix)?;
     Ok((image, path, measured))
 }
 
@@ -307,7 +308,7 @@ pub(crate) fn read_view_photo(
     let mut p = Photo::read(path, photo)?;
     if (p.image.width, p.image.height) != (camera.width, camera.height) {
         return Err(SceneError::Invalid {
-            location: path.display().to_string(),
+            location: location.to_string(),
             reason: format!(
                 "{}×{} pixels, but its camera is {}×{}; fix: {fix}",
                 p.image.width, p.image.height, camera.width, camera.height
