@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
+use scene::measured::{LengthUnit, MeasuredMedium};
 use scene::rig::{Rig, RigLight};
 use scene::{Medium, MeshSource, ShapeSpec};
 
@@ -150,8 +151,18 @@ pub struct MediumArgs {
     pub roughness: f32,
     /// Draw σ_t ~ U[30, 100] and α ~ U[0.8, 0.98] per channel from --seed instead (the
     /// boundary and g as given).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "measured")]
     pub random_medium: bool,
+    /// A measured medium by name instead of --sigma-t and --albedo (Jensen et al. 2001's
+    /// marble, skin1, wholemilk…; Narasimhan et al. 2006's regular-milk, espresso…): its
+    /// reduced scattering and absorption, with --g, in 1/--units (an unknown name lists
+    /// them all).
+    #[arg(long, value_name = "NAME", requires = "units")]
+    pub measured: Option<String>,
+    /// What one unit of the scene is (mm, cm, m): with --measured, the object's size in real
+    /// units (a built-in shape is about 1 unit across: --scale 30 --units mm is a 3 cm object).
+    #[arg(long, value_enum)]
+    pub units: Option<LengthUnit>,
 }
 
 impl MediumArgs {
@@ -159,6 +170,13 @@ impl MediumArgs {
         let (sigma_t, albedo) = if self.random_medium {
             let r = random_medium(seed);
             (r.sigma_t, r.albedo)
+        } else if let (Some(name), Some(unit)) = (&self.measured, self.units) {
+            anyhow::ensure!(
+                self.g < 1.0,
+                "--g {} must be below 1 for a measured medium",
+                self.g
+            );
+            MeasuredMedium::find(name)?.medium(self.g as f64, unit)
         } else {
             (self.sigma_t, self.albedo)
         };
@@ -211,7 +229,7 @@ use inverse::views::{RenderOpts, make_dataset};
 pub fn run(a: &DatasetArgs) -> Result<()> {
     let rig = a.rig.rig()?;
     let medium = a.medium.medium(*a.seed)?;
-    let ds = make_dataset(
+    let mut ds = make_dataset(
         &rig,
         a.rig.mesh_source()?,
         medium,
@@ -225,6 +243,13 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
         *a.overwrite,
         &cmdline::Terminal,
     )?;
+    if let Some(unit) = a.medium.units {
+        // The lengths' unit goes into dataset.json beside the rendered images.
+        ds.metadata.length_unit = Some(unit);
+        ds.metadata.units = None; // the note then names the unit
+
+        ds.save(&a.out, true)?;
+    }
     println!(
         "dataset: {} views of {}×{} at {} spp -> {}",
         ds.views.len(),
@@ -234,10 +259,11 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
         a.out.display()
     );
     println!(
-        "truth: σ_t = ({:.3}, {:.3}, {:.3}), α = ({:.4}, {:.4}, {:.4}), g = {}, η = {}",
+        "truth: σ_t = ({:.3}, {:.3}, {:.3}) 1/{}, α = ({:.4}, {:.4}, {:.4}), g = {}, η = {}",
         medium.sigma_t[0],
         medium.sigma_t[1],
         medium.sigma_t[2],
+        a.medium.units.map_or("unit", |u| u.name()),
         medium.albedo[0],
         medium.albedo[1],
         medium.albedo[2],

@@ -10,6 +10,7 @@ use scene::Object;
 use scene::capture::{Capture, CaptureLight, CapturedView};
 use scene::colmap::ColmapModel;
 use scene::image::{PhotoSettings, Transfer};
+use scene::measured::LengthUnit;
 use scene::nerf::NerfTransforms;
 
 use cmdline::parse_rgb;
@@ -98,6 +99,10 @@ pub struct CaptureArgs {
     /// The medium's Henyey–Greenstein g, where it is known.
     #[arg(long, allow_negative_numbers = true)]
     pub g: Option<f32>,
+    /// What one unit of the cameras' lengths is (scale the reconstruction to a known size
+    /// first): a recovery then reports σ_t in mm⁻¹ and the nearest measured media.
+    #[arg(long, value_enum)]
+    pub units: Option<LengthUnit>,
     #[command(flatten)]
     pub out: cmdline::Output,
     #[command(flatten)]
@@ -188,6 +193,7 @@ impl CaptureArgs {
             light,
             intensity: self.intensity,
             object,
+            length_unit: self.units,
         })
     }
 
@@ -217,9 +223,14 @@ impl CaptureArgs {
                     "nothing stated (a recovery assumes an index-matched, isotropic object)".into(),
             }
         );
+        let lengths = match self.units {
+            Some(u) => format!("lengths are in {} (σ_t in 1/{})", u.name(), u.name()),
+            None => format!(
+                "lengths are {units} own units (σ_t in 1/those units; state them with --units)"
+            ),
+        };
         println!(
-            "lengths are {units} own units: σ_t comes out in 1/those units; the light's \
-             intensity {:?} W/sr{}",
+            "{lengths}; the light's intensity {:?} W/sr{}",
             self.intensity,
             if self.intensity == [1.0; 3] {
                 " (relative: recover its scale with `optimize --free light-scale`)"

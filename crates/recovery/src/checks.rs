@@ -102,6 +102,11 @@ pub(super) fn check(
     if let Some(c) = &consistency {
         result["consistency"] = serde_json::to_value(c)?;
     }
+    let units = p.ds.metadata.length_unit.map(|unit| {
+        let (lines, block) = report::real_units(&shown, shown_u.as_ref(), p.base.g as f64, unit);
+        result["real_units"] = block;
+        lines
+    });
     result["complete"] = json!(true);
     write_result(&cfg.out, &result)?;
     super::outputs::mitsuba(cfg, &p.ds, &shown, &p.base, obs)?;
@@ -111,6 +116,7 @@ pub(super) fn check(
         sensitivity: sensitivity.as_ref(),
         consistency: consistency.as_ref(),
         problems: &problems,
+        units: units.unwrap_or_default(),
     };
     summary.say(cfg, obs);
     Ok(())
@@ -176,6 +182,8 @@ struct Summary<'a> {
     sensitivity: Option<&'a Sensitivity>,
     consistency: Option<&'a Consistency>,
     problems: &'a [Problem],
+    /// The estimate in real units, where the dataset states its length unit.
+    units: Vec<String>,
 }
 
 impl Summary<'_> {
@@ -184,6 +192,9 @@ impl Summary<'_> {
             for line in report::interval_lines(self.shown, u) {
                 obs.say(&format!("  {line}"));
             }
+        }
+        for line in &self.units {
+            obs.say(&format!("  {line}"));
         }
         if let Some(s) = self.sensitivity {
             let rel = |c: usize| {

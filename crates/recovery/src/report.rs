@@ -12,10 +12,12 @@ use inverse::params::Params;
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 mod convergence;
+mod units;
 
 #[cfg(test)]
 use convergence::relative_loss_series;
 pub use convergence::{relative_loss, write_plots};
+pub use units::real_units;
 
 /// `iterations.csv`: one row per iteration (parameters before the step, loss, gradient).
 /// A run that recovers g has two more columns at the end: g and ∂ℓ/∂g (empty in the

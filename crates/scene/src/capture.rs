@@ -12,6 +12,7 @@ use glam::Vec3;
 
 use crate::dataset::{Dataset, DatasetKind, DatasetMetadata, View, read_view_photo};
 use crate::image::{PhotoSettings, is_photo_file};
+use crate::measured::LengthUnit;
 use crate::{Camera, MeshSource, Object, PointLight, RenderInfo, SceneError};
 
 /// Where each image's light was.
@@ -43,6 +44,8 @@ pub struct Capture {
     pub intensity: [f32; 3],
     /// What is known about the object; `None`: nothing is stated.
     pub object: Option<Object>,
+    /// What one unit of the cameras' lengths is, where known.
+    pub length_unit: Option<LengthUnit>,
 }
 
 impl CaptureLight {
@@ -195,6 +198,7 @@ impl Capture {
                     env!("CARGO_PKG_VERSION")
                 )),
                 notes: None,
+                length_unit: self.length_unit,
             },
             root: PathBuf::new(),
             kind: DatasetKind::Native,

@@ -22,6 +22,7 @@ use std::sync::Arc;
 use serde_json::Value;
 
 use crate::image::{Photo, PhotoSettings, PixelMask};
+use crate::measured::LengthUnit;
 use crate::scene_file::desc::{RenderInfo, ViewDesc};
 use crate::scene_file::parse::base_dir;
 use crate::{Camera, Image, Medium, MeshSource, Object, PointLight, SceneDesc, SceneError};
@@ -101,6 +102,8 @@ pub struct DatasetMetadata {
     pub generator: Option<String>,
     /// Free-form JSON carried along unchanged.
     pub notes: Option<Value>,
+    /// What one unit of the dataset's lengths is, when known: σ_t is then reported in mm⁻¹ too.
+    pub length_unit: Option<LengthUnit>,
 }
 
 /// A loaded dataset.
@@ -150,6 +153,7 @@ impl Dataset {
                 conventions: Some(CONVENTIONS_NOTE.into()),
                 generator: Some(format!("translucent {}", env!("CARGO_PKG_VERSION"))),
                 notes: None,
+                length_unit: None,
             },
             root: PathBuf::new(),
             kind: DatasetKind::Native,

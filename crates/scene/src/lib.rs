@@ -6,6 +6,7 @@
 //! * [`light`]: point lights of radiant intensity I (irradiance I/r², no 1/4π), and a constant
 //!   environment emitter (used by energy tests).
 //! * [`medium`]: the homogeneous medium (σ_t, α per RGB channel, HG g, relative IOR η).
+//! * [`measured`]: lengths in real units and published measurements of real media.
 //! * [`object`]: what a capture states about the object besides σ_t and α: the boundary (η,
 //!   roughness) and the phase function (g).
 //! * [`image`]: RGB float images with EXR (linear f32) and PNG (tone-mapped sRGB) I/O.
@@ -26,6 +27,7 @@ pub mod fsutil;
 pub mod image;
 pub mod light;
 pub mod loss;
+pub mod measured;
 pub mod medium;
 pub mod mitsuba_xml;
 pub mod nerf;

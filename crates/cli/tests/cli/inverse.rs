@@ -1255,3 +1255,89 @@ fn optimize_free_light_scale_is_refused_with_the_bias_correction() {
         &["--init-light-scale 2 without --free light-scale"],
     );
 }
+
+/// A measured medium in real units: `dataset --measured marble --units cm` renders Jensen et
+/// al.'s marble (σ_t in 1/cm: the sphere is about 1 cm across), the dataset states its unit, and `optimize` reports the estimate
+/// in mm⁻¹ with the nearest measured media; an unknown name lists the names.
+#[test]
+fn a_measured_medium_in_centimetres_is_reported_in_real_units() {
+    let t = tmp();
+    let d = t.path();
+    // g = 0: the learned model's walk tables for another g would cost the test a minute.
+    let r = ok(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--views",
+            "2",
+            "--res",
+            "12",
+            "--spp",
+            "4",
+            "--out",
+            "ds",
+            "--measured",
+            "marble",
+            "--units",
+            "cm",
+            "--g",
+            "0",
+        ],
+    );
+    // Marble's σ_s' + σ_a at g = 0: σ_t = 10 × (2.19 + 0.0021) cm⁻¹, ….
+    assert_stdout_has(&r, &["truth: σ_t = (21.921, 26.241, 30.071) 1/cm"]);
+    let ds = read_json(&d.join("ds/dataset.json"));
+    assert_eq!(ds["length_unit"], "cm");
+    assert!(
+        ds["units"].as_str().unwrap().starts_with("lengths in cm"),
+        "{}",
+        ds["units"]
+    );
+    let r = ok(d, &TINY_OPTIMIZE);
+    assert_stdout_has(
+        &r,
+        &[
+            "in real units (lengths in cm): σ_t = (",
+            "nearest measured media",
+        ],
+    );
+    let res = read_json(&d.join("o/result.json"));
+    assert_eq!(res["real_units"]["length_unit"], "cm");
+    assert_eq!(
+        res["real_units"]["nearest_measured"]
+            .as_array()
+            .unwrap()
+            .len(),
+        3
+    );
+    let e = fails(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--measured",
+            "jade",
+            "--units",
+            "mm",
+            "--out",
+            "x",
+        ],
+    );
+    assert_stderr_has(&e, &["\"jade\"", "marble", "regular-milk"]);
+    let e = fails(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--measured",
+            "marble",
+            "--out",
+            "x",
+        ],
+    );
+    assert_stderr_has(&e, &["--units"]);
+}

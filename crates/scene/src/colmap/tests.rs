@@ -304,6 +304,7 @@ fn a_capture_is_a_dataset() {
         },
         intensity: [2.0; 3],
         object: None,
+        length_unit: None,
         masks: None,
         photo: Default::default(),
     };

@@ -12,6 +12,7 @@ use super::{
 };
 use crate::camera::{Intrinsics, camera_from_matrix};
 use crate::image::{PhotoSettings, Transfer};
+use crate::measured::LengthUnit;
 use crate::object::ObjectSpec;
 use crate::rig::check_intensity;
 use crate::scene_file::{
@@ -91,6 +92,7 @@ impl Dataset {
                 conventions: raw.conventions,
                 generator: raw.generator,
                 notes: raw.notes,
+                length_unit: raw.length_unit,
             },
             root: dir,
             kind: DatasetKind::Native,
@@ -215,6 +217,9 @@ pub(super) struct RawDataset {
     pub(super) version: u32,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) units: Option<String>,
+    /// What one unit of length is ("mm", "cm", "m").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) length_unit: Option<LengthUnit>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) conventions: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

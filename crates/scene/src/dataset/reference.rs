@@ -497,6 +497,7 @@ fn render_of(
         conventions: text_of("coordinate_system"),
         generator: text_of("generator"),
         notes: d.get(doc, "command").cloned(),
+        length_unit: None,
     };
     Ok((render, metadata))
 }

@@ -114,12 +114,16 @@ impl Dataset {
         let raw = RawDataset {
             format: DATASET_FORMAT.into(),
             version: DATASET_VERSION,
-            units: Some(
-                self.metadata
-                    .units
-                    .clone()
-                    .unwrap_or_else(|| UNITS_NOTE.into()),
-            ),
+            units: Some(self.metadata.units.clone().unwrap_or_else(|| {
+                match self.metadata.length_unit {
+                    Some(u) => UNITS_NOTE.replace(
+                        "scene units; sigma_t in 1/unit",
+                        &format!("{0}; sigma_t in 1/{0}", u.name()),
+                    ),
+                    None => UNITS_NOTE.into(),
+                }
+            })),
+            length_unit: self.metadata.length_unit,
             conventions: Some(
                 self.metadata
                     .conventions

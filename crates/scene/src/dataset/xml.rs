@@ -37,6 +37,7 @@ pub(super) fn load_scene_folder(dir: &Path) -> Result<Dataset, SceneError> {
             conventions: Some(super::CONVENTIONS_NOTE.into()),
             generator: Some(format!("Mitsuba 3 scene file {}", file.display())),
             notes: None,
+            length_unit: None,
         },
         root: dir.to_path_buf(),
         kind: DatasetKind::MitsubaScene,

@@ -32,6 +32,7 @@ fn capture(images: &Path, light: CaptureLight) -> Capture {
         light,
         intensity: [0.785; 3],
         object: None,
+        length_unit: None,
     }
 }
 
