@@ -57,7 +57,10 @@ pub enum FitError {
     /// The cloud would be larger than [`MAX_CLOUD_POINTS`].
     #[error(
         "the constraint cloud would need {needed:.3e} points (limit {limit}): the kernel epsilon \
-         is too small for a mesh of this area"
+         is too small for a mesh of this area (the medium's mean free path 1/σ_t is tiny against \
+         the object: the learned model fits the shape at that scale); fix: a σ_t nearer the \
+         object's, about 50 over its size in scene units (the default start, 50, suits an object \
+         about 1 unit across)"
     )]
     TooManyPoints { needed: f64, limit: usize },
     /// `points` and `normals` differ in length.

@@ -15,6 +15,8 @@ use scene::{Medium, MeshSource, ShapeSpec};
 use cmdline::parse_rgb;
 use inverse::views::random_medium;
 
+mod capture;
+
 /// Where the object comes from and how it is viewed and lit.
 #[derive(Args, Clone)]
 #[command(mut_arg(
@@ -219,9 +221,30 @@ pub struct DatasetArgs {
     #[arg(long, value_enum, default_value_t)]
     pub shadow: volpath::ShadowTransmittance,
     #[command(flatten)]
+    pub capture: CaptureOutArgs,
+    #[command(flatten)]
     pub out: cmdline::Output,
     #[command(flatten)]
     pub overwrite: cmdline::Overwrite,
+}
+
+/// Writing the render as a photographed capture would arrive.
+#[derive(Args, Clone)]
+pub struct CaptureOutArgs {
+    /// Write the views as a photographed capture instead of a dataset: a COLMAP model
+    /// (OUT/sparse), sRGB JPEG photos (OUT/images), silhouette masks (OUT/masks), the mesh
+    /// (OUT/object.ply), the lights (OUT/lights.txt) and the truth (OUT/truth.json); the
+    /// rendered dataset goes to OUT/rendered. `import colmap` reads it back.
+    #[arg(long)]
+    pub as_capture: bool,
+    /// The photos' exposure: linear radiance × this before the sRGB encoding [default: the
+    /// 99.5th percentile of the brightest channel at 0.9].
+    #[arg(long, requires = "as_capture")]
+    pub photo_exposure: Option<f32>,
+    /// Noise on the written mesh, as a scan has it: each vertex moved along its normal by a
+    /// Gaussian of this standard deviation, as a fraction of the bounding-box diagonal.
+    #[arg(long, default_value_t = 0.0, requires = "as_capture")]
+    pub mesh_noise: f32,
 }
 
 use inverse::views::{RenderOpts, make_dataset};
@@ -229,6 +252,11 @@ use inverse::views::{RenderOpts, make_dataset};
 pub fn run(a: &DatasetArgs) -> Result<()> {
     let rig = a.rig.rig()?;
     let medium = a.medium.medium(*a.seed)?;
+    let dir = if a.capture.as_capture {
+        a.out.join("rendered")
+    } else {
+        a.out.to_path_buf()
+    };
     let mut ds = make_dataset(
         &rig,
         a.rig.mesh_source()?,
@@ -239,7 +267,7 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
             max_depth: a.max_depth,
             shadow: a.shadow,
         },
-        &a.out,
+        &dir,
         *a.overwrite,
         &cmdline::Terminal,
     )?;
@@ -247,8 +275,10 @@ pub fn run(a: &DatasetArgs) -> Result<()> {
         // The lengths' unit goes into dataset.json beside the rendered images.
         ds.metadata.length_unit = Some(unit);
         ds.metadata.units = None; // the note then names the unit
-
-        ds.save(&a.out, true)?;
+        ds.save(&dir, true)?;
+    }
+    if a.capture.as_capture {
+        return capture::write(a, &ds, &rig, medium);
     }
     println!(
         "dataset: {} views of {}×{} at {} spp -> {}",

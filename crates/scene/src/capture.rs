@@ -5,6 +5,10 @@
 //! image (a flash at a fixed place beside the lens, or a position per image) and what is known
 //! about the object (boundary, phase function).
 
+mod export;
+
+pub use export::{CaptureExport, photo_name, write_capture};
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

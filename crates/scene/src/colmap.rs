@@ -30,6 +30,9 @@ mod capture;
 #[cfg(test)]
 pub(crate) mod tests;
 mod text;
+mod write;
+
+pub use write::write_text;
 
 /// One camera of `cameras.txt`/`.bin`: its model's name, its image size and its parameters.
 #[derive(Clone, Debug, PartialEq)]

@@ -14,6 +14,7 @@
 
 use crate::SceneError;
 
+mod decode;
 mod files;
 mod mask;
 mod photo;
@@ -25,9 +26,10 @@ mod stats;
 #[allow(clippy::excessive_precision, clippy::type_complexity)]
 mod tests;
 
+pub use decode::{PHOTO_MAX_BYTES, is_photo_file};
 pub use files::to_srgb8;
 pub use mask::PixelMask;
-pub use photo::{PHOTO_MAX_BYTES, Photo, PhotoSettings, Transfer, is_photo_file, srgb_to_linear};
+pub use photo::{Photo, PhotoSettings, Transfer, srgb_to_linear};
 pub use stats::{PairStats, pair_stats};
 
 /// A linear RGB float image, row-major, row 0 = top.

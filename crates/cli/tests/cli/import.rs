@@ -92,40 +92,7 @@ fn a_colmap_capture_imports_as_the_dataset_it_came_from() {
         ],
     );
     // The imported dataset holds the cameras, lights and images of the one it came from.
-    let back = read_json(&d.join("imported/dataset.json"));
-    for (i, (v, w)) in ds["views"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .zip(back["views"].as_array().unwrap())
-        .enumerate()
-    {
-        let num = |x: &serde_json::Value| x.as_f64().unwrap();
-        for r in 0..3 {
-            for k in 0..4 {
-                let (a, b) = (
-                    num(&v["camera"]["to_world"][r][k]),
-                    num(&w["camera"]["to_world"][r][k]),
-                );
-                assert!((a - b).abs() < 1e-5, "view {i} to_world[{r}][{k}]: {a} {b}");
-            }
-        }
-        let (a, b) = (
-            num(&v["camera"]["fov_x_deg"]),
-            num(&w["camera"]["fov_x_deg"]),
-        );
-        assert!((a - b).abs() < 1e-4, "view {i} fov: {a} {b}");
-        assert!(
-            w["camera"]["intrinsics"].is_null(),
-            "a centred camera has no intrinsics block"
-        );
-        assert_eq!(v["light"], w["light"], "view {i}");
-        let name = format!("view_{i:03}.exr");
-        assert_eq!(
-            read(&d.join("ds").join(&name)),
-            read(&d.join("imported").join(&name))
-        );
-    }
+    let back = assert_imported_as(d, &ds);
     assert!(
         back["truth"].is_null() && back["object"].is_null(),
         "{back}"
@@ -236,7 +203,112 @@ fn a_transforms_json_imports_as_the_dataset_it_came_from() {
     );
     assert_eq!(run.code, Some(0), "{}", run.describe());
     assert_stdout_has(&run, &["2 views from ds/transforms.json", "100.0 %"]);
+    assert_imported_as(d, &ds);
+    // Without a light in the file or on the command line: refused, with the fix.
+    let mut bare = doc.clone();
+    for f in bare["frames"].as_array_mut().unwrap() {
+        f.as_object_mut().unwrap().remove("light_position");
+    }
+    write(&d.join("ds/transforms.json"), bare.to_string());
+    let e = fails(
+        d,
+        &[
+            "import",
+            "nerf",
+            "ds/transforms.json",
+            "--mesh",
+            "cube.ply",
+            "--out",
+            "x",
+        ],
+    );
+    assert_stderr_has(&e, &["no frame states a light", "--flash"]);
+}
+
+/// `dataset --as-capture` writes the render as a photographed capture (COLMAP model, sRGB JPEGs,
+/// silhouette masks, the mesh, the lights, the truth), and the command it prints imports it back:
+/// the same cameras, and the photos' linear values those of the render times the exposure
+/// within the JPEG's rounding.
+#[test]
+fn a_capture_written_by_dataset_imports_back() {
+    let dir = tmp();
+    let d = dir.path();
+    let r = ok(
+        d,
+        &[
+            "dataset",
+            "--shape",
+            "sphere",
+            "--views",
+            "2",
+            "--res",
+            "16",
+            "--spp",
+            "16",
+            "--light",
+            "attached",
+            "--units",
+            "cm",
+            "--as-capture",
+            "--out",
+            "cap",
+        ],
+    );
+    assert_stdout_has(
+        &r,
+        &["capture: 2 photos", "import it: translucent import colmap"],
+    );
+    let line = r
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("import it: "))
+        .unwrap();
+    let cmd: Vec<&str> = line["import it: translucent ".len()..]
+        .split(' ')
+        .map(|w| if w == "DATASET" { "imported" } else { w })
+        .collect();
+    assert!(
+        cmd.contains(&"--flash=-0.8,-0.8,0") && cmd.contains(&"cm"),
+        "{line}"
+    );
+    let run = translucent(d, &cmd);
+    assert_eq!(run.code, Some(0), "{}", run.describe());
+    let truth = read_json(&d.join("cap/truth.json"));
+    let exposure = truth["photo_exposure"].as_f64().unwrap() as f32;
+    let rendered = scene::Dataset::load(&d.join("cap/rendered")).unwrap();
+    let back = scene::Dataset::load(&d.join("imported")).unwrap();
+    assert_eq!(
+        back.metadata.length_unit,
+        Some(scene::measured::LengthUnit::Cm)
+    );
+    for (a, b) in rendered.views.iter().zip(&back.views) {
+        assert!((a.camera.origin - b.camera.origin).length() < 1e-4);
+        assert!((a.light.position - b.light.position).length() < 1e-4);
+        let mask = b
+            .camera
+            .mask
+            .as_ref()
+            .expect("the silhouette leaves the background out");
+        assert!(mask.count() > 40 && mask.count() < 256, "{}", mask.count());
+        let (ia, ib) = (a.image.as_ref().unwrap(), b.image.as_ref().unwrap());
+        let (mut sum_a, mut sum_b) = (0.0, 0.0);
+        for (i, (pa, pb)) in ia.data.iter().zip(&ib.data).enumerate() {
+            if mask.bits[i] {
+                sum_a += (pa[1] * exposure).min(1.0) as f64;
+                sum_b += pb[1] as f64;
+            } else {
+                assert_eq!(*pb, [0.0; 3]);
+            }
+        }
+        assert!((sum_b / sum_a - 1.0).abs() < 0.03, "{sum_b} {sum_a}");
+    }
+}
+
+/// The dataset `d/imported` has the cameras (a centred camera with no intrinsics block), lights
+/// and images of `ds` (the dataset.json of `d/ds`); returns the imported dataset.json.
+fn assert_imported_as(d: &std::path::Path, ds: &serde_json::Value) -> serde_json::Value {
     let back = read_json(&d.join("imported/dataset.json"));
+    let views = ds["views"].as_array().unwrap();
     for (i, (v, w)) in views
         .iter()
         .zip(back["views"].as_array().unwrap())
@@ -257,6 +329,10 @@ fn a_transforms_json_imports_as_the_dataset_it_came_from() {
             num(&w["camera"]["fov_x_deg"]),
         );
         assert!((a - b).abs() < 1e-4, "view {i} fov: {a} {b}");
+        assert!(
+            w["camera"]["intrinsics"].is_null(),
+            "a centred camera has no intrinsics block"
+        );
         assert_eq!(v["light"], w["light"], "view {i}");
         let name = format!("view_{i:03}.exr");
         assert_eq!(
@@ -264,23 +340,5 @@ fn a_transforms_json_imports_as_the_dataset_it_came_from() {
             read(&d.join("imported").join(&name))
         );
     }
-    // Without a light in the file or on the command line: refused, with the fix.
-    let mut bare = doc.clone();
-    for f in bare["frames"].as_array_mut().unwrap() {
-        f.as_object_mut().unwrap().remove("light_position");
-    }
-    write(&d.join("ds/transforms.json"), bare.to_string());
-    let e = fails(
-        d,
-        &[
-            "import",
-            "nerf",
-            "ds/transforms.json",
-            "--mesh",
-            "cube.ply",
-            "--out",
-            "x",
-        ],
-    );
-    assert_stderr_has(&e, &["no frame states a light", "--flash"]);
+    back
 }

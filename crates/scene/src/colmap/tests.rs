@@ -271,11 +271,9 @@ fn damaged_models_are_refused_with_the_place() {
     }
 }
 
-/// A capture (the model, an EXR per image, a mesh, a flash beside the lens) becomes a dataset
-/// that saves and loads with the same cameras; the flash sits at its offset in COLMAP's camera
-/// frame; photos, missing lights and images of another size are refused with the fix.
-#[test]
-fn a_capture_is_a_dataset() {
+/// A COLMAP capture of three images (`a.exr`, `sub dir/b.exr`, `c.exr`, 64 × 48) in a
+/// temporary folder, with a flash: the folder, the model, the capture and the cameras.
+fn capture_fixture() -> (tempfile::TempDir, ColmapModel, Capture, Vec<Camera>) {
     let cams = cameras();
     let d = tempfile::tempdir().unwrap();
     let (c, i) = model_text(&cams);
@@ -296,7 +294,7 @@ fn a_capture_is_a_dataset() {
     .unwrap();
     geometry::io::save_ply(&mesh, &d.path().join("mesh.ply")).unwrap();
     let model = ColmapModel::read(d.path()).unwrap();
-    let mut capture = Capture {
+    let capture = Capture {
         images: images.clone(),
         mesh: d.path().join("mesh.ply"),
         light: CaptureLight::Flash {
@@ -308,6 +306,15 @@ fn a_capture_is_a_dataset() {
         masks: None,
         photo: Default::default(),
     };
+    (d, model, capture, cams)
+}
+
+/// A capture (the model, an EXR per image, a mesh, a flash beside the lens) becomes a dataset
+/// that saves and loads with the same cameras; the flash sits at its offset in COLMAP's camera
+/// frame; photos, missing lights and images of another size are refused with the fix.
+#[test]
+fn a_capture_is_a_dataset() {
+    let (d, model, mut capture, cams) = capture_fixture();
     let ds = model.dataset(&capture).unwrap();
     assert_eq!(ds.views.len(), 3);
     for (v, cam) in ds.views.iter().zip(&cams) {
@@ -342,9 +349,18 @@ fn a_capture_is_a_dataset() {
         e.contains("lights.txt:1") && e.contains("NAME X Y Z"),
         "{e}"
     );
+}
+
+/// Photos (an sRGB PNG with a saturated pixel) in place of EXRs, with masks in COLMAP's naming
+/// and the plain one: the left-out pixels are zero and out of the cameras' measurement, and the
+/// masks round-trip through a saved dataset; a missing mask and a photo of another size are
+/// refused.
+#[test]
+fn a_capture_takes_photos_and_masks() {
+    let (d, model, mut capture, _) = capture_fixture();
+    let images = d.path().join("images");
     // The photo itself (8-bit sRGB, with a saturated pixel) instead of an EXR, with masks in
     // COLMAP's naming (`c.png.png`) and the plain one (`a.png`).
-    capture.light = CaptureLight::Flash { offset: Vec3::ZERO };
     std::fs::remove_file(images.join("c.exr")).unwrap();
     let mut photo = image::RgbImage::from_pixel(64, 48, image::Rgb([188, 188, 188]));
     photo.put_pixel(3, 2, image::Rgb([255, 10, 10]));
@@ -395,4 +411,27 @@ fn a_capture_is_a_dataset() {
         e.contains("c.png") && e.contains("c.exr") && e.contains("missing"),
         "{e}"
     );
+}
+
+/// A model written by [`super::write_text`] reads back to the same cameras and names.
+#[test]
+fn a_written_model_reads_back() {
+    let cams = cameras();
+    let views: Vec<crate::capture::CapturedView> = cams
+        .iter()
+        .enumerate()
+        .map(|(i, c)| crate::capture::CapturedView {
+            name: format!("IMG_{i}.jpg"),
+            camera: c.clone(),
+        })
+        .collect();
+    let d = tempfile::tempdir().unwrap();
+    super::write_text(d.path(), &views, false).unwrap();
+    assert!(super::write_text(d.path(), &views, false).is_err());
+    let m = ColmapModel::read(d.path()).unwrap();
+    assert_eq!(m.images.len(), 3);
+    for (im, v) in m.images.iter().zip(&views) {
+        assert_eq!(im.name, v.name);
+        assert_same_rays(&m.camera(im).unwrap(), &v.camera);
+    }
 }

@@ -72,44 +72,7 @@ impl Dataset {
         let exposure = auto_exposure(&images);
         let mut raw_views = Vec::with_capacity(self.views.len());
         for (i, (v, img)) in self.views.iter().zip(&images).enumerate() {
-            let exr_name = format!("view_{i:03}.exr");
-            img.write_exr(&dir.join(&exr_name), overwrite)?;
-            let mask = match &v.camera.mask {
-                Some(m) => {
-                    let name = format!("mask_{i:03}.png");
-                    m.write_png(&dir.join(&name), overwrite)?;
-                    Some(name)
-                }
-                None => None,
-            };
-            img.write_png(&dir.join(format!("view_{i:03}.png")), exposure, overwrite)?;
-            // Through the shortest decimal of each f32, so that the file shows "0.8660254", not
-            // "0.8660253882408142".
-            let rows = v
-                .camera
-                .to_world_rows()
-                .map(|r| r.map(|x| format!("{x}").parse::<f64>().unwrap_or(x as f64)));
-            raw_views.push(RawView {
-                camera: RawCamera {
-                    origin: None,
-                    target: None,
-                    up: None,
-                    to_world: Some(rows),
-                    fov_x_deg: v.camera.pinhole.is_none().then_some(v.camera.fov_x_deg),
-                    intrinsics: v.camera.pinhole.map(|_| RawIntrinsics::of(&v.camera)),
-                    width: v.camera.width,
-                    height: v.camera.height,
-                },
-                light: RawLight {
-                    position: v.light.position.to_array(),
-                    intensity: Rgb(v.light.intensity),
-                },
-                image: exr_name,
-                mask,
-                transfer: None,
-                exposure: None,
-                saturation: None,
-            });
+            raw_views.push(save_view(dir, i, v, img, exposure, overwrite)?);
         }
         let raw = RawDataset {
             format: DATASET_FORMAT.into(),
@@ -247,4 +210,54 @@ fn compact_number_arrays(pretty: &str) -> String {
         out.push(c);
     }
     out
+}
+
+/// Writes view `i`'s image (EXR, and its PNG preview at `exposure`) and its mask (where some
+/// pixels are not measured) into `dir`; returns its entry of dataset.json.
+fn save_view(
+    dir: &Path,
+    i: usize,
+    v: &super::View,
+    img: &Image,
+    exposure: f32,
+    overwrite: bool,
+) -> Result<RawView, SceneError> {
+    let exr_name = format!("view_{i:03}.exr");
+    img.write_exr(&dir.join(&exr_name), overwrite)?;
+    let mask = match &v.camera.mask {
+        Some(m) => {
+            let name = format!("mask_{i:03}.png");
+            m.write_png(&dir.join(&name), overwrite)?;
+            Some(name)
+        }
+        None => None,
+    };
+    img.write_png(&dir.join(format!("view_{i:03}.png")), exposure, overwrite)?;
+    // Through the shortest decimal of each f32, so that the file shows "0.8660254", not
+    // "0.8660253882408142".
+    let rows = v
+        .camera
+        .to_world_rows()
+        .map(|r| r.map(|x| format!("{x}").parse::<f64>().unwrap_or(x as f64)));
+    Ok(RawView {
+        camera: RawCamera {
+            origin: None,
+            target: None,
+            up: None,
+            to_world: Some(rows),
+            fov_x_deg: v.camera.pinhole.is_none().then_some(v.camera.fov_x_deg),
+            intrinsics: v.camera.pinhole.map(|_| RawIntrinsics::of(&v.camera)),
+            width: v.camera.width,
+            height: v.camera.height,
+        },
+        light: RawLight {
+            position: v.light.position.to_array(),
+            intensity: Rgb(v.light.intensity),
+        },
+        image: exr_name,
+        mask,
+        transfer: None,
+        exposure: None,
+        saturation: None,
+    })
 }

@@ -4,6 +4,8 @@
 //! PNG previews.
 
 use std::io::Cursor;
+
+use image::ExtendedColorType::{self, Rgb8};
 use std::path::Path;
 
 use super::{CHANNEL_NAMES, Image};
@@ -93,27 +95,25 @@ impl Image {
 
     /// Write an sRGB PNG preview: clip(exposure · value), sRGB OETF, 8 bit.
     pub fn write_png(&self, path: &Path, exposure: f32, overwrite: bool) -> Result<(), SceneError> {
-        use image::ImageEncoder;
         check_overwrite(path, overwrite)?;
         self.check_size(path)?;
-        let bytes: Vec<u8> = self
-            .data
+        let (w, h) = (self.width, self.height);
+        write_8bit(
+            path,
+            &self.srgb8(exposure),
+            (w, h),
+            Rgb8,
+            Encoding::Png,
+            overwrite,
+        )
+    }
+
+    /// The pixels as 8-bit sRGB: clip(exposure · value), sRGB OETF, R, G, B per pixel.
+    pub(super) fn srgb8(&self, exposure: f32) -> Vec<u8> {
+        self.data
             .iter()
             .flat_map(|p| p.map(|v| to_srgb8(v * exposure)))
-            .collect();
-        let mut buf = Vec::new();
-        image::codecs::png::PngEncoder::new(&mut buf)
-            .write_image(
-                &bytes,
-                self.width,
-                self.height,
-                image::ExtendedColorType::Rgb8,
-            )
-            .map_err(|e| SceneError::Parse {
-                path: path.to_path_buf(),
-                reason: format!("cannot encode PNG: {e}"),
-            })?;
-        atomic_write(path, &buf, overwrite)
+            .collect()
     }
 
     fn check_size(&self, path: &Path) -> Result<(), SceneError> {
@@ -357,4 +357,43 @@ fn rgb_layer<'f>(
         });
     };
     Ok((layer, idx, grey))
+}
+
+/// An 8-bit file format images and masks are written in.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Encoding {
+    Png,
+    /// JPEG of this quality, 1–100.
+    Jpeg(u8),
+}
+
+/// Encodes 8-bit pixels (`color`: RGB or grey) of a `size` = (width, height) image as `format`
+/// and writes them to `path` atomically, refusing to replace a file unless `overwrite`.
+pub(super) fn write_8bit(
+    path: &Path,
+    bytes: &[u8],
+    size: (u32, u32),
+    color: ExtendedColorType,
+    format: Encoding,
+    overwrite: bool,
+) -> Result<(), SceneError> {
+    use image::ImageEncoder;
+    let mut buf = Vec::new();
+    let (w, h) = size;
+    let (result, name) = match format {
+        Encoding::Png => (
+            image::codecs::png::PngEncoder::new(&mut buf).write_image(bytes, w, h, color),
+            "PNG",
+        ),
+        Encoding::Jpeg(q) => (
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, q.clamp(1, 100))
+                .write_image(bytes, w, h, color),
+            "JPEG",
+        ),
+    };
+    result.map_err(|e| SceneError::Parse {
+        path: path.to_path_buf(),
+        reason: format!("cannot encode {name}: {e}"),
+    })?;
+    atomic_write(path, &buf, overwrite)
 }

@@ -6,9 +6,11 @@
 use std::path::Path;
 
 use super::Image;
-use super::photo::{decode, is_photo_file};
+use super::decode::{decode, is_photo_file};
+use super::files::{Encoding, write_8bit};
 use crate::SceneError;
-use crate::fsutil::{atomic_write, check_overwrite};
+use crate::fsutil::check_overwrite;
+use image::ExtendedColorType;
 
 /// One bit per pixel of a film, row-major, row 0 = top: set where the pixel measures the object.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -87,22 +89,17 @@ impl PixelMask {
 
     /// Write the mask as an 8-bit grey PNG (255 measured, 0 not), atomically.
     pub fn write_png(&self, path: &Path, overwrite: bool) -> Result<(), SceneError> {
-        use image::ImageEncoder;
         check_overwrite(path, overwrite)?;
         let bytes: Vec<u8> = self.bits.iter().map(|&b| if b { 255 } else { 0 }).collect();
-        let mut buf = Vec::new();
-        image::codecs::png::PngEncoder::new(&mut buf)
-            .write_image(
-                &bytes,
-                self.width,
-                self.height,
-                image::ExtendedColorType::L8,
-            )
-            .map_err(|e| SceneError::Parse {
-                path: path.to_path_buf(),
-                reason: format!("cannot encode PNG: {e}"),
-            })?;
-        atomic_write(path, &buf, overwrite)
+        let size = (self.width, self.height);
+        write_8bit(
+            path,
+            &bytes,
+            size,
+            ExtendedColorType::L8,
+            Encoding::Png,
+            overwrite,
+        )
     }
 }
 
