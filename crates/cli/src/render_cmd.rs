@@ -3,7 +3,8 @@
 //!
 //! With `--derivatives` each view also gets `view_XXX_d_sigma_t` and `view_XXX_d_albedo` (EXR,
 //! and a false-colour PNG: red > 0, blue < 0, one symmetric range per parameter over all views):
-//! ∂I/∂σ_t and ∂I/∂α of channel c with respect to that channel's parameter. The volumetric
+//! ∂I/∂σ_t and ∂I/∂α of channel c with respect to that channel's parameter; and from the
+//! volumetric path tracer `view_XXX_d_g`, ∂I_c/∂g of the one g all channels share. The volumetric
 //! path tracer differentiates each of its paths analytically (`volpath::derivative`), and its
 //! image is the plain render, bit for bit; the learned BSSRDF uses the paper's estimator
 //! (`ours`), whose image is the mean of its σ_t offset samples.
@@ -71,7 +72,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t)]
     pub spawn_offset: volpath::SpawnOffset,
     /// Also write each view's derivatives with respect to σ_t and α (`view_XXX_d_sigma_t`,
-    /// `view_XXX_d_albedo`: EXR and a false-colour PNG).
+    /// `view_XXX_d_albedo`: EXR and a false-colour PNG), and with the volumetric path tracer
+    /// with respect to the phase function's g (`view_XXX_d_g`).
     #[arg(long)]
     pub derivatives: bool,
     /// Write a dataset folder (`dataset.json` + images; the rendered medium is its truth) that
@@ -96,9 +98,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         .map(|i| format!("view_{i:03}"))
         .collect();
     check_output_free(&a.out, &names, *a.overwrite)?;
-    let derivative_names: Vec<[String; 2]> = names
+    let derivative_names: Vec<Vec<String>> = names
         .iter()
-        .map(|n| [format!("{n}_d_sigma_t"), format!("{n}_d_albedo")])
+        .map(|n| {
+            ["d_sigma_t", "d_albedo", "d_g"]
+                .map(|d| format!("{n}_{d}"))
+                .to_vec()
+        })
         .collect();
     if a.derivatives {
         check_output_free(&a.out, &derivative_names.concat(), *a.overwrite)?;
@@ -193,24 +199,25 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Writes each view's two derivative images as EXR and as false-colour PNG, one colour range
-/// per parameter over all views (the largest of the views' 99th percentiles of |∂I|).
+/// Writes each view's derivative images (∂I/∂σ_t, ∂I/∂α and, where the model has it, ∂I/∂g) as
+/// EXR and as false-colour PNG, one colour range per parameter over all views (the largest of
+/// the views' 99th percentiles of |∂I|).
 fn write_derivatives(
     dir: &std::path::Path,
-    names: &[[String; 2]],
-    derivatives: &[[scene::Image; 2]],
+    names: &[Vec<String>],
+    derivatives: &[Vec<scene::Image>],
     overwrite: bool,
 ) -> Result<()> {
     let zero = |i: &scene::Image| scene::Image::new(i.width, i.height);
-    let mut range = [0.0f32; 2];
+    let mut range = [0.0f32; 3];
     for d in derivatives {
-        for k in 0..2 {
+        for k in 0..d.len() {
             let (_, r) = scene::Image::false_colour_diff_with_range(&d[k], &zero(&d[k]), None)?;
             range[k] = range[k].max(r);
         }
     }
     for (names, d) in names.iter().zip(derivatives) {
-        for k in 0..2 {
+        for k in 0..d.len() {
             d[k].write_exr(&dir.join(format!("{}.exr", names[k])), overwrite)?;
             let (fc, _) =
                 scene::Image::false_colour_diff_with_range(&d[k], &zero(&d[k]), Some(range[k]))?;

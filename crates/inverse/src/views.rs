@@ -23,13 +23,14 @@ use crate::forward::{ForwardModel, ModelSpec};
 /// The images of a list of views and the time each took.
 pub struct RenderReport {
     pub images: Vec<Image>,
-    /// ∂I/∂σ_t and ∂I/∂α of every view (empty unless asked for).
-    pub derivatives: Vec<[Image; 2]>,
+    /// Every view's derivative images (empty unless asked for): ∂I/∂σ_t, ∂I/∂α and, from a
+    /// model that differentiates the phase function, ∂I/∂g.
+    pub derivatives: Vec<Vec<Image>>,
     pub seconds_per_view: Vec<f64>,
 }
 
-/// One view's render: the image, and its two derivative images when asked for.
-type ViewRender = (Image, Option<[Image; 2]>);
+/// One view's render: the image, and its derivative images when asked for.
+type ViewRender = (Image, Option<Vec<Image>>);
 
 /// What a render of a list of views needs whatever the model: the mesh, the medium, the views,
 /// the samples per pixel and the seed (view i renders with view index i).
@@ -101,7 +102,8 @@ pub fn render_with(
         let view = at.view(&v.camera, &v.light);
         Ok(if derivatives {
             let d = view.derivatives(rs, Some(pb))?;
-            (d.value, Some([d.d_sigma_t, d.d_albedo]))
+            let parts = [Some(d.d_sigma_t), Some(d.d_albedo), d.d_g];
+            (d.value, Some(parts.into_iter().flatten().collect()))
         } else {
             (view.value(rs, Some(pb))?, None)
         })

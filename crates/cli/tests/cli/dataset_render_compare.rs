@@ -243,11 +243,12 @@ fn render_dataset_folder_reproduces_its_images() {
 }
 
 /// `render --derivatives`: the images are the plain render's, bit for bit; each view gets its
-/// two derivative images (EXR and PNG), finite, with ∂I/∂α ≥ 0 (more albedo, more light); a
+/// derivative images (EXR and PNG: σ_t, α and, from the tracer, g), finite, with ∂I/∂α ≥ 0
+/// (more albedo, more light); a
 /// second run into the same folder needs `--overwrite`; the learned model and the planar dipole
 /// render them too (the dipole's ∂I/∂α ≥ 0 as well).
 #[test]
-fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
+fn render_derivatives_writes_the_plain_images_and_the_derivatives_of_each_view() {
     let t = tmp();
     make_dataset(t.path(), "ds", "2", "12", &["--seed", "4"]);
     ok(t.path(), &["-q", "render", "ds", "--out", "plain"]);
@@ -260,7 +261,7 @@ fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
         "the render with derivatives changed the image",
     );
     for v in 0..2 {
-        for what in ["d_sigma_t", "d_albedo"] {
+        for what in ["d_sigma_t", "d_albedo", "d_g"] {
             let stem = t.path().join(format!("d/view_{v:03}_{what}"));
             assert!(
                 stem.with_extension("png").is_file(),
@@ -295,6 +296,8 @@ fn render_derivatives_writes_the_plain_images_and_two_derivatives_per_view() {
         ],
     );
     assert!(t.path().join("l/view_001_d_sigma_t.exr").is_file());
+    // The learned model does not differentiate the phase function.
+    assert!(!t.path().join("l/view_001_d_g.exr").exists());
     let args = [
         "-q",
         "render",
