@@ -40,8 +40,22 @@ pub struct TargetView<'a> {
 
 impl<'a> TargetView<'a> {
     /// Every view of `ds` with its image (`what` names the dataset in errors): an error names
-    /// the first view without an image or with a non-finite pixel.
+    /// the first view without an image or with a non-finite pixel, and refuses a dataset whose
+    /// every measured pixel is black (nothing to fit: no camera sees the lit object).
     pub fn of_dataset(ds: &'a scene::Dataset, what: &str) -> Result<Vec<Self>, InverseError> {
+        let lit = |v: &scene::View| {
+            v.image
+                .as_ref()
+                .is_some_and(|im| im.data.iter().flatten().any(|&x| x != 0.0))
+        };
+        if !ds.views.is_empty() && !ds.views.iter().any(lit) {
+            return Err(InverseError::Invalid(format!(
+                "{what}: every pixel of all {} views is black, so there is nothing to fit; fix: \
+                 check that the cameras see the object (not from inside it, e.g. after scaling \
+                 it) and that its light reaches the side they see",
+                ds.views.len()
+            )));
+        }
         ds.views
             .iter()
             .enumerate()

@@ -446,3 +446,30 @@ fn bad_mitsuba_scene_names_the_line() {
     assert_stderr_has(&r, &["scene.xml:6 <bsdf>", "beckmann", "ggx"]);
     assert!(!t.path().join("out").exists());
 }
+
+/// A dataset whose every pixel is black (the cameras inside an object scaled past them) is
+/// refused before any iteration, with the fix, not fitted into NaN checks.
+#[test]
+fn bad_all_black_dataset() {
+    let t = tmp();
+    make_dataset(t.path(), "ds", "2", "8", &["--scale", "10"]);
+    let r = fails(
+        t.path(),
+        &[
+            "optimize",
+            "--dataset",
+            "ds",
+            "--out",
+            "o",
+            "--iterations",
+            "2",
+        ],
+    );
+    assert_stderr_has(
+        &r,
+        &[
+            "every pixel of all 2 views is black",
+            "cameras see the object",
+        ],
+    );
+}
