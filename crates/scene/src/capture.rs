@@ -29,11 +29,10 @@ pub enum CaptureLight {
     Positions(BTreeMap<String, Vec3>),
 }
 
-/// What a capture adds to a COLMAP model.
+/// What a capture adds to its cameras (from a COLMAP model or a `transforms.json`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Capture {
-    /// The folder of images: image `NAME.jpg` of the model is that photo here, or `NAME.exr`
-    /// (linear).
+    /// The folder of images: view `NAME.jpg` is that photo here, or `NAME.exr` (linear).
     pub images: PathBuf,
     /// A folder of mask images (white = the object): `NAME.jpg.png` or `NAME.png`; `None`:
     /// every pixel that is not saturated is measured.
