@@ -83,7 +83,7 @@ enum Command {
     /// The paper's experiments and the robustness suite, with tables and plots.
     #[command(subcommand)]
     Experiment(experiment_cmd::ExperimentCommand),
-    /// A COLMAP capture (model, images, mesh, lights) as a dataset folder
+    /// A COLMAP or NeRF capture (photos, masks, mesh, lights) as a dataset folder
     #[command(subcommand)]
     Import(import_cmd::ImportCommand),
     /// Shell completions and man pages.
