@@ -6,6 +6,7 @@ use experiment::Experiment;
 use experiment::jobs::Jobs;
 
 pub mod accuracy;
+pub mod capture_errors;
 pub mod renderers;
 pub mod robustness;
 
@@ -52,6 +53,10 @@ pub enum ExperimentCommand {
     /// medium (up to 300 mean free paths): errors, 95 % intervals and their calibration,
     /// whether σ_t is determined, consistency, status.
     Robustness(Box<robustness::RobustnessArgs>),
+    /// What a real capture's errors (camera and light poses, the light's intensity, a scanned
+    /// mesh, 8-bit photos, sensor noise) do to a recovery with the defaults: shifts, intervals,
+    /// status, and whether any run gives a confident wrong number.
+    CaptureErrors(Box<capture_errors::CaptureErrorsArgs>),
     /// Seconds per iteration of every forward model × estimator at the paper's workload
     /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
     /// `--mitsuba-python`.
@@ -80,6 +85,7 @@ impl ExperimentCommand {
         match self {
             ExperimentCommand::Accuracy(a) => Experiment::Accuracy(Box::new(a.config())),
             ExperimentCommand::Robustness(a) => Experiment::Robustness(Box::new(a.config())),
+            ExperimentCommand::CaptureErrors(a) => Experiment::CaptureErrors(Box::new(a.config())),
             ExperimentCommand::Timing(a) => Experiment::Timing(a.config()),
             ExperimentCommand::Gradients(a) => Experiment::Gradients(a.config()),
             ExperimentCommand::Planar(a) => Experiment::Planar(a.config()),
@@ -92,7 +98,7 @@ impl ExperimentCommand {
 
 #[cfg(test)]
 mod tests {
-    use super::{accuracy, renderers, robustness};
+    use super::{accuracy, capture_errors, renderers, robustness};
     use ::experiment as lib;
     use cmdline::arg_defaults;
 
@@ -115,6 +121,10 @@ mod tests {
         assert_eq!(
             arg_defaults::<robustness::RobustnessArgs>(&[]).config(),
             lib::robustness::RobustnessConfig::default()
+        );
+        assert_eq!(
+            arg_defaults::<capture_errors::CaptureErrorsArgs>(&[]).config(),
+            lib::capture_errors::CaptureErrorsConfig::default()
         );
         assert_eq!(
             arg_defaults::<renderers::TimingArgs>(&[]).config(),

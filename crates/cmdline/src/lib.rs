@@ -427,6 +427,7 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::Case => "--case",
         Setting::ListJobs => "--list-jobs",
         Setting::Cases => "--cases",
+        Setting::Perturbations => "--perturbations",
         Setting::Shapes => "--shapes",
         Setting::Methods => "--methods",
         Setting::Media => "--media",

@@ -7,6 +7,7 @@
 //! |---|---|---|
 //! | `accuracy` | [`accuracy`] | Table 1, Fig. 7 |
 //! | `robustness` | [`robustness`] | (ours: captures we did not tune on) |
+//! | `capture-errors` | [`capture_errors`] | (ours: what a real capture's errors do) |
 //! | `timing` | [`timing`] | Table 1 |
 //! | `gradients` | [`gradients`] | Fig. 3, 5 |
 //! | `planar` | [`planar`] | Fig. 6 |
@@ -29,6 +30,7 @@ use scene::rig::paper_rig;
 use scene::{Dataset, Medium, MeshSource};
 
 pub mod accuracy;
+pub mod capture_errors;
 mod error;
 pub mod gradients;
 pub mod inits;
@@ -57,6 +59,10 @@ pub enum Experiment {
     /// medium (up to 300 mean free paths): errors, 95 % intervals and their calibration,
     /// whether σ_t is determined, consistency, status.
     Robustness(Box<robustness::RobustnessConfig>),
+    /// What a real capture's errors (camera and light poses, the light's intensity, a scanned
+    /// mesh, 8-bit photos, sensor noise) do to a recovery with the defaults: shifts, intervals,
+    /// status, and whether any run gives a confident wrong number.
+    CaptureErrors(Box<capture_errors::CaptureErrorsConfig>),
     /// Seconds per iteration of every forward model × estimator at the paper's workload
     /// (256² × 32 spp; paper Table 1), beside the paper's figures; Mitsuba 3's PRB with
     /// `--mitsuba-python`.
@@ -84,6 +90,7 @@ pub fn run(cmd: &Experiment, obs: &dyn Observer) -> Result<()> {
     match cmd {
         Experiment::Accuracy(a) => accuracy::accuracy(a, obs).map(|_| ()),
         Experiment::Robustness(a) => robustness::run(a, obs),
+        Experiment::CaptureErrors(a) => capture_errors::run(a, obs).map(|_| ()),
         Experiment::Timing(a) => timing::run(a, obs),
         Experiment::Gradients(a) => gradients::run(a, obs),
         Experiment::Planar(a) => planar::run(a, obs),

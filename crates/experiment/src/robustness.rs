@@ -54,7 +54,8 @@ mod targets;
 
 pub use cases::{Capture, Case, Suite, Targets, cases, dielectric_cases};
 use report::report;
-use targets::{ensure_dataset, target_renderers};
+pub(crate) use targets::ensure_dataset;
+use targets::target_renderers;
 
 /// The robustness suite's settings; [`Default`] is the command's defaults.
 #[derive(Clone, Debug, PartialEq)]
@@ -201,7 +202,7 @@ impl Recovered {
 }
 
 impl Outcome {
-    fn sigma_t_error(&self, corrected: bool) -> [f64; 3] {
+    pub(crate) fn sigma_t_error(&self, corrected: bool) -> [f64; 3] {
         let e = if corrected {
             &self.estimate
         } else {
@@ -210,11 +211,11 @@ impl Outcome {
         std::array::from_fn(|c| e[0][c] / self.case.medium.sigma_t[c] as f64 - 1.0)
     }
 
-    fn albedo_error(&self) -> [f64; 3] {
+    pub(crate) fn albedo_error(&self) -> [f64; 3] {
         std::array::from_fn(|c| self.estimate[1][c] - self.case.medium.albedo[c] as f64)
     }
 
-    fn covered(&self) -> [[bool; 3]; 2] {
+    pub(crate) fn covered(&self) -> [[bool; 3]; 2] {
         let inside = |i: Option<[f64; 2]>, t: f32| {
             i.is_some_and(|[lo, hi]| lo <= t as f64 && t as f64 <= hi)
         };
@@ -243,7 +244,7 @@ fn intervals(v: &serde_json::Value, measured: bool, whole: [f64; 2]) -> [Option<
     })
 }
 
-fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Outcome> {
+pub(crate) fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) -> Result<Outcome> {
     let v = read_json(result)?;
     let pair = |p: &serde_json::Value| [rgb(&p["sigma_t"]), rgb(&p["albedo"])];
     let estimate = pair(&v["estimate"]);

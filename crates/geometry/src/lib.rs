@@ -16,6 +16,7 @@
 //! * [`light_bins`]: [`LightBins`], per-direction triangle lists around a point light that answer
 //!   shadow rays ([`Accel::inside_length`], [`Accel::occluded`] toward the light) exactly, with a
 //!   few triangle tests instead of an all-hits BVH traversal.
+//! * [`remesh`]: a mesh as a scanner or a simplifier gives it (decimated, smoothed, noisy).
 //! * [`sampling`]: area-uniform surface point sampling.
 //! * [`frame`]: orthonormal frames (Duff et al. 2017).
 //!
@@ -29,6 +30,7 @@ pub mod frame;
 pub mod io;
 pub mod light_bins;
 pub mod mesh;
+pub mod remesh;
 pub mod sampling;
 pub mod shapes;
 pub mod triangle;

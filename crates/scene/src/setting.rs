@@ -85,6 +85,8 @@ pub enum Setting {
     ListJobs,
     /// The cases of an experiment's suite to run.
     Cases,
+    /// The perturbations of the capture-errors experiment to run.
+    Perturbations,
     /// The shapes of an experiment's datasets.
     Shapes,
     /// The methods an experiment compares.
@@ -142,6 +144,7 @@ impl Setting {
             Setting::Case => "case",
             Setting::ListJobs => "list_jobs",
             Setting::Cases => "cases",
+            Setting::Perturbations => "perturbations",
             Setting::Shapes => "shapes",
             Setting::Methods => "methods",
             Setting::Media => "media",

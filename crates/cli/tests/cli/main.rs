@@ -8,6 +8,7 @@
 mod helpers;
 
 mod bad_input;
+mod capture_errors;
 mod dataset_render_compare;
 mod demo_validate;
 mod faults;

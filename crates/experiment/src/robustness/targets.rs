@@ -15,7 +15,7 @@ use crate::bail;
 use crate::error::{Context, Result};
 
 /// Render the dataset unless `dir` holds it already.
-pub(super) fn ensure_dataset(
+pub(crate) fn ensure_dataset(
     a: &RobustnessConfig,
     case: &Case,
     rep: u64,

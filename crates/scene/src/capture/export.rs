@@ -8,7 +8,6 @@
 use std::path::Path;
 
 use geometry::{Accel, Mesh};
-use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -107,29 +106,13 @@ fn silhouette(accel: &Accel, camera: &crate::Camera) -> PixelMask {
     m
 }
 
-/// `mesh` with each vertex moved along its normal by N(0, (f·diagonal)²).
+/// `mesh` with each vertex moved along its normal by N(0, (f·diagonal)²) (Box–Muller normals
+/// from the capture's seed).
 fn noisy(mesh: &Mesh, f: f32, seed: u64) -> Mesh {
-    if f <= 0.0 {
-        return mesh.clone();
-    }
-    let (lo, hi) = mesh.bounds();
-    let sd = f * (hi - lo).length();
-    let normals = mesh.compute_vertex_normals();
     let mut rng = Pcg32::seed_from_u64(seed);
-    let mut gauss = || {
+    geometry::remesh::normal_noise(mesh, f, || {
         let u1 = rng.random::<f64>().max(1e-12);
         let u2 = rng.random::<f64>();
         ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
-    };
-    let positions: Vec<Vec3> = mesh
-        .positions
-        .iter()
-        .zip(&normals)
-        .map(|(p, n)| *p + *n * (sd * gauss()))
-        .collect();
-    Mesh {
-        positions,
-        normals: None,
-        ..mesh.clone()
-    }
+    })
 }

@@ -1,0 +1,264 @@
+//! The capture-errors table (`OUT/capture-errors.md`, `OUT/capture-errors.csv`): per case and
+//! perturbation the errors, their shift from the unperturbed run, the intervals' hold, status
+//! and verdict; then per perturbation the verdicts over the cases.
+
+use std::fmt::Write as _;
+
+use super::{CaptureErrorsConfig, Perturbation, Row};
+
+/// What a run's figures say about a perturbation (module docs of [`super`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Every 95 % interval (σ_t and α, each channel, and the light's scale where it is
+    /// recovered) holds the truth.
+    Holds,
+    /// An interval misses the truth and the run's status is not `ok`.
+    Flagged,
+    /// An interval misses the truth and the run says `ok`.
+    Wrong,
+}
+
+impl Verdict {
+    pub fn of(row: &Row) -> Verdict {
+        let o = &row.outcome;
+        let holds = o.covered().iter().flatten().all(|&c| c)
+            && o.light_scale
+                .is_none_or(|l| l.covers(row.perturbation.true_light_scale()));
+        match (holds, o.status == "ok") {
+            (true, _) => Verdict::Holds,
+            (false, false) => Verdict::Flagged,
+            (false, true) => Verdict::Wrong,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Holds => "holds",
+            Verdict::Flagged => "flagged",
+            Verdict::Wrong => "wrong",
+        }
+    }
+}
+
+const CSV_HEADER: &str = "case,perturbation,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_shift,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_shift,albedo_lo,albedo_hi,albedo_covered,light_scale_true,light_scale,light_scale_lo,light_scale_hi,status,verdict";
+
+/// The unperturbed run of `row`'s case.
+fn baseline<'a>(rows: &'a [Row], row: &Row) -> Option<&'a Row> {
+    rows.iter().find(|r| {
+        r.perturbation == Perturbation::None && r.outcome.case.name == row.outcome.case.name
+    })
+}
+
+/// The estimate's shift from the unperturbed run's: σ_t relative, α absolute, per channel.
+fn shift(rows: &[Row], row: &Row) -> ([f64; 3], [f64; 3]) {
+    match baseline(rows, row) {
+        Some(b) => {
+            let (e, f) = (&row.outcome.estimate, &b.outcome.estimate);
+            (
+                std::array::from_fn(|c| e[0][c] / f[0][c] - 1.0),
+                std::array::from_fn(|c| e[1][c] - f[1][c]),
+            )
+        }
+        None => ([f64::NAN; 3], [f64::NAN; 3]),
+    }
+}
+
+/// The entry of largest magnitude, with its sign.
+fn largest(v: [f64; 3]) -> f64 {
+    v.into_iter()
+        .fold(0.0f64, |m, x| if x.abs() > m.abs() { x } else { m })
+}
+
+pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) {
+    let mut md = String::new();
+    let (views, res, spp, iterations) = if a.quick {
+        (6, 24, 8, 12)
+    } else {
+        (a.views, a.res, a.target_spp, a.budget.iterations)
+    };
+    let _ = writeln!(
+        md,
+        "Capture errors: {views} views {res}² (targets at {spp} spp by the volumetric path tracer), \
+         `optimize`'s defaults ({iterations} iterations{}), seed {}{}\n",
+        if a.free_light_scale {
+            ", the light scale free"
+        } else {
+            ""
+        },
+        a.seed,
+        if a.quick {
+            " (quick: a smoke test, not a measurement)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        md,
+        "σ_t error per channel against the truth; shift: the largest change of the estimate from \
+         the unperturbed run's (σ_t relative, α absolute); in 95 %: channels whose interval holds \
+         the truth; verdict: `holds` (every interval holds the truth), `flagged` (one misses and \
+         the run is not `ok`), `wrong` (one misses and the run says `ok`).\n"
+    );
+    let mut csv = String::from(CSV_HEADER);
+    csv.push('\n');
+    let mut cases: Vec<&str> = rows.iter().map(|r| r.outcome.case.name.as_str()).collect();
+    cases.dedup();
+    // Runs that recover the light's scale get its column: estimate, interval and truth.
+    let with_k = rows.iter().any(|r| r.outcome.light_scale.is_some());
+    for case in cases {
+        let _ = writeln!(md, "### {case}\n");
+        let _ = writeln!(
+            md,
+            "| perturbation | σ_t error R, G, B | σ_t shift | α error (largest) | α shift | in 95 % σ_t; α | σ_t determined | {}status | verdict |\n|---|---|---|---|---|---|---|{}---|---|",
+            if with_k {
+                "light scale [95 %] (truth) | "
+            } else {
+                ""
+            },
+            if with_k { "---|" } else { "" }
+        );
+        for row in rows.iter().filter(|r| r.outcome.case.name == case) {
+            let o = &row.outcome;
+            let err = o.sigma_t_error(true);
+            let (s_sigma, s_alpha) = shift(rows, row);
+            let cov = o.covered();
+            let count = |v: &[bool; 3]| v.iter().filter(|&&b| b).count();
+            let verdict = Verdict::of(row);
+            let _ = writeln!(
+                md,
+                "| {} | {:+.1}, {:+.1}, {:+.1} % | {} | {:+.3} | {} | {}/3; {}/3 | {}/3 | {}{} | {} |",
+                row.perturbation.describe(),
+                100.0 * err[0],
+                100.0 * err[1],
+                100.0 * err[2],
+                if row.perturbation == Perturbation::None {
+                    "—".to_string()
+                } else {
+                    format!("{:+.1} %", 100.0 * largest(s_sigma))
+                },
+                largest(o.albedo_error()),
+                if row.perturbation == Perturbation::None {
+                    "—".to_string()
+                } else {
+                    format!("{:+.3}", largest(s_alpha))
+                },
+                count(&cov[0]),
+                count(&cov[1]),
+                count(&o.determined_sigma_t),
+                match o.light_scale {
+                    Some(k) => format!(
+                        "{:.3} [{:.3}, {:.3}] ({:.3}) | ",
+                        k.estimate,
+                        k.interval[0],
+                        k.interval[1],
+                        row.perturbation.true_light_scale()
+                    ),
+                    None if with_k => "— | ".to_string(),
+                    None => String::new(),
+                },
+                o.status,
+                match verdict {
+                    Verdict::Wrong => "**wrong**",
+                    v => v.name(),
+                }
+            );
+            csv_rows(&mut csv, row, (s_sigma, s_alpha), verdict);
+        }
+        md.push('\n');
+    }
+    summary(&mut md, rows);
+    (md, csv)
+}
+
+fn csv_rows(csv: &mut String, row: &Row, shift: ([f64; 3], [f64; 3]), verdict: Verdict) {
+    let o = &row.outcome;
+    let cov = o.covered();
+    let err = o.sigma_t_error(true);
+    let alpha = o.albedo_error();
+    let bound = |i: Option<[f64; 2]>, k: usize| i.map_or(f64::NAN, |v| v[k]);
+    let (scale, scale_lo, scale_hi) = o.light_scale.map_or((f64::NAN, f64::NAN, f64::NAN), |l| {
+        (l.estimate, l.interval[0], l.interval[1])
+    });
+    for c in 0..3 {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            o.case.name,
+            row.perturbation.name(),
+            ["R", "G", "B"][c],
+            o.case.medium.sigma_t[c],
+            o.estimate[0][c],
+            err[c],
+            shift.0[c],
+            bound(o.interval_sigma_t[c], 0),
+            bound(o.interval_sigma_t[c], 1),
+            cov[0][c],
+            o.determined_sigma_t[c],
+            o.case.medium.albedo[c],
+            o.estimate[1][c],
+            alpha[c],
+            shift.1[c],
+            bound(o.interval_albedo[c], 0),
+            bound(o.interval_albedo[c], 1),
+            cov[1][c],
+            row.perturbation.true_light_scale(),
+            scale,
+            scale_lo,
+            scale_hi,
+            o.status,
+            verdict.name()
+        );
+    }
+}
+
+/// Per perturbation, its verdicts over the cases; then the count of confident wrong numbers.
+fn summary(md: &mut String, rows: &[Row]) {
+    let _ = writeln!(
+        md,
+        "### Over the cases\n\n| perturbation | holds | flagged | wrong | largest σ_t shift | largest α shift |\n|---|---|---|---|---|---|"
+    );
+    let mut seen: Vec<Perturbation> = Vec::new();
+    for row in rows {
+        if !seen.contains(&row.perturbation) {
+            seen.push(row.perturbation);
+        }
+    }
+    let mut wrong = 0;
+    for p in &seen {
+        let of: Vec<&Row> = rows.iter().filter(|r| r.perturbation == *p).collect();
+        let n = |v: Verdict| of.iter().filter(|r| Verdict::of(r) == v).count();
+        wrong += n(Verdict::Wrong);
+        let (s_sigma, s_alpha) = of.iter().fold((0.0f64, 0.0f64), |(a, b), r| {
+            let (s, t) = shift(rows, r);
+            let (s, t) = (largest(s), largest(t));
+            (
+                if s.abs() > a.abs() { s } else { a },
+                if t.abs() > b.abs() { t } else { b },
+            )
+        });
+        let none = *p == Perturbation::None;
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} |",
+            p.describe(),
+            n(Verdict::Holds),
+            n(Verdict::Flagged),
+            n(Verdict::Wrong),
+            if none {
+                "—".into()
+            } else {
+                format!("{:+.1} %", 100.0 * s_sigma)
+            },
+            if none {
+                "—".into()
+            } else {
+                format!("{:+.3}", s_alpha)
+            }
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nConfident wrong numbers (an interval misses the truth, the run says `ok`): {wrong} of {} runs.",
+        rows.len()
+    );
+}
