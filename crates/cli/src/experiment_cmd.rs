@@ -10,6 +10,10 @@ pub mod capture_errors;
 pub mod renderers;
 pub mod robustness;
 
+/// `--quick`'s help in the suites' commands (robustness, capture errors), whose quick scale is
+/// `RobustnessConfig::workload`'s.
+const SUITE_QUICK_HELP: &str = "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations): a smoke test of the pipeline, not a measurement";
+
 /// The `--help` heading of the scheduler options.
 const JOB_OPTIONS: &str = "Running the cases as separate jobs (a cluster's scheduler)";
 

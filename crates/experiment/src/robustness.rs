@@ -137,6 +137,41 @@ impl Default for RobustnessConfig {
     }
 }
 
+/// What a suite run renders and iterates: its datasets' views, resolution and target samples,
+/// and its runs' iterations and samples per iteration (the quick scale's with `quick`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Workload {
+    pub views: usize,
+    pub res: u32,
+    pub target_spp: u32,
+    pub iterations: u32,
+    pub spp: u32,
+}
+
+impl RobustnessConfig {
+    /// The workload these settings give: [`RobustnessConfig::quick`]'s 6 views of 24², 8 spp
+    /// targets and 12 iterations × 4 spp, or the settings' own.
+    pub fn workload(&self) -> Workload {
+        if self.quick {
+            Workload {
+                views: 6,
+                res: 24,
+                target_spp: 8,
+                iterations: 12,
+                spp: 4,
+            }
+        } else {
+            Workload {
+                views: self.views,
+                res: self.res,
+                target_spp: self.target_spp,
+                iterations: self.budget.iterations,
+                spp: self.budget.spp,
+            }
+        }
+    }
+}
+
 /// One recovery's figures, read from its `result.json`.
 #[derive(Clone, Debug)]
 pub struct Outcome {
@@ -381,8 +416,8 @@ pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) 
     s.start.init.g = a.init_g;
     s.start.init.light_scale = a.init_light_scale;
     if a.quick {
-        s.schedule.iterations = 12;
-        s.schedule.spp = 4;
+        s.schedule.iterations = a.workload().iterations;
+        s.schedule.spp = a.workload().spp;
         s.checks.uncertainty.views = 3;
         s.checks.uncertainty.spp = 4;
         s.checks.consistency_views = 2;

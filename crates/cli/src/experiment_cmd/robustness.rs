@@ -21,12 +21,7 @@ use cmdline::optimize::{FreeParam, IterationArgs};
     "res",
     cmdline::groups::default_and_help(RobustnessConfig::default().res.to_string(), "Image width and height")
 ))]
-#[command(mut_arg(
-    "quick",
-    cmdline::groups::help(
-        "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations): a smoke test of the pipeline, not a measurement"
-    )
-))]
+#[command(mut_arg("quick", cmdline::groups::help(super::SUITE_QUICK_HELP)))]
 pub struct RobustnessArgs {
     #[command(flatten)]
     pub out: cmdline::Output,

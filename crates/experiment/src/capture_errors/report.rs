@@ -71,11 +71,8 @@ fn largest(v: [f64; 3]) -> f64 {
 
 pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) {
     let mut md = String::new();
-    let (views, res, spp, iterations) = if a.quick {
-        (6, 24, 8, 12)
-    } else {
-        (a.views, a.res, a.target_spp, a.budget.iterations)
-    };
+    let w = a.suite().workload();
+    let (views, res, spp, iterations) = (w.views, w.res, w.target_spp, w.iterations);
     let _ = writeln!(
         md,
         "Capture errors: {views} views {res}² (targets at {spp} spp by the volumetric path tracer), \
@@ -173,38 +170,32 @@ pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) 
 fn csv_rows(csv: &mut String, row: &Row, shift: ([f64; 3], [f64; 3]), verdict: Verdict) {
     let o = &row.outcome;
     let cov = o.covered();
-    let err = o.sigma_t_error(true);
-    let alpha = o.albedo_error();
-    let bound = |i: Option<[f64; 2]>, k: usize| i.map_or(f64::NAN, |v| v[k]);
-    let (scale, scale_lo, scale_hi) = o.light_scale.map_or((f64::NAN, f64::NAN, f64::NAN), |l| {
-        (l.estimate, l.interval[0], l.interval[1])
+    let err = [o.sigma_t_error(true), o.albedo_error()];
+    let truth = [o.case.medium.sigma_t, o.case.medium.albedo];
+    let intervals = [o.interval_sigma_t, o.interval_albedo];
+    let shifts = [shift.0, shift.1];
+    // Parameter k's columns of channel c: truth, estimate, error, shift, interval, covered.
+    let param = |k: usize, c: usize| {
+        let [lo, hi] = intervals[k][c].unwrap_or([f64::NAN; 2]);
+        format!(
+            "{},{},{},{},{lo},{hi},{}",
+            truth[k][c], o.estimate[k][c], err[k][c], shifts[k][c], cov[k][c]
+        )
+    };
+    let k = o.light_scale.map_or("NaN,NaN,NaN".to_string(), |l| {
+        format!("{},{},{}", l.estimate, l.interval[0], l.interval[1])
     });
     for c in 0..3 {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{k},{},{}",
             o.case.name,
             row.perturbation.name(),
             ["R", "G", "B"][c],
-            o.case.medium.sigma_t[c],
-            o.estimate[0][c],
-            err[c],
-            shift.0[c],
-            bound(o.interval_sigma_t[c], 0),
-            bound(o.interval_sigma_t[c], 1),
-            cov[0][c],
+            param(0, c),
             o.determined_sigma_t[c],
-            o.case.medium.albedo[c],
-            o.estimate[1][c],
-            alpha[c],
-            shift.1[c],
-            bound(o.interval_albedo[c], 0),
-            bound(o.interval_albedo[c], 1),
-            cov[1][c],
+            param(1, c),
             row.perturbation.true_light_scale(),
-            scale,
-            scale_lo,
-            scale_hi,
             o.status,
             verdict.name()
         );

@@ -28,11 +28,8 @@ const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_tru
 /// dielectric; a heading each when both ran), and the CSV.
 pub(super) fn report(a: &RobustnessConfig, outcomes: &[Outcome]) -> (String, String) {
     let mut md = String::new();
-    let (views, res, spp) = if a.quick {
-        (6, 24, 8)
-    } else {
-        (a.views, a.res, a.target_spp)
-    };
+    let w = a.workload();
+    let (views, res, spp) = (w.views, w.res, w.target_spp);
     let _ = writeln!(
         md,
         "Robustness: {views} views {res}² (targets rendered at {spp} spp by {}), `optimize` defaults ({}{} iterations × {} spp from σ_t = 50, α = 0.5{}), {} repetition(s), seed {}{}\n",
@@ -41,10 +38,10 @@ pub(super) fn report(a: &RobustnessConfig, outcomes: &[Outcome]) -> (String, Str
             inverse::forward::ModelKind::Learned => String::new(),
             m => format!("the {m} model, "),
         },
-        if a.quick { 12 } else { a.budget.iterations },
-        if a.quick { 4 } else { a.budget.spp },
+        w.iterations,
+        w.spp,
         {
-            let iterations = if a.quick { 12 } else { a.budget.iterations };
+            let iterations = w.iterations;
             let default = OptimizeConfig::default_refinement(a.model, iterations);
             match a.refine.unwrap_or(default) {
                 0 if a.model == inverse::forward::ModelKind::Learned => {

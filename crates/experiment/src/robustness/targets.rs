@@ -23,8 +23,8 @@ pub(crate) fn ensure_dataset(
     dir: &Path,
     obs: &dyn Observer,
 ) -> Result<()> {
-    let spp = if a.quick { 8 } else { a.target_spp };
-    let (views, res) = if a.quick { (6, 24) } else { (a.views, a.res) };
+    let w = a.workload();
+    let (views, res, spp) = (w.views, w.res, w.target_spp);
     if dir.join("dataset.json").exists() {
         let ds = Dataset::load(dir)?;
         let by_mitsuba = ds
