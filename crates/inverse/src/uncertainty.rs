@@ -314,6 +314,10 @@ pub struct Uncertainty {
     /// Its part from the images and the optimiser alone (no model-error allowance).
     #[serde(skip)]
     pub images: [Option<[f64; 3]>; 3],
+    /// The optimiser's part of `images` per channel in (ln σ_t, α), [c00, c01, c11]: the spread
+    /// and drift of the last iterates (C_opt + C_drift), which more views would not narrow.
+    #[serde(skip)]
+    pub optimiser: [[f64; 3]; 3],
     /// The learned model's Gauss–Newton A of each view used: (target index, [a00, a01, a11]
     /// per channel in (ln σ_t, α)).
     #[serde(skip)]
@@ -383,6 +387,7 @@ impl Uncertainty {
             views,
             covariance: cov,
             images,
+            optimiser: [[0.0; 3]; 3],
             view_bread: Vec::new(),
             fixed: [false, false],
             g: None,
@@ -424,6 +429,7 @@ impl Uncertainty {
             self.method
         );
         u.keep_from(self);
+        u.optimiser = self.optimiser.map(|m| m.map(|v| 2.0 * v));
         u
     }
 
@@ -454,18 +460,19 @@ impl Uncertainty {
     /// images' interval of σ_t spans a factor of 10 either way ([`WIDEST_SD_LN_SIGMA_T`]):
     /// beyond that a linearised interval says no more than "not determined".
     pub fn with_sensitivity(&self, at: &crate::params::Params, s: &Sensitivity) -> Self {
-        let images: [Option<[f64; 3]>; 3] = std::array::from_fn(|c| {
+        let rho: [Option<f64>; 3] = std::array::from_fn(|c| {
             self.images[c].map(|m| {
                 // No wider than WIDEST_SD_LN_SIGMA_T by the widening itself.
                 let room = (WIDEST_SD_LN_SIGMA_T.powi(2) / m[0]).max(1.0);
-                let rho = if room.is_finite() {
+                if room.is_finite() {
                     s.ratio[c].min(room)
                 } else {
                     s.ratio[c]
-                };
-                along_valley(m, s.slope[c], rho)
+                }
             })
         });
+        let images: [Option<[f64; 3]>; 3] =
+            std::array::from_fn(|c| Some(along_valley(self.images[c]?, s.slope[c], rho[c]?)));
         // The model-error allowances (cov − images) are magnitudes, not curvatures: they stay.
         let cov = std::array::from_fn(|c| match (self.covariance[c], self.images[c], images[c]) {
             (Some(m), Some(old), Some(new)) => {
@@ -479,6 +486,9 @@ impl Uncertainty {
             self.method
         );
         u.keep_from(self);
+        u.optimiser = std::array::from_fn(|c| {
+            along_valley(self.optimiser[c], s.slope[c], rho[c].unwrap_or(1.0))
+        });
         u
     }
 
@@ -501,6 +511,7 @@ impl Uncertainty {
             }
         }
         self.view_bread = from.view_bread.clone();
+        self.optimiser = from.optimiser;
     }
 
     /// `result.json`'s `interval95` and `determined` fields.

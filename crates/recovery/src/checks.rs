@@ -8,6 +8,7 @@ use serde_json::json;
 use super::prepare::Prepared;
 use super::{Observer, RecoveryConfig, RecoveryError, write_result};
 use crate::report;
+use crate::report::advice::{self, Advice};
 use inverse::consistency::{CheckView, Consistency};
 use inverse::forward::ModelKind;
 use inverse::health::Problem;
@@ -81,6 +82,13 @@ pub(super) fn check(
         result["sensitivity"] = serde_json::to_value(s)?;
         shown_u = Some(widened);
     }
+    let advice = match &shown_u {
+        Some(u) => advice(cfg, opt, p, u, obs)?,
+        None => None,
+    };
+    if let Some(a) = &advice {
+        result["advice"] = a.to_json();
+    }
     let c = &cfg.optimize;
     let final_from = match c.refine_iterations {
         0 => 0,
@@ -117,6 +125,7 @@ pub(super) fn check(
         consistency: consistency.as_ref(),
         problems: &problems,
         units: units.unwrap_or_default(),
+        advice: advice.as_ref(),
     };
     summary.say(cfg, obs);
     Ok(())
@@ -175,6 +184,64 @@ fn sensitivity(
     Ok(Some(s))
 }
 
+/// Which capture would determine σ_t for this rig where the intervals `u` leave it open
+/// ([`report::advice`]): each used view's share of the information, and views with the light
+/// beside or behind the object rendered at the estimate where the capture has none.
+fn advice(
+    cfg: &RecoveryConfig,
+    opt: &Optimizer,
+    p: &Prepared,
+    u: &Uncertainty,
+    obs: &dyn Observer,
+) -> Result<Option<Advice>, RecoveryError> {
+    if u.fixed[0] || u.view_bread.is_empty() || u.determined_sigma_t.iter().all(|d| *d) {
+        return Ok(None);
+    }
+    let (lo, hi) = p.accel.mesh().bounds();
+    let centre = 0.5 * (lo + hi);
+    let view = |i: usize| &p.ds.views[i];
+    let angle = |i: usize| advice::light_angle(&view(i).camera, &view(i).light, centre);
+    let angles: Vec<f64> = u.view_bread.iter().map(|(i, _)| angle(*i)).collect();
+    // A candidate for each angle class no captured view is in.
+    let class = |a: f64| advice::CLASSES.iter().position(|(hi, _)| a < *hi);
+    let missing: Vec<f64> = advice::CANDIDATE_ANGLES
+        .into_iter()
+        .filter(|&a| angles.iter().all(|&b| class(b) != class(a)))
+        .collect();
+    let of_view = u.view_bread[0].0;
+    let pb = obs.progress(
+        missing.len() as u64,
+        "advice: views this capture lacks, rendered at the estimate",
+    );
+    let candidates = missing
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| {
+            let v = view(of_view);
+            let light = advice::moved_light(&v.camera, &v.light, centre, a);
+            let bread = opt.candidate_bread(&v.camera, &light, &cfg.uncertainty, i)?;
+            pb.inc(1);
+            Ok(advice::Candidate {
+                of_view,
+                angle_deg: a,
+                bread,
+            })
+        })
+        .collect::<Result<Vec<_>, RecoveryError>>()?;
+    pb.finish_and_clear();
+    // The views as the dataset numbers them.
+    let original = |v: usize| opt.config().view_subset.as_ref().map_or(v, |s| s[v]);
+    Ok(advice::advise(u, &angles, &candidates).map(|mut a| {
+        for g in &mut a.groups {
+            g.views.iter_mut().for_each(|v| *v = original(*v));
+        }
+        for c in &mut a.candidates {
+            c.of_view = original(c.of_view);
+        }
+        a
+    }))
+}
+
 /// What the run prints after its checks.
 struct Summary<'a> {
     shown: &'a Params,
@@ -184,6 +251,8 @@ struct Summary<'a> {
     problems: &'a [Problem],
     /// The estimate in real units, where the dataset states its length unit.
     units: Vec<String>,
+    /// Which capture would determine σ_t, where it is not determined.
+    advice: Option<&'a Advice>,
 }
 
 impl Summary<'_> {
@@ -192,6 +261,9 @@ impl Summary<'_> {
             for line in report::interval_lines(self.shown, u) {
                 obs.say(&format!("  {line}"));
             }
+        }
+        for line in self.advice.iter().flat_map(|a| a.lines()) {
+            obs.say(&format!("  {line}"));
         }
         for line in &self.units {
             obs.say(&format!("  {line}"));

@@ -11,6 +11,7 @@ use inverse::params::Params;
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
+pub mod advice;
 mod convergence;
 mod units;
 

@@ -700,6 +700,40 @@ fn flash_capture_says_sigma_t_is_not_determined() {
     let res = read_json(&d.join("o2/result.json"));
     let ratio = res["sensitivity"]["ratio"].as_array().unwrap();
     assert!(ratio.iter().all(|r| r.as_f64().unwrap() >= 1.0), "{res}");
+    // Long enough for finite intervals: the advice says which capture would determine σ_t. Every
+    // view is a flash, so it renders a view lit from the side and one from behind at the
+    // estimate, and counts the views of each kind that would.
+    let mut longer = TINY_OPTIMIZE.to_vec();
+    longer[4] = "o3";
+    longer[6] = "40"; // --iterations
+    longer[8] = "16"; // --spp
+    let r = ok(d, &longer);
+    assert_stdout_has(
+        &r,
+        &[
+            "What would determine σ_t with this rig",
+            "4 views with the light within 30° of the camera (a flash)",
+            "with the light moved 90° round the object",
+        ],
+    );
+    let res = read_json(&d.join("o3/result.json"));
+    let advice = &res["advice"]["sigma_t"];
+    assert_eq!(advice["groups"].as_array().unwrap().len(), 1, "{advice}");
+    assert_eq!(
+        advice["groups"][0]["views"],
+        serde_json::json!([0, 1, 2, 3])
+    );
+    let angles: Vec<f64> = advice["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["angle_deg"].as_f64().unwrap())
+        .collect();
+    assert_eq!(angles, [90.0, 150.0], "{advice}");
+    for c in 0..3 {
+        let need = advice["need"][c].as_f64().unwrap();
+        assert!(need > 1.0, "{advice}");
+    }
 }
 
 /// `-q experiment robustness --quick --suite SUITE --out rb`, then `rest`.

@@ -6,11 +6,14 @@ use base::rng::hash_key;
 use bssrdf::render::RenderSettings;
 
 use super::{InverseError, Optimizer};
+use crate::forward::MediumRenderer;
 use crate::uncertainty::joint::{self, JointAccumulator, Shared};
 use crate::uncertainty::{
     Accumulator, SharedUncertainty, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
     iterate_covariance, iterate_drift,
 };
+use bssrdf::diff::DiffImages;
+use scene::{Camera, PointLight};
 
 impl Optimizer<'_> {
     /// The uncertainty of the current parameters from the target images
@@ -36,17 +39,7 @@ impl Optimizer<'_> {
         for i in 0..k {
             let v = i * n / k;
             let t = &self.targets[v];
-            let light = p.light(t.light);
-            let view = at.view(t.camera, &light);
-            let render = |stream: u64| {
-                let rs = RenderSettings {
-                    spp: s.spp.max(1),
-                    seed: hash_key(&[c.seed, 0x5A4D_0000, stream]),
-                    view: v as u64,
-                };
-                view.derivatives(&rs, None)
-            };
-            let (a, b) = (render(1)?, render(2)?);
+            let (a, b) = derivative_pair(at.as_ref(), t.camera, &p.light(t.light), s, c.seed, v)?;
             let renders = ViewRenders {
                 value: [&a.value, &b.value],
                 d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
@@ -118,6 +111,7 @@ impl Optimizer<'_> {
             .zip(acc.view_breads().iter().copied())
             .collect();
         u.fixed = fixed;
+        u.optimiser = spread;
         if c.params.fix_sigma_t {
             u.sigma_t = [None; 3];
             u.sd_ln_sigma_t = [None; 3];
@@ -130,6 +124,64 @@ impl Optimizer<'_> {
         }
         Ok(u)
     }
+
+    /// The Gauss–Newton A (per channel, [a00, a01, a11] in (ln σ_t, α)) that a view which was
+    /// not captured would add: `camera` and `light` (its stated intensity; the run's light scale
+    /// applies) rendered at the current parameters by the run's final model, two independent
+    /// derivative renders at `s.spp` as for the intervals' own views ([`crate::uncertainty`]).
+    /// `key` tells such views apart in the renders' seeds.
+    pub fn candidate_bread(
+        &self,
+        camera: &Camera,
+        light: &PointLight,
+        s: &UncertaintySettings,
+        key: usize,
+    ) -> Result<[[f64; 3]; 3], InverseError> {
+        let p = self.params();
+        let at = self.forward.at(p.medium(&self.base))?;
+        let key = self.targets.len() + key;
+        let (a, b) = derivative_pair(
+            at.as_ref(),
+            camera,
+            &p.light(light),
+            s,
+            self.config.seed,
+            key,
+        )?;
+        let mut acc = Accumulator::default();
+        acc.add_view(
+            &ViewRenders {
+                value: [&a.value, &b.value],
+                d_sigma_t: [&a.d_sigma_t, &b.d_sigma_t],
+                d_albedo: [&a.d_albedo, &b.d_albedo],
+                // The bread does not depend on the target.
+                target: &a.value,
+            },
+            p.sigma_t,
+        );
+        Ok(acc.view_breads()[0])
+    }
+}
+
+/// Two independent derivative renders of one view (index `view` in the seeds) at `s.spp`.
+fn derivative_pair(
+    at: &dyn MediumRenderer,
+    camera: &Camera,
+    light: &PointLight,
+    s: &UncertaintySettings,
+    seed: u64,
+    view: usize,
+) -> Result<(DiffImages, DiffImages), InverseError> {
+    let prepared = at.view(camera, light);
+    let render = |stream: u64| {
+        let rs = RenderSettings {
+            spp: s.spp.max(1),
+            seed: hash_key(&[seed, 0x5A4D_0000, stream]),
+            view: view as u64,
+        };
+        prepared.derivatives(&rs, None)
+    };
+    Ok((render(1)?, render(2)?))
 }
 
 /// The per-channel covariances (with and without the model's error) and, per shared parameter,
