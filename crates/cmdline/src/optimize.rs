@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use bssrdf::diff::{Loss, Primal};
 use clap::Args;
 use inverse::optimize::OptimizeConfig;
-use inverse::params::{ParamSpec, Parameterisation, Params};
+use inverse::params::{OneOrRgb, ParamSpec, Parameterisation, Params};
 use inverse::uncertainty::UncertaintySettings;
 use recovery::RecoveryConfig;
 use recovery::settings::{
@@ -29,6 +29,9 @@ pub enum FreeParam {
     G,
     /// A factor on every light's stated intensity (one for all lights and channels).
     LightScale,
+    /// A factor per channel on every light's stated intensity (the light's strength and the
+    /// camera's white balance unknown).
+    LightScaleRgb,
 }
 
 #[derive(Args, Clone)]
@@ -100,13 +103,16 @@ pub struct OptimizeArgs {
     /// stated g or --init-g and moves where the volumetric path tracer renders: the refinement
     /// of the default recovery, the learned model holding it during its fit, or --model
     /// volpath); `light-scale`, a factor k on every light's stated intensity, for a light of
-    /// unknown strength (one for all lights and channels, from 1 or --init-light-scale).
+    /// unknown strength (one for all lights and channels, from 1 or --init-light-scale);
+    /// `light-scale-rgb`, one such factor per channel, for a camera whose white balance is
+    /// unknown too (it includes `light-scale`).
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<FreeParam>,
     /// Initial g with --free g (default: the dataset's stated g).
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, allow_negative_numbers = true)]
     pub init_g: Option<f64>,
-    /// Initial light scale with --free light-scale (default 1: the lights as stated).
+    /// Initial light scale with --free light-scale or light-scale-rgb, every channel's (default
+    /// 1: the lights as stated).
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
     pub init_light_scale: Option<f64>,
     /// Learning rate on ln k with --free light-scale.
@@ -263,7 +269,7 @@ impl OptimizeArgs {
                     sigma_t: rgb(self.init_sigma_t),
                     albedo: rgb(self.init_albedo),
                     g: self.init_g,
-                    light_scale: self.init_light_scale,
+                    light_scale: self.init_light_scale.map(OneOrRgb::One),
                 },
                 starts: self.starts,
             },
@@ -287,7 +293,9 @@ impl OptimizeArgs {
                     fix_sigma_t: self.fix_sigma_t,
                     fix_albedo: self.fix_albedo,
                     free_g: self.free.contains(&FreeParam::G),
-                    free_light_scale: self.free.contains(&FreeParam::LightScale),
+                    free_light_scale: self.free.contains(&FreeParam::LightScale)
+                        || self.free.contains(&FreeParam::LightScaleRgb),
+                    light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),
                 },
                 loss: self.loss,
                 single_render: self.single_render,

@@ -53,6 +53,9 @@ pub struct CaptureErrorsConfig {
     /// Recover a factor on the lights besides σ_t and α in every run (the remedy for an
     /// unknown intensity).
     pub free_light_scale: bool,
+    /// With a free light scale, one factor per channel (the remedy for an unknown white
+    /// balance).
+    pub light_scale_per_channel: bool,
     /// The mesh file of the suite's third shape.
     pub mesh: PathBuf,
     /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
@@ -74,6 +77,7 @@ impl Default for CaptureErrorsConfig {
             cases: vec!["flash-15-torus".into(), "turntable-15-blob".into()],
             perturbations: None,
             free_light_scale: false,
+            light_scale_per_channel: false,
             mesh: PathBuf::from("data/meshes/spot.obj"),
             quick: false,
             seed: 0,
@@ -93,6 +97,7 @@ impl CaptureErrorsConfig {
             target_spp: self.target_spp,
             budget: self.budget,
             free_light_scale: self.free_light_scale,
+            light_scale_per_channel: self.light_scale_per_channel,
             mesh: self.mesh.clone(),
             quick: self.quick,
             seed: self.seed,

@@ -45,6 +45,7 @@ use scene::Dataset;
 
 use inverse::forward::ModelKind;
 use inverse::forward::learned::LearnedSpec;
+use inverse::params::OneOrRgb;
 use inverse::views::build_accel;
 use recovery::reuse::read_json;
 
@@ -81,6 +82,8 @@ pub struct RobustnessConfig {
     /// Recover a factor on the lights (whose truth here is 1: the datasets state their lights)
     /// in every run (its own table).
     pub free_light_scale: bool,
+    /// With a free light scale, one factor per channel (a table per channel).
+    pub light_scale_per_channel: bool,
     /// The starting g of runs that free it (`None`: the dataset's stated g, the case's own).
     pub init_g: Option<f64>,
     /// The starting light scale of runs that free it (`None`: 1, the truth).
@@ -121,6 +124,7 @@ impl Default for RobustnessConfig {
             refine_spp: None,
             free_g: false,
             free_light_scale: false,
+            light_scale_per_channel: false,
             init_g: None,
             init_light_scale: None,
             seeds: 1,
@@ -195,8 +199,8 @@ pub struct Outcome {
     pub model_ratio: [f64; 3],
     /// The recovered g, its 95 % interval and whether it is determined, in runs that free g.
     pub g: Option<Recovered>,
-    /// The recovered light scale likewise (its truth is 1).
-    pub light_scale: Option<Recovered>,
+    /// The recovered light scale likewise, one or one per channel (its truth is 1).
+    pub light_scale: Option<OneOrRgb<Recovered>>,
 }
 
 /// A run's recovered g or light scale.
@@ -222,17 +226,48 @@ impl Recovered {
     /// `result.json`'s `key` (estimate, interval and determined flag), where the run has it;
     /// `whole` where the images give no interval.
     fn of(v: &serde_json::Value, key: &str, whole: [f64; 2]) -> Option<Self> {
-        v["estimate"][key].as_f64().map(|estimate| {
-            let i = &v["interval95"][key];
-            Recovered {
-                estimate,
-                interval: match (i[0].as_f64(), i[1].as_f64()) {
-                    (Some(lo), Some(hi)) => [lo, hi],
-                    _ => whole,
-                },
-                determined: v["determined"][key].as_bool().unwrap_or(false),
-            }
+        Self::from_parts(
+            &v["estimate"][key],
+            &v["interval95"][key],
+            &v["determined"][key],
+            whole,
+        )
+    }
+
+    /// One value's estimate, interval and flag from their JSON values.
+    fn from_parts(
+        estimate: &serde_json::Value,
+        interval: &serde_json::Value,
+        determined: &serde_json::Value,
+        whole: [f64; 2],
+    ) -> Option<Self> {
+        estimate.as_f64().map(|estimate| Recovered {
+            estimate,
+            interval: match (interval[0].as_f64(), interval[1].as_f64()) {
+                (Some(lo), Some(hi)) => [lo, hi],
+                _ => whole,
+            },
+            determined: determined.as_bool().unwrap_or(false),
         })
+    }
+
+    /// `result.json`'s light scale: one value, or an array of three (one per channel).
+    fn light_scale(v: &serde_json::Value) -> Option<OneOrRgb<Self>> {
+        let key = "light_scale";
+        let whole = [0.0, f64::INFINITY];
+        if v["estimate"][key].is_array() {
+            let c: [Option<Self>; 3] = std::array::from_fn(|c| {
+                Self::from_parts(
+                    &v["estimate"][key][c],
+                    &v["interval95"][key][c],
+                    &v["determined"][key][c],
+                    whole,
+                )
+            });
+            Some(OneOrRgb::Rgb([c[0]?, c[1]?, c[2]?]))
+        } else {
+            Self::of(v, key, whole).map(OneOrRgb::One)
+        }
     }
 }
 
@@ -313,7 +348,7 @@ pub(crate) fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) ->
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
         model_ratio: [f64::NAN; 3],
         g: Recovered::of(&v, "g", [-1.0, 1.0]),
-        light_scale: Recovered::of(&v, "light_scale", [0.0, f64::INFINITY]),
+        light_scale: Recovered::light_scale(&v),
     })
 }
 
@@ -413,8 +448,9 @@ pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) 
     s.tracer.refine_spp = a.refine_spp;
     s.schedule.params.free_g = a.free_g;
     s.schedule.params.free_light_scale = a.free_light_scale;
+    s.schedule.params.light_scale_per_channel = a.light_scale_per_channel;
     s.start.init.g = a.init_g;
-    s.start.init.light_scale = a.init_light_scale;
+    s.start.init.light_scale = a.init_light_scale.map(inverse::params::OneOrRgb::One);
     if a.quick {
         s.schedule.iterations = a.workload().iterations;
         s.schedule.spp = a.workload().spp;

@@ -176,7 +176,12 @@ pub fn assess(
         .iter()
         .chain(&estimate.albedo)
         .chain(&estimate.g)
-        .chain(&estimate.light_scale);
+        .chain(
+            estimate
+                .light_scale
+                .as_ref()
+                .map_or(&[][..], |k| k.values()),
+        );
     if values.clone().any(|v| !v.is_finite()) {
         out.push(Problem::NonFinite {
             detail: format!("σ_t {:?}, α {:?}", estimate.sigma_t, estimate.albedo),
@@ -189,10 +194,11 @@ pub fn assess(
     }
     let at_bound =
         |k: &f64| *k <= LIGHT_SCALE_MIN * (1.0 + 1e-6) || *k >= LIGHT_SCALE_MAX * (1.0 - 1e-6);
-    if let Some(k) = estimate
-        .light_scale
-        .filter(|k| spec.free_light_scale && at_bound(k))
-    {
+    if let Some(&k) = estimate.light_scale.as_ref().and_then(|k| {
+        k.values()
+            .iter()
+            .find(|k| spec.free_light_scale && at_bound(k))
+    }) {
         out.push(Problem::LightScaleAtBound { value: k });
     }
     for c in 0..3 {

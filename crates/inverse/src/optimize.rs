@@ -26,7 +26,7 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
 use crate::forward::{ForwardModel, ModelChoice};
-use crate::params::Params;
+use crate::params::{ALBEDO_MAX, ALBEDO_MIN, OneOrRgb, Params};
 
 /// One target view.
 pub struct TargetView<'a> {
@@ -91,9 +91,10 @@ pub struct IterationRecord {
     /// of the JSON otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub d_g: Option<f64>,
-    /// ∂ℓ/∂ln k where the run recovers the light scale (left out of the JSON otherwise).
+    /// ∂ℓ/∂ln k where the run recovers the light scale, one or one per channel as the scale
+    /// (left out of the JSON otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d_ln_light_scale: Option<f64>,
+    pub d_ln_light_scale: Option<OneOrRgb<f64>>,
     /// Views used.
     pub views: Vec<usize>,
     /// Top-left pixel (x0, y0) of each view's crop window (`--crop`; empty without crops).
@@ -118,8 +119,9 @@ pub struct IterationGradient {
     pub d_albedo: [f64; 3],
     /// ∂ℓ/∂g, where every view's derivative images had ∂I/∂g.
     pub d_g: Option<f64>,
-    /// ∂ℓ/∂ln k of a factor k on the lights, where every view's gradient had it.
-    pub d_ln_light_scale: Option<f64>,
+    /// ∂ℓ/∂ln k_c per channel of a factor k_c on the lights' channel c, where every view's
+    /// gradient had it (a factor shared by the channels has their sum).
+    pub d_ln_light_scale: Option<[f64; 3]>,
     /// Views used.
     pub views: Vec<usize>,
     /// Crop origins (empty without crops).
@@ -304,7 +306,7 @@ impl<'a> Optimizer<'a> {
             })
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
-        let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some(0.0), Some(0.0));
+        let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some(0.0), Some([0.0; 3]));
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
             // The light as the run has it (a recovered scale on its stated intensity).
@@ -348,7 +350,9 @@ impl<'a> Optimizer<'a> {
                     .sum::<f64>()
             };
             d_g = d_g.zip(g.d_g).map(|(sum, d)| shared(sum, d));
-            d_k = d_k.zip(g.d_ln_light_scale).map(|(sum, d)| shared(sum, d));
+            d_k = d_k.zip(g.d_ln_light_scale).map(|(sum, d)| {
+                std::array::from_fn(|ch| sum[ch] + w[ch] * d[ch] / views.len() as f64)
+            });
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -458,11 +462,21 @@ impl<'a> Optimizer<'a> {
         // iterations; elsewhere it keeps its value (zero gradient, no Adam moment).
         let moves_g = c.params.free_g && k >= c.effective_albedo_warmup();
         let d_g = d_g.filter(|_| moves_g);
-        // A free light scale moves from the first iteration, with α: both set the brightness.
-        let d_k = d_k.filter(|_| c.params.free_light_scale);
+        // A free light scale moves once σ_t and α have fitted the images under the lights as
+        // stated ([`OptimizeConfig::light_scale_start`]), or as soon as an α meets its clamp
+        // (the stated light too dim or too bright for any α to match), and from then on.
+        // Both α and k set the brightness: moved together from a start far darker than the
+        // images (α = 0.5), k took up the deficit and the flat α–k valley never gave it back.
+        // From the valley's floor k moves along it.
+        let at_clamp = |a: &f64| *a >= ALBEDO_MAX - 1e-7 || *a <= ALBEDO_MIN * (1.0 + 1e-6);
+        let moves_k = c.params.free_light_scale
+            && (k >= c.light_scale_start()
+                || p.albedo.iter().any(at_clamp)
+                || self.history.iter().any(|r| r.d_ln_light_scale.is_some()));
+        let d_k = d_k.filter(|_| moves_k);
         let mut g = c
             .params
-            .chain(&p, ds_t, da, [d_g.unwrap_or(0.0), d_k.unwrap_or(0.0)]);
+            .chain(&p, ds_t, da, d_g.unwrap_or(0.0), d_k.unwrap_or([0.0; 3]));
         let lr_t = if k < c.effective_albedo_warmup() {
             g[..3].fill(0.0);
             0.0
@@ -473,7 +487,7 @@ impl<'a> Optimizer<'a> {
         let lr_k = if d_k.is_some() { c.lr_light_scale } else { 0.0 };
         let mut scale = vec![lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
         scale.extend(c.params.g_index().map(|_| lr_g));
-        scale.extend(c.params.light_scale_index().map(|_| lr_k));
+        scale.extend(c.params.light_scale_indices().map(|_| lr_k));
         let scale = &scale[..];
         // The step is taken on copies and kept only when it is finite, so that a failure
         // leaves the optimiser (and a checkpoint written after it) at the last good state.
@@ -498,7 +512,13 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             d_g,
-            d_ln_light_scale: d_k,
+            d_ln_light_scale: d_k.map(|d| {
+                if c.params.light_scale_per_channel {
+                    OneOrRgb::Rgb(d)
+                } else {
+                    OneOrRgb::One(d.iter().sum())
+                }
+            }),
             views,
             crop_origins,
             seconds: t0.elapsed().as_secs_f64(),

@@ -11,8 +11,10 @@
 //! * g = u_g, a seventh variable when the run recovers the phase function's g
 //!   ([`ParamSpec::free_g`]; one g for all channels, as the Henyey–Greenstein medium has);
 //! * k = exp(u_k), the factor on every light's stated intensity, the next variable when the run
-//!   recovers the light's strength ([`ParamSpec::free_light_scale`]; one factor for all lights
-//!   and channels: the images are linear in it, I(k) = k·I(1), so ∂I/∂ln k = I);
+//!   recovers the light's strength ([`ParamSpec::free_light_scale`]): one factor for all lights
+//!   and channels, or one per channel with [`ParamSpec::light_scale_per_channel`] (an unknown
+//!   white balance: three variables, k_R, k_G, k_B). The images are linear in it, I_c(k) =
+//!   k_c·I_c(1), so ∂I_c/∂ln k_c = I_c, and a shared k's derivative is the sum over the channels;
 //!
 //! then clamped after every step: α ∈ [ALBEDO_MIN, ALBEDO_MAX] (the paper's (0, 0.99995)),
 //! σ_t ≥ SIGMA_T_MIN, g ∈ [−G_MAX, G_MAX], k ∈ [LIGHT_SCALE_MIN, LIGHT_SCALE_MAX]. A monochrome run shares one value per kind over the
@@ -66,6 +68,47 @@ pub struct ParamSpec {
     /// the last variable. (Left out of the JSON when off.)
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub free_light_scale: bool,
+    /// With a free light scale, one factor per channel (the camera's white balance unknown as
+    /// well as the light's strength): the last three variables. (Left out of the JSON when off.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub light_scale_per_channel: bool,
+}
+
+/// One value for every channel, or one per channel: a recovered light scale, its gradient or
+/// its interval. Written to JSON as the value, or as an array of three.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrRgb<T> {
+    /// One value shared by the channels.
+    One(T),
+    /// One value per channel (R, G, B).
+    Rgb([T; 3]),
+}
+
+impl<T: Copy> OneOrRgb<T> {
+    /// The value of channel `c`.
+    pub fn channel(&self, c: usize) -> T {
+        match self {
+            OneOrRgb::One(v) => *v,
+            OneOrRgb::Rgb(v) => v[c],
+        }
+    }
+
+    /// The values: one, or three.
+    pub fn values(&self) -> &[T] {
+        match self {
+            OneOrRgb::One(v) => std::slice::from_ref(v),
+            OneOrRgb::Rgb(v) => v,
+        }
+    }
+
+    /// Each value through `f`, keeping the shape.
+    pub fn map<U>(self, mut f: impl FnMut(T) -> U) -> OneOrRgb<U> {
+        match self {
+            OneOrRgb::One(v) => OneOrRgb::One(f(v)),
+            OneOrRgb::Rgb(v) => OneOrRgb::Rgb(v.map(f)),
+        }
+    }
 }
 
 impl Default for ParamSpec {
@@ -77,6 +120,7 @@ impl Default for ParamSpec {
             fix_albedo: false,
             free_g: false,
             free_light_scale: false,
+            light_scale_per_channel: false,
         }
     }
 }
@@ -92,11 +136,11 @@ pub struct Params {
     /// the object's own. (Left out of the JSON when `None`.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub g: Option<f64>,
-    /// The factor on every light's stated intensity, where the run recovers it
-    /// ([`ParamSpec::free_light_scale`]); `None`: the lights as stated. (Left out of the JSON
-    /// when `None`.)
+    /// The factor on every light's stated intensity, one or one per channel, where the run
+    /// recovers it ([`ParamSpec::free_light_scale`]); `None`: the lights as stated. (Left out of
+    /// the JSON when `None`.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub light_scale: Option<f64>,
+    pub light_scale: Option<OneOrRgb<f64>>,
 }
 
 impl Params {
@@ -110,13 +154,18 @@ impl Params {
         }
     }
 
-    /// `light` with its intensity times the recovered light scale (as stated without one).
+    /// `light` with its intensity times the recovered light scale, channel by channel (as
+    /// stated without one).
     pub fn light(&self, light: &scene::PointLight) -> scene::PointLight {
-        let k = self.light_scale.unwrap_or(1.0) as f32;
         scene::PointLight {
-            intensity: light.intensity.map(|v| v * k),
+            intensity: std::array::from_fn(|c| light.intensity[c] * self.light_scale_of(c) as f32),
             ..*light
         }
+    }
+
+    /// The light scale of channel `c` (1 where the run does not recover one).
+    pub fn light_scale_of(&self, c: usize) -> f64 {
+        self.light_scale.map_or(1.0, |k| k.channel(c))
     }
 
     /// The parameters of a medium (its g is the object's, not a parameter).
@@ -137,11 +186,38 @@ impl Params {
     }
 }
 
+/// One value, or `[r, g, b]`, each with the formatter's precision.
+impl<T: std::fmt::Display> std::fmt::Display for OneOrRgb<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            OneOrRgb::One(v) => v.fmt(f),
+            OneOrRgb::Rgb([r, g, b]) => {
+                f.write_str("[")?;
+                r.fmt(f)?;
+                f.write_str(", ")?;
+                g.fmt(f)?;
+                f.write_str(", ")?;
+                b.fmt(f)?;
+                f.write_str("]")
+            }
+        }
+    }
+}
+
 impl ParamSpec {
-    /// The number of the optimiser's variables: six, and one each for a free g and a free
-    /// light scale.
+    /// The number of the optimiser's variables: six, one for a free g, and one or three for a
+    /// free light scale.
     pub fn len(&self) -> usize {
-        6 + self.free_g as usize + self.free_light_scale as usize
+        6 + self.free_g as usize + self.light_scale_count()
+    }
+
+    /// The number of light-scale variables: 0 (the lights as stated), 1, or 3 (per channel).
+    pub fn light_scale_count(&self) -> usize {
+        match (self.free_light_scale, self.light_scale_per_channel) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => 3,
+        }
     }
 
     /// The index of g among the variables, where it is free.
@@ -149,9 +225,16 @@ impl ParamSpec {
         self.free_g.then_some(6)
     }
 
-    /// The index of ln k among the variables, where the light scale is free.
+    /// The index of the first ln k among the variables, where the light scale is free (the
+    /// others, per channel, follow it).
     pub fn light_scale_index(&self) -> Option<usize> {
         self.free_light_scale.then_some(6 + self.free_g as usize)
+    }
+
+    /// The indices of the ln k variables (empty where the light scale is fixed).
+    pub fn light_scale_indices(&self) -> std::ops::Range<usize> {
+        let i = 6 + self.free_g as usize;
+        i..i + self.light_scale_count()
     }
 
     /// Always false: the optimiser has at least six variables.
@@ -173,8 +256,11 @@ impl ParamSpec {
         if self.free_g {
             u.push(p.g.unwrap_or(0.0) as f32);
         }
-        if self.free_light_scale {
-            u.push(p.light_scale.unwrap_or(1.0).ln() as f32);
+        match self.light_scale_count() {
+            0 => {}
+            // One factor from per-channel ones: their geometric mean.
+            1 => u.push(((0..3).map(|c| p.light_scale_of(c).ln()).sum::<f64>() / 3.0) as f32),
+            _ => u.extend((0..3).map(|c| p.light_scale_of(c).ln() as f32)),
         }
         u
     }
@@ -189,9 +275,15 @@ impl ParamSpec {
             sigma_t: std::array::from_fn(|c| sigma(u[c]).max(SIGMA_T_MIN)),
             albedo: std::array::from_fn(|c| (u[3 + c] as f64).clamp(ALBEDO_MIN, ALBEDO_MAX)),
             g: self.g_index().map(|i| (u[i] as f64).clamp(-G_MAX, G_MAX)),
-            light_scale: self
-                .light_scale_index()
-                .map(|i| (u[i] as f64).exp().clamp(LIGHT_SCALE_MIN, LIGHT_SCALE_MAX)),
+            light_scale: {
+                let k = |i: usize| (u[i] as f64).exp().clamp(LIGHT_SCALE_MIN, LIGHT_SCALE_MAX);
+                let i = self.light_scale_indices().start;
+                match self.light_scale_count() {
+                    0 => None,
+                    1 => Some(OneOrRgb::One(k(i))),
+                    _ => Some(OneOrRgb::Rgb(std::array::from_fn(|c| k(i + c)))),
+                }
+            },
         }
     }
 
@@ -202,14 +294,16 @@ impl ParamSpec {
         u.copy_from_slice(&e);
     }
 
-    /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied), and
-    /// `d_shared` = [∂ℓ/∂g, ∂ℓ/∂ln k] as the entries of a free g and a free light scale.
+    /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied),
+    /// ∂ℓ/∂g as the entry of a free g, and ∂ℓ/∂ln k_c per channel as the entries of a free light
+    /// scale: their sum for one factor, each for one per channel.
     pub fn chain(
         &self,
         p: &Params,
         d_sigma_t: [f64; 3],
         d_albedo: [f64; 3],
-        d_shared: [f64; 2],
+        d_g: f64,
+        d_ln_k: [f64; 3],
     ) -> Vec<f32> {
         let mut gs: [f64; 3] = std::array::from_fn(|c| {
             d_sigma_t[c]
@@ -231,8 +325,12 @@ impl ParamSpec {
         if self.fix_albedo {
             ga = [0.0; 3];
         }
-        let dg = self.free_g.then_some(d_shared[0]);
-        let dk = self.free_light_scale.then_some(d_shared[1]);
+        let dg = self.free_g.then_some(d_g);
+        let dk: Vec<f64> = match self.light_scale_count() {
+            0 => Vec::new(),
+            1 => vec![d_ln_k.iter().sum()],
+            _ => d_ln_k.to_vec(),
+        };
         gs.iter()
             .chain(&ga)
             .chain(&dg)
@@ -286,7 +384,7 @@ mod tests {
                 parameterisation,
                 ..Default::default()
             };
-            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], [0.0; 2]);
+            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], 0.0, [0.0; 3]);
             let u = spec.encode(&p);
             for c in 0..3 {
                 let h = 1e-3f32;
@@ -304,7 +402,7 @@ mod tests {
             fix_albedo: true,
             ..Default::default()
         };
-        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], [5.0, 6.0]);
+        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], 5.0, [6.0; 3]);
         assert_eq!(g, vec![200.0, 200.0, 200.0, 0.0, 0.0, 0.0]);
     }
 
@@ -327,7 +425,7 @@ mod tests {
         v[6] = 1.5;
         spec.clamp(&mut v);
         assert!((v[6] as f64 - G_MAX).abs() < 1e-6);
-        let g = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.5, 1.0]);
+        let g = spec.chain(&p, [0.0; 3], [0.0; 3], -2.5, [1.0; 3]);
         assert_eq!(g.len(), 7);
         assert_eq!(g[6], -2.5);
         let base = Medium {
@@ -358,15 +456,15 @@ mod tests {
         );
         let p = Params {
             g: Some(0.3),
-            light_scale: Some(2.5),
+            light_scale: Some(OneOrRgb::One(2.5)),
             ..Params::new([40.0; 3], [0.9; 3])
         };
         let u = spec.encode(&p);
         assert!((u[7] as f64 - 2.5f64.ln()).abs() < 1e-6);
         let q = spec.decode(&u);
-        assert!((q.light_scale.unwrap() - 2.5).abs() < 1e-5 && (q.g.unwrap() - 0.3).abs() < 1e-6);
+        assert!((q.light_scale_of(2) - 2.5).abs() < 1e-5 && (q.g.unwrap() - 0.3).abs() < 1e-6);
         assert_eq!(
-            spec.chain(&p, [0.0; 3], [0.0; 3], [1.0, -3.0])[6..],
+            spec.chain(&p, [0.0; 3], [0.0; 3], 1.0, [-1.0, -0.5, -1.5])[6..],
             [1.0, -3.0]
         );
         let only_k = ParamSpec {
@@ -377,12 +475,61 @@ mod tests {
         let mut v = only_k.encode(&p);
         v[6] = 20.0;
         only_k.clamp(&mut v);
-        assert!((only_k.decode(&v).light_scale.unwrap() / LIGHT_SCALE_MAX - 1.0).abs() < 1e-5);
+        assert!((only_k.decode(&v).light_scale_of(0) / LIGHT_SCALE_MAX - 1.0).abs() < 1e-5);
         let light = scene::PointLight {
             position: glam::Vec3::ZERO,
             intensity: [1.0, 2.0, 4.0],
         };
         assert_eq!(p.light(&light).intensity, [2.5, 5.0, 10.0]);
         assert_eq!(Params::new([1.0; 3], [0.5; 3]).light(&light), light);
+    }
+
+    /// Per channel, the light scale is the last three variables, each ln k_c with its own
+    /// channel's gradient; the lights scale channel by channel, and a single starting k starts
+    /// every channel. In JSON one factor is a number and per-channel ones an array.
+    #[test]
+    fn a_per_channel_light_scale_is_three_variables() {
+        let spec = ParamSpec {
+            free_light_scale: true,
+            light_scale_per_channel: true,
+            ..Default::default()
+        };
+        assert_eq!((spec.len(), spec.light_scale_indices()), (9, 6..9));
+        let p = Params {
+            light_scale: Some(OneOrRgb::Rgb([0.5, 1.0, 2.0])),
+            ..Params::new([40.0; 3], [0.9; 3])
+        };
+        let u = spec.encode(&p);
+        assert!((u[6] as f64 - 0.5f64.ln()).abs() < 1e-6 && u[7].abs() < 1e-7);
+        let q = spec.decode(&u);
+        for c in 0..3 {
+            assert!((q.light_scale_of(c) / p.light_scale_of(c) - 1.0).abs() < 1e-6);
+        }
+        assert_eq!(
+            spec.chain(&p, [0.0; 3], [0.0; 3], 9.0, [1.0, -2.0, 3.0])[6..],
+            [1.0, -2.0, 3.0]
+        );
+        let light = scene::PointLight {
+            position: glam::Vec3::ZERO,
+            intensity: [1.0, 2.0, 4.0],
+        };
+        assert_eq!(p.light(&light).intensity, [0.5, 2.0, 8.0]);
+        let start = Params {
+            light_scale: Some(OneOrRgb::One(2.0)),
+            ..p
+        };
+        let s = spec.decode(&spec.encode(&start));
+        assert!((0..3).all(|c| (s.light_scale_of(c) - 2.0).abs() < 1e-5));
+        // One factor from per-channel ones: their geometric mean.
+        let one = ParamSpec {
+            free_light_scale: true,
+            ..Default::default()
+        };
+        assert!((one.decode(&one.encode(&p)).light_scale_of(1) - 1.0).abs() < 1e-6);
+        let json = |p: &Params| serde_json::to_value(p).unwrap()["light_scale"].clone();
+        assert_eq!(json(&start), serde_json::json!(2.0));
+        assert_eq!(json(&p), serde_json::json!([0.5, 1.0, 2.0]));
+        let back: Params = serde_json::from_value(serde_json::to_value(p).unwrap()).unwrap();
+        assert_eq!(back, p);
     }
 }

@@ -50,6 +50,7 @@
 //! g's interval is g ± 1.96·sd clamped to (−1, 1), and g is *determined* where its half-width
 //! from the images alone is at most [`DETERMINED_G_HALF_WIDTH`].
 
+use crate::params::OneOrRgb;
 use crate::sensitivity::Sensitivity;
 use scene::Image;
 use serde::{Deserialize, Serialize};
@@ -329,9 +330,9 @@ pub struct Uncertainty {
     /// g's interval where the run recovers g.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub g: Option<SharedUncertainty>,
-    /// The light scale's interval where the run recovers it.
+    /// The light scale's interval where the run recovers it (one, or one per channel).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub light_scale: Option<SharedUncertainty>,
+    pub light_scale: Option<OneOrRgb<SharedUncertainty>>,
 }
 
 impl Uncertainty {
@@ -539,9 +540,9 @@ impl Uncertainty {
             j["uncertainty"]["sd_g"] = serde_json::json!(g.sd);
         }
         if let Some(k) = &self.light_scale {
-            j["interval95"]["light_scale"] = serde_json::json!(k.interval);
-            j["determined"]["light_scale"] = serde_json::json!(k.determined);
-            j["uncertainty"]["sd_ln_light_scale"] = serde_json::json!(k.sd);
+            j["interval95"]["light_scale"] = serde_json::json!(k.map(|k| k.interval));
+            j["determined"]["light_scale"] = serde_json::json!(k.map(|k| k.determined));
+            j["uncertainty"]["sd_ln_light_scale"] = serde_json::json!(k.map(|k| k.sd));
         }
         j
     }

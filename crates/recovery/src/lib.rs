@@ -308,7 +308,10 @@ fn run_starts(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryEr
         sigma_t: starts[best].estimate.sigma_t.map(|v| v as f32 as f64),
         albedo: starts[best].estimate.albedo.map(|v| v as f32 as f64),
         g: starts[best].estimate.g.map(|v| v as f32 as f64),
-        light_scale: starts[best].estimate.light_scale.map(|v| v as f32 as f64),
+        light_scale: starts[best]
+            .estimate
+            .light_scale
+            .map(|k| k.map(|v| v as f32 as f64)),
     };
     run(&b, obs)?;
     // The starts go into the run's record.

@@ -12,7 +12,7 @@ use scene::{Dataset, Medium, Object};
 use super::{RecoveryConfig, RecoveryError, check_resume_settings, resume_budget, select_views};
 use inverse::forward::ModelKind;
 use inverse::optimize::{Checkpoint, Optimizer, TargetView};
-use inverse::params::Params;
+use inverse::params::{OneOrRgb, Params};
 use inverse::views::build_accel;
 
 /// What a run works on, loaded and checked.
@@ -211,10 +211,17 @@ impl Prepared {
 /// Says which unknowns besides σ_t and α the run recovers, where they start and when they move.
 fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool) {
     if c.params.free_light_scale {
+        let k = c.init.light_scale.unwrap_or(OneOrRgb::One(1.0));
+        let what = if c.params.light_scale_per_channel {
+            "the lights' strength and the camera's white balance are recovered: a factor k_c \
+             per channel on every light's stated intensity"
+        } else {
+            "the lights' strength is recovered: a factor k on every light's stated intensity"
+        };
         tracing::info!(
-            "the lights' strength is recovered: a factor k on every light's stated intensity, \
-             from k = {}",
-            c.init.light_scale.unwrap_or(1.0)
+            "{what}, from k = {k}, held there until iteration {} while σ_t and α fit the \
+             images under the lights as stated (earlier if an α meets its clamp)",
+            c.light_scale_start()
         );
     }
     if c.params.free_g {

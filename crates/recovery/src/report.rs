@@ -7,7 +7,7 @@ use scene::image::Image;
 use serde_json::json;
 
 use inverse::optimize::{InverseError, IterationRecord, OptimizeConfig};
-use inverse::params::Params;
+use inverse::params::{OneOrRgb, Params};
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
@@ -22,19 +22,24 @@ pub use units::real_units;
 
 /// `iterations.csv`: one row per iteration (parameters before the step, loss, gradient).
 /// A run that recovers g has two more columns at the end: g and ∂ℓ/∂g (empty in the
-/// iterations whose model holds g); one that recovers the light scale two more: k and ∂ℓ/∂ln k.
+/// iterations whose model holds g); one that recovers the light scale two more: k and ∂ℓ/∂ln k,
+/// or six with one scale per channel (k_r, k_g, k_b, then ∂ℓ/∂ln k_c).
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
     let free_g = history.iter().any(|r| r.params.g.is_some());
     let free_k = history.iter().any(|r| r.params.light_scale.is_some());
+    let k_rgb = (history.iter()).any(|r| matches!(r.params.light_scale, Some(OneOrRgb::Rgb(_))));
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
          d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit",
     );
     s.push_str(if free_g { ",g,d_g" } else { "" });
-    s.push_str(if free_k {
-        ",light_scale,d_ln_light_scale\n"
-    } else {
-        "\n"
+    s.push_str(match (free_k, k_rgb) {
+        (false, _) => "\n",
+        (true, false) => ",light_scale,d_ln_light_scale\n",
+        (true, true) => {
+            ",light_scale_r,light_scale_g,light_scale_b,\
+             d_ln_light_scale_r,d_ln_light_scale_g,d_ln_light_scale_b\n"
+        }
     });
     for r in history {
         let _ = write!(s, "{},{:.6e}", r.iteration, r.loss);
@@ -66,16 +71,21 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             let _ = write!(s, ",{g},{d_g}");
         }
         if free_k {
-            let k = r
-                .params
-                .light_scale
-                .map(|k| format!("{k:.6}"))
-                .unwrap_or_default();
-            let d = r
-                .d_ln_light_scale
-                .map(|d| format!("{d:.6e}"))
-                .unwrap_or_default();
-            let _ = write!(s, ",{k},{d}");
+            // One column per light-scale variable; empty where the iteration has none.
+            let cols = if k_rgb { 3 } else { 1 };
+            let column = |v: Option<OneOrRgb<f64>>, c: usize, e: bool| {
+                v.map(|v| match e {
+                    true => format!("{:.6e}", v.values()[c.min(v.values().len() - 1)]),
+                    false => format!("{:.6}", v.values()[c.min(v.values().len() - 1)]),
+                })
+                .unwrap_or_default()
+            };
+            for c in 0..cols {
+                let _ = write!(s, ",{}", column(r.params.light_scale, c, false));
+            }
+            for c in 0..cols {
+                let _ = write!(s, ",{}", column(r.d_ln_light_scale, c, true));
+            }
         }
         s.push('\n');
     }
@@ -204,11 +214,19 @@ pub fn interval_lines(est: &Params, u: &inverse::uncertainty::Uncertainty) -> Ve
     if let (Some(gu), Some(g)) = (&u.g, est.g) {
         out.push(format!("  g = {}", fmt(g, gu.interval, false, 3)));
     }
-    if let (Some(ku), Some(k)) = (&u.light_scale, est.light_scale) {
-        out.push(format!(
+    match (&u.light_scale, est.light_scale) {
+        (Some(OneOrRgb::One(ku)), Some(k)) => out.push(format!(
             "  light scale k = {} (the lights' stated intensity times k)",
-            fmt(k, ku.interval, false, 4)
-        ));
+            fmt(k.channel(0), ku.interval, false, 4)
+        )),
+        (Some(OneOrRgb::Rgb(ku)), Some(k)) => {
+            out.push("  light scale per channel (the lights' stated intensity times k_c):".into());
+            for c in 0..3 {
+                let v = fmt(k.channel(c), ku[c].interval, false, 4);
+                out.push(format!("    {}: k = {v}", CH[c]));
+            }
+        }
+        _ => {}
     }
     let open_t: Vec<&str> = (0..3)
         .filter(|&c| !u.fixed[0] && !u.determined_sigma_t[c])
@@ -244,11 +262,23 @@ pub fn interval_lines(est: &Params, u: &inverse::uncertainty::Uncertainty) -> Ve
             inverse::uncertainty::DETERMINED_ALBEDO_HALF_WIDTH
         ));
     }
-    if u.light_scale.is_some_and(|k| !k.determined) {
+    let open_k: Vec<usize> = u.light_scale.map_or(vec![], |k| {
+        (0..k.values().len())
+            .filter(|&i| !k.values()[i].determined)
+            .collect()
+    });
+    if !open_k.is_empty() {
+        let which = match u.light_scale {
+            Some(OneOrRgb::Rgb(_)) => format!(
+                " in {}",
+                open_k.iter().map(|&c| CH[c]).collect::<Vec<_>>().join(", ")
+            ),
+            _ => String::new(),
+        };
         out.push(format!(
-            "The light's strength is NOT determined by these images (its interval spans more \
-             than ±{:.0} %): a brighter light trades against α (and σ_t). A calibrated light, or \
-             a reference of known reflectance in the images, settles it.",
+            "The light's strength is NOT determined by these images{which} (its interval spans \
+             more than ±{:.0} %): a brighter light trades against α (and σ_t). A calibrated \
+             light, or a reference of known reflectance in the images, settles it.",
             50.0 * (inverse::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     }

@@ -160,7 +160,7 @@ pub fn params_of(v: &serde_json::Value) -> Option<Params> {
         sigma_t: rgb("sigma_t")?,
         albedo: rgb("albedo")?,
         g: v["g"].as_f64(),
-        light_scale: v["light_scale"].as_f64(),
+        light_scale: serde_json::from_value(v["light_scale"].clone()).ok(),
     })
 }
 

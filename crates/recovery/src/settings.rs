@@ -428,6 +428,7 @@ impl RecoverySettings {
     fn check_free_light_scale(&self, c: &OptimizeConfig) -> Result<(), RecoveryError> {
         let invalid = RecoveryError::Invalid;
         if let Some(k) = self.start.init.light_scale {
+            let positive = k.values().iter().all(|k| k.is_finite() && *k > 0.0);
             if !c.params.free_light_scale {
                 return Err(invalid(format!(
                     "{} {k} without {}: the lights are as the dataset states them unless their \
@@ -438,7 +439,7 @@ impl RecoverySettings {
                     Setting::InitLightScale
                 )));
             }
-            if !(k.is_finite() && k > 0.0) {
+            if !positive {
                 return Err(invalid(format!(
                     "{} {k}: a factor on the lights' intensity must be positive",
                     Setting::InitLightScale

@@ -38,7 +38,8 @@ pub struct CaptureErrorsArgs {
     #[arg(long, value_delimiter = ',', default_values_t = CaptureErrorsConfig::default().cases)]
     pub cases: Vec<String>,
     /// Only these perturbations (names as in the CSV, e.g. `camera-rotation-0.5deg`,
-    /// `light-intensity-x0.9`, `mesh-decimated-x50`, `srgb-8bit`, `sensor-noise-iso3200`);
+    /// `light-intensity-x0.9`, `white-balance-r1.1-b0.9`, `mesh-decimated-x50`, `srgb-8bit`,
+    /// `sensor-noise-iso3200`);
     /// default: all. The unperturbed run is always made.
     #[arg(long, value_delimiter = ',')]
     pub perturbations: Option<Vec<String>>,
@@ -46,6 +47,10 @@ pub struct CaptureErrorsArgs {
     /// light-scale`), the remedy for an intensity the capture does not know.
     #[arg(long)]
     pub free_light_scale: bool,
+    /// Recover one factor per channel on the lights in every run (`optimize --free
+    /// light-scale-rgb`), the remedy for a white balance the capture does not know.
+    #[arg(long)]
+    pub free_light_scale_rgb: bool,
     /// The mesh file of the robustness suite's third shape.
     #[arg(long, default_value_os_t = CaptureErrorsConfig::default().mesh)]
     pub mesh: PathBuf,
@@ -68,7 +73,8 @@ impl CaptureErrorsArgs {
             budget: self.budget.budget(),
             cases: self.cases.clone(),
             perturbations: self.perturbations.clone(),
-            free_light_scale: self.free_light_scale,
+            free_light_scale: self.free_light_scale || self.free_light_scale_rgb,
+            light_scale_per_channel: self.free_light_scale_rgb,
             mesh: self.mesh.clone(),
             quick: *self.quick,
             seed: *self.seed,

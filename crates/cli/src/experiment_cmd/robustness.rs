@@ -48,7 +48,8 @@ pub struct RobustnessArgs {
     pub refine_spp: Option<u32>,
     /// Recover these besides σ_t and α in every run (`optimize --free`): `g`, the phase
     /// function's anisotropy; `light-scale`, a factor on the lights (whose truth here is 1:
-    /// the datasets state their lights). Each gets its own table.
+    /// the datasets state their lights), or `light-scale-rgb`, one per channel. Each gets its
+    /// own table (one per channel for `light-scale-rgb`).
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<cmdline::optimize::FreeParam>,
     /// The starting g of runs that free it (`optimize --init-g`). Default: the dataset's
@@ -105,7 +106,9 @@ impl RobustnessArgs {
             refine: self.refine,
             refine_spp: self.refine_spp,
             free_g: self.free.contains(&FreeParam::G),
-            free_light_scale: self.free.contains(&FreeParam::LightScale),
+            free_light_scale: self.free.contains(&FreeParam::LightScale)
+                || self.free.contains(&FreeParam::LightScaleRgb),
+            light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),
             init_g: self.init_g,
             init_light_scale: self.init_light_scale,
             seeds: self.seeds,

@@ -25,6 +25,9 @@ pub enum Perturbation {
     LightPosition { fraction: f32 },
     /// Every light's stated intensity times this factor (the images were made with 1).
     LightIntensity { factor: f32 },
+    /// Every light's stated red and blue intensity times these factors, green as made: a
+    /// camera's white balance that the capture does not know.
+    WhiteBalance { red: f32, blue: f32 },
     /// The mesh decimated to 1/factor of its triangles ([`geometry::remesh::decimate`]).
     Decimated { factor: f32 },
     /// The mesh's vertices moved along their normals by Gaussian noise of this standard
@@ -62,6 +65,10 @@ pub fn all() -> Vec<Perturbation> {
         LightIntensity { factor: 0.95 },
         LightIntensity { factor: 1.10 },
         LightIntensity { factor: 0.90 },
+        WhiteBalance {
+            red: 1.10,
+            blue: 0.90,
+        },
         Decimated { factor: 10.0 },
         Decimated { factor: 50.0 },
         ScanNoise { fraction: 0.002 },
@@ -97,6 +104,7 @@ impl Perturbation {
             Perturbation::LightIntensity { factor } => {
                 format!("light-intensity-x{factor}")
             }
+            Perturbation::WhiteBalance { red, blue } => format!("white-balance-r{red}-b{blue}"),
             Perturbation::Decimated { factor } => format!("mesh-decimated-x{factor}"),
             Perturbation::ScanNoise { fraction } => format!("mesh-noise-{}pct", 100.0 * fraction),
             Perturbation::ScanSmoothed { passes } => format!("mesh-smoothed-{passes}"),
@@ -119,6 +127,11 @@ impl Perturbation {
             Perturbation::LightIntensity { factor } => {
                 format!("light intensity {:+.0} %", 100.0 * (factor - 1.0))
             }
+            Perturbation::WhiteBalance { red, blue } => format!(
+                "white balance R {:+.0} %, B {:+.0} %",
+                100.0 * (red - 1.0),
+                100.0 * (blue - 1.0)
+            ),
             Perturbation::Decimated { factor } => format!("mesh decimated ×{factor}"),
             Perturbation::ScanNoise { fraction } => {
                 format!("mesh noise {} % of the size", 100.0 * fraction)
@@ -133,12 +146,18 @@ impl Perturbation {
         }
     }
 
-    /// The factor on the stated lights that gives the lights that made the images: 1/factor for
-    /// an intensity error, 1 for every other.
-    pub fn true_light_scale(&self) -> f64 {
+    /// The factor per channel on the stated lights that gives the lights that made the images:
+    /// 1/factor for an intensity or white-balance error, 1 for every other.
+    pub fn true_light_scale(&self) -> [f64; 3] {
+        self.stated_factor().map(|f| 1.0 / f as f64)
+    }
+
+    /// The factor per channel on the lights that made the images which the dataset states.
+    fn stated_factor(&self) -> [f32; 3] {
         match *self {
-            Perturbation::LightIntensity { factor } => 1.0 / factor as f64,
-            _ => 1.0,
+            Perturbation::LightIntensity { factor } => [factor; 3],
+            Perturbation::WhiteBalance { red, blue } => [red, 1.0, blue],
+            _ => [1.0; 3],
         }
     }
 
@@ -195,9 +214,10 @@ impl Perturbation {
                     v.light.position += unit(&mut s) * (fraction * d);
                 }
             }
-            Perturbation::LightIntensity { factor } => {
+            Perturbation::LightIntensity { .. } | Perturbation::WhiteBalance { .. } => {
+                let f = self.stated_factor();
                 for v in &mut ds.views {
-                    v.light.intensity = v.light.intensity.map(|x| x * factor);
+                    v.light.intensity = std::array::from_fn(|c| v.light.intensity[c] * f[c]);
                 }
             }
             Perturbation::Srgb8 => {
@@ -351,6 +371,16 @@ mod tests {
         for (a, b) in ds.views.iter().zip(&k.views) {
             assert_eq!(b.light.intensity, a.light.intensity.map(|x| x * 0.9));
         }
+        let wb = Perturbation::WhiteBalance {
+            red: 1.1,
+            blue: 0.9,
+        };
+        for (a, b) in ds.views.iter().zip(&perturbed(wb).views) {
+            let [r, g, bl] = a.light.intensity;
+            assert_eq!(b.light.intensity, [r * 1.1, g, bl * 0.9]);
+        }
+        assert_eq!(wb.true_light_scale()[1], 1.0);
+        assert!((wb.true_light_scale()[0] * 1.1 - 1.0).abs() < 1e-7);
         let q = perturbed(Perturbation::Srgb8);
         let x = q.views[0].image.as_ref().unwrap().data[0][0];
         assert_eq!(x, 0.3, "the brightest pixel is full scale: exact");

@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 
 use super::{CaptureErrorsConfig, Perturbation, Row};
+use inverse::params::OneOrRgb;
 
 /// What a run's figures say about a perturbation (module docs of [`super`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,9 +22,14 @@ pub enum Verdict {
 impl Verdict {
     pub fn of(row: &Row) -> Verdict {
         let o = &row.outcome;
+        let truth = row.perturbation.true_light_scale();
         let holds = o.covered().iter().flatten().all(|&c| c)
-            && o.light_scale
-                .is_none_or(|l| l.covers(row.perturbation.true_light_scale()));
+            && o.light_scale.is_none_or(|l| match l {
+                // One factor's truth: the channels' (equal but for a white-balance error,
+                // which one factor cannot hold: its interval then holds their mean).
+                OneOrRgb::One(k) => k.covers(truth.iter().sum::<f64>() / 3.0),
+                OneOrRgb::Rgb(k) => (0..3).all(|c| k[c].covers(truth[c])),
+            });
         match (holds, o.status == "ok") {
             (true, _) => Verdict::Holds,
             (false, false) => Verdict::Flagged,
@@ -77,10 +83,10 @@ pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) 
         md,
         "Capture errors: {views} views {res}² (targets at {spp} spp by the volumetric path tracer), \
          `optimize`'s defaults ({iterations} iterations{}), seed {}{}\n",
-        if a.free_light_scale {
-            ", the light scale free"
-        } else {
-            ""
+        match (a.free_light_scale, a.light_scale_per_channel) {
+            (false, _) => "",
+            (true, false) => ", the light scale free",
+            (true, true) => ", the light scale free per channel",
         },
         a.seed,
         if a.quick {
@@ -143,13 +149,26 @@ pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) 
                 count(&cov[1]),
                 count(&o.determined_sigma_t),
                 match o.light_scale {
-                    Some(k) => format!(
+                    Some(OneOrRgb::One(k)) => format!(
                         "{:.3} [{:.3}, {:.3}] ({:.3}) | ",
                         k.estimate,
                         k.interval[0],
                         k.interval[1],
-                        row.perturbation.true_light_scale()
+                        row.perturbation.true_light_scale().iter().sum::<f64>() / 3.0
                     ),
+                    Some(OneOrRgb::Rgb(k)) => {
+                        let t = row.perturbation.true_light_scale();
+                        format!(
+                            "{:.3}, {:.3}, {:.3}; {}/3 in 95 % ({:.3}, {:.3}, {:.3}) | ",
+                            k[0].estimate,
+                            k[1].estimate,
+                            k[2].estimate,
+                            (0..3).filter(|&c| k[c].covers(t[c])).count(),
+                            t[0],
+                            t[1],
+                            t[2]
+                        )
+                    }
                     None if with_k => "— | ".to_string(),
                     None => String::new(),
                 },
@@ -182,10 +201,15 @@ fn csv_rows(csv: &mut String, row: &Row, shift: ([f64; 3], [f64; 3]), verdict: V
             truth[k][c], o.estimate[k][c], err[k][c], shifts[k][c], cov[k][c]
         )
     };
-    let k = o.light_scale.map_or("NaN,NaN,NaN".to_string(), |l| {
-        format!("{},{},{}", l.estimate, l.interval[0], l.interval[1])
-    });
+    // The light scale's columns of channel c (a single factor's in every row).
+    let k = |c: usize| {
+        o.light_scale.map_or("NaN,NaN,NaN".to_string(), |l| {
+            let l = l.channel(c);
+            format!("{},{},{}", l.estimate, l.interval[0], l.interval[1])
+        })
+    };
     for c in 0..3 {
+        let k = k(c);
         let _ = writeln!(
             csv,
             "{},{},{},{},{},{},{},{k},{},{}",
@@ -195,7 +219,7 @@ fn csv_rows(csv: &mut String, row: &Row, shift: ([f64; 3], [f64; 3]), verdict: V
             param(0, c),
             o.determined_sigma_t[c],
             param(1, c),
-            row.perturbation.true_light_scale(),
+            row.perturbation.true_light_scale()[c],
             o.status,
             verdict.name()
         );

@@ -113,7 +113,7 @@ fn each_failure_is_detected() {
         ..ParamSpec::default()
     };
     let bright = Params {
-        light_scale: Some(crate::params::LIGHT_SCALE_MAX),
+        light_scale: Some(crate::params::OneOrRgb::One(crate::params::LIGHT_SCALE_MAX)),
         ..params(60.0, 0.9)
     };
     let r = assess(&flat, 0, &bright, &free_k, 0.0, None);

@@ -297,9 +297,11 @@ impl OptimizeConfig {
                 "init.g = {g}, the phase function's g must be in (-1, 1)"
             ));
         }
-        if let Some(k) = p.light_scale.filter(|k| !(k.is_finite() && *k > 0.0)) {
+        let positive = |k: &f64| k.is_finite() && *k > 0.0;
+        if let Some(k) = p.light_scale.filter(|k| !k.values().iter().all(positive)) {
             return Err(format!(
-                "init.light_scale = {k}, a light scale must be positive"
+                "init.light_scale = {:?}, a light scale must be positive",
+                k.values()
             ));
         }
         if self.params.free_light_scale
@@ -379,6 +381,19 @@ impl OptimizeConfig {
     /// The α-first iterations actually used: `albedo_warmup`, but at most a third of the run.
     pub fn effective_albedo_warmup(&self) -> u32 {
         self.albedo_warmup.min(self.iterations / 3)
+    }
+
+    /// The first iteration in which a free light scale moves: the refinement's first where the
+    /// run has one, else the middle of the run, and never inside the α-first iterations. Until
+    /// then σ_t and α fit the images under the lights as stated (an α at its clamp releases k
+    /// earlier: [`super::Optimizer::step`]).
+    pub fn light_scale_start(&self) -> u32 {
+        let start = if self.refine_iterations > 0 {
+            self.iterations.saturating_sub(self.refine_iterations)
+        } else {
+            self.iterations / 2
+        };
+        start.max(self.effective_albedo_warmup())
     }
 
     /// The refinement the defaults give a run of `iterations` with `model`: the last

@@ -7,6 +7,7 @@ use bssrdf::render::RenderSettings;
 
 use super::{InverseError, Optimizer};
 use crate::forward::MediumRenderer;
+use crate::params::OneOrRgb;
 use crate::uncertainty::joint::{self, JointAccumulator, Shared};
 use crate::uncertainty::{
     Accumulator, SharedUncertainty, Uncertainty, UncertaintySettings, ViewRenders, add_covariances,
@@ -28,13 +29,18 @@ impl Optimizer<'_> {
         let k = s.views.clamp(1, n);
         let mut acc = Accumulator::default();
         // With a free g or light scale, the sandwich over all variables at once ([`joint`]).
-        let shared: Vec<Shared> = [
-            c.params.free_g.then_some(Shared::G),
-            c.params.free_light_scale.then_some(Shared::LnLightScale),
-        ]
-        .into_iter()
-        .flatten()
-        .collect();
+        let light_scales: Vec<Shared> = match c.params.light_scale_count() {
+            0 => vec![],
+            1 => vec![Shared::LnLightScale(None)],
+            _ => (0..3).map(|c| Shared::LnLightScale(Some(c))).collect(),
+        };
+        let shared: Vec<Shared> = c
+            .params
+            .free_g
+            .then_some(Shared::G)
+            .into_iter()
+            .chain(light_scales)
+            .collect();
         let mut acc_joint = (!shared.is_empty()).then(|| JointAccumulator::new(shared.clone()));
         for i in 0..k {
             let v = i * n / k;
@@ -59,8 +65,9 @@ impl Optimizer<'_> {
                                     .into(),
                             )),
                         },
-                        // The images are linear in k: ∂I/∂ln k = I.
-                        Shared::LnLightScale => Ok([&a.value, &b.value]),
+                        // The images are linear in k: ∂I/∂ln k = I (in k_c's channel alone
+                        // for one factor per channel, `JointAccumulator::add_view`).
+                        Shared::LnLightScale(_) => Ok([&a.value, &b.value]),
                     })
                     .collect::<Result<Vec<_>, _>>()?;
                 j.add_view(&renders, &d_shared, p.sigma_t);
@@ -94,18 +101,24 @@ impl Optimizer<'_> {
             }
         };
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
+        let mut scales = Vec::new();
         for (s, var, images_var) in shared_var.into_iter().flatten() {
             match s {
                 Shared::G => {
                     let g = p.g.unwrap_or(self.base.g as f64);
                     u.g = Some(SharedUncertainty::g(g, var, images_var));
                 }
-                Shared::LnLightScale => {
-                    let k = p.light_scale.unwrap_or(1.0);
-                    u.light_scale = Some(SharedUncertainty::light_scale(k, var, images_var));
+                Shared::LnLightScale(ch) => {
+                    let k = p.light_scale_of(ch.unwrap_or(0));
+                    scales.push(SharedUncertainty::light_scale(k, var, images_var));
                 }
             }
         }
+        u.light_scale = match scales[..] {
+            [one] => Some(OneOrRgb::One(one)),
+            [r, g, b] => Some(OneOrRgb::Rgb([r, g, b])),
+            _ => None,
+        };
         u.view_bread = (0..k)
             .map(|i| i * n / k)
             .zip(acc.view_breads().iter().copied())

@@ -1,13 +1,15 @@
 //! The covariance of a recovery that also frees parameters shared by the channels: the phase
-//! function's g, a factor k on the lights.
+//! function's g, a factor k on the lights (or one factor k_c per channel: it is not shared, but
+//! it trades against that channel's α, so it joins the same sandwich).
 //!
 //! With a shared parameter free the channels are no longer independent: every channel's image
 //! depends on it, so the sandwich of the module above is taken over all variables at once,
 //!
 //!   θ = (ln σ_t,R, α_R, ln σ_t,G, α_G, ln σ_t,B, α_B, s_1, …, s_m),
 //!
-//! s_j the shared ones (g; ln k), where the pixel row of channel c has 2 + m non-zero entries,
-//! J = (σ_t,c·∂I_c/∂σ_t,c at 2c, ∂I_c/∂α_c at 2c + 1, ∂I_c/∂s_j at 6 + j; ∂I/∂ln k = I).
+//! s_j the shared ones (g; ln k), where the pixel row of channel c has 2 + m entries,
+//! J = (σ_t,c·∂I_c/∂σ_t,c at 2c, ∂I_c/∂α_c at 2c + 1, ∂I_c/∂s_j at 6 + j; ∂I/∂ln k = I, and
+//! ∂I_c/∂ln k_c' = δ_cc'·I_c for a per-channel factor).
 //! A, B, d, C_opt and C_drift are as in the per-channel case (White 1980's sandwich with the
 //! views as clusters, the model's common brightness error along d = A⁻¹ Σ J I, the spread and
 //! drift of the last iterates), now (6 + m) × (6 + m). Each channel's (ln σ_t, α) block of the
@@ -31,8 +33,19 @@ pub type Joint = DMatrix<f64>;
 pub enum Shared {
     /// The phase function's g.
     G,
-    /// ln k of the factor k on the lights.
-    LnLightScale,
+    /// ln k of the factor k on the lights: every channel's (`None`), or channel c's alone
+    /// (`Some(c)`, one factor per channel).
+    LnLightScale(Option<usize>),
+}
+
+impl Shared {
+    /// Whether channel `c`'s images depend on it.
+    pub fn acts_on(self, c: usize) -> bool {
+        match self {
+            Shared::LnLightScale(Some(k)) => k == c,
+            _ => true,
+        }
+    }
 }
 
 /// Sums over the views of the joint sandwich.
@@ -92,8 +105,12 @@ impl JointAccumulator {
                 for (k, row) in [&mut j1, &mut j2].into_iter().enumerate() {
                     row[0] = sigma_t[c] * r.d_sigma_t[k].data[p][c] as f64;
                     row[1] = r.d_albedo[k].data[p][c] as f64;
-                    for (j, d) in d_shared.iter().enumerate() {
-                        row[2 + j] = d[k].data[p][c] as f64;
+                    for (j, (d, s)) in d_shared.iter().zip(&self.shared).enumerate() {
+                        row[2 + j] = if s.acts_on(c) {
+                            d[k].data[p][c] as f64
+                        } else {
+                            0.0
+                        };
                     }
                 }
                 let [v1, v2] = [0, 1].map(|k| r.value[k].data[p][c] as f64);
@@ -162,7 +179,7 @@ pub fn theta(p: &Params, shared: &[Shared]) -> DVector<f64> {
     for (j, s) in shared.iter().enumerate() {
         x[6 + j] = match s {
             Shared::G => p.g.unwrap_or(0.0),
-            Shared::LnLightScale => p.light_scale.unwrap_or(1.0).ln(),
+            Shared::LnLightScale(c) => p.light_scale_of(c.unwrap_or(0)).ln(),
         };
     }
     x
@@ -342,6 +359,81 @@ mod tests {
                 "channel {c}: {got} vs {want}"
             );
         }
+    }
+
+    /// One light factor per channel acts on its own channel alone: A has no entry between one
+    /// channel's (ln σ_t, α, ln k_c) and another's, so (without the model's brightness term)
+    /// each channel's block of the covariance is its own 3 × 3 sandwich A_c⁻¹B_cc A_c⁻¹; a
+    /// single factor instead ties every channel's α to it.
+    #[test]
+    fn per_channel_light_scales_keep_the_channels_apart() {
+        let (w, h) = (8u32, 8u32);
+        let mut rng = base::rng::Sampler::new(9, 0, 0, 0);
+        let per = vec![
+            Shared::LnLightScale(Some(0)),
+            Shared::LnLightScale(Some(1)),
+            Shared::LnLightScale(Some(2)),
+        ];
+        let mut rgb = JointAccumulator::new(per.clone());
+        let mut one = JointAccumulator::new(vec![Shared::LnLightScale(None)]);
+        let sigma_t = [40.0, 60.0, 80.0];
+        let img = |f: &dyn Fn(usize, usize) -> f32| {
+            let mut im = Image::new(w, h);
+            for (p, px) in im.data.iter_mut().enumerate() {
+                *px = std::array::from_fn(|c| f(p, c));
+            }
+            im
+        };
+        for view in 0..12 {
+            let d_sigma_t = img(&|p, c| (0.002 * (1 + (p + view) % 5 + c) as f64) as f32);
+            let d_albedo = img(&|p, c| (0.3 + 0.1 * ((p * 3 + c) % 4) as f64) as f32);
+            let value = img(&|p, c| 0.1 + 0.01 * ((p + c + view) % 7) as f32);
+            let noise: Vec<f32> = (0..3 * value.data.len())
+                .map(|_| 0.01 * (rng.next_f32() - 0.5))
+                .collect();
+            let target = img(&|p, c| value.data[p][c] + noise[3 * p + c]);
+            let r = ViewRenders {
+                value: [&value, &value],
+                d_sigma_t: [&d_sigma_t, &d_sigma_t],
+                d_albedo: [&d_albedo, &d_albedo],
+                target: &target,
+            };
+            rgb.add_view(&r, &[[&value, &value]; 3], sigma_t);
+            one.add_view(&r, &[[&value, &value]], sigma_t);
+        }
+        let m = rgb
+            .covariance(0.0, [false, false])
+            .expect("positive definite");
+        let vars = |c: usize| [2 * c, 2 * c + 1, 6 + c];
+        for c in 0..3 {
+            for c2 in (0..3).filter(|&c2| c2 != c) {
+                for i in vars(c) {
+                    for j in vars(c2) {
+                        assert_eq!(rgb.a[(i, j)], 0.0, "channels {c} and {c2}");
+                    }
+                }
+            }
+            assert!(m[(6 + c, 6 + c)] > 0.0 && m[(6 + c, 6 + c)].is_finite());
+            // The channel's own sandwich, from its rows of A and of each view's g_v.
+            let idx = vars(c);
+            let a = DMatrix::from_fn(3, 3, |i, j| rgb.a[(idx[i], idx[j])]);
+            let s = a.cholesky().unwrap().inverse();
+            let n = rgb.g.len() as f64;
+            let mean = DVector::from_fn(3, |i, _| rgb.g.iter().map(|g| g[idx[i]]).sum::<f64>() / n);
+            let mut b = DMatrix::zeros(3, 3);
+            for g in &rgb.g {
+                let d = DVector::from_fn(3, |i, _| g[idx[i]]) - &mean;
+                b += &d * d.transpose();
+            }
+            let want = &s * (b * (n / (n - 1.0))) * &s;
+            for i in 0..3 {
+                for j in 0..3 {
+                    let got = m[(idx[i], idx[j])];
+                    assert!((got - want[(i, j)]).abs() <= 1e-9 * want[(i, i)].abs().max(1e-30));
+                }
+            }
+        }
+        assert!((0..3).all(|c| one.a[(2 * c + 1, 6)] != 0.0));
     }
 
     /// The iterates' covariance and drift include g as the seventh variable.

@@ -7,7 +7,7 @@ use plot::{Band, Figure, Panel, Series};
 
 use super::CHANNELS;
 use inverse::optimize::{InverseError, IterationRecord};
-use inverse::params::Params;
+use inverse::params::{OneOrRgb, Params};
 use inverse::uncertainty::SharedUncertainty;
 
 /// `convergence.png` and `.svg` beside it: σ_t and α per channel against the iteration, with
@@ -167,30 +167,40 @@ pub(super) fn relative_loss_series(history: &[IterationRecord]) -> Vec<Series> {
     ]
 }
 
-/// The panels of a recovered g and light scale: one series each (the channels share them),
-/// the truth dashed and this fit's interval shaded where known.
+/// The panels of a recovered g and light scale: one series each (the channels share them; a
+/// light scale per channel has a panel per channel), the truth dashed and this fit's interval
+/// shaded where known.
 fn shared_panels(
     history: &[IterationRecord],
     final_params: &Params,
     truth: Option<&Params>,
     uncertainty: Option<&inverse::uncertainty::Uncertainty>,
 ) -> Vec<Panel> {
-    type Of = fn(&Params) -> Option<f64>;
+    type Of = Box<dyn Fn(&Params) -> Option<f64>>;
     let n = history.len();
-    let shared: [(&str, &str, Of, Option<SharedUncertainty>); 2] = [
-        (
-            "phase function g",
-            "g",
-            |p| p.g,
-            uncertainty.and_then(|u| u.g),
-        ),
-        (
-            "light scale k (× the stated intensity)",
-            "k",
-            |p| p.light_scale,
-            uncertainty.and_then(|u| u.light_scale),
-        ),
-    ];
+    let mut shared: Vec<(String, String, Of, Option<SharedUncertainty>)> = vec![(
+        "phase function g".into(),
+        "g".into(),
+        Box::new(|p| p.g),
+        uncertainty.and_then(|u| u.g),
+    )];
+    let k_u = uncertainty.and_then(|u| u.light_scale);
+    match final_params.light_scale {
+        Some(OneOrRgb::Rgb(_)) => shared.extend((0..3).map(|c| -> (_, _, Of, _) {
+            (
+                format!("light scale k_{} (× the stated intensity)", CHANNELS[c]),
+                format!("k_{}", CHANNELS[c]),
+                Box::new(move |p| p.light_scale.map(|k| k.channel(c))),
+                k_u.map(|k| k.channel(c)),
+            )
+        })),
+        _ => shared.push((
+            "light scale k (× the stated intensity)".into(),
+            "k".into(),
+            Box::new(|p| p.light_scale.map(|k| k.channel(0))),
+            k_u.map(|k| k.channel(0)),
+        )),
+    }
     let mut out = Vec::new();
     for (title, label, of, u) in shared {
         let Some(last) = of(final_params) else {
@@ -205,13 +215,13 @@ fn shared_panels(
             .and_then(|u| u.interval)
             .map(|[lo, hi]| Band::constant("95 % interval of this fit", 0.0, n as f64, lo, hi));
         out.push(Panel {
-            title: title.into(),
+            title,
             x_label: "iteration".into(),
-            y_label: label.into(),
+            y_label: label,
             log_y: false,
             series: vec![Series::new("estimate", pts)],
             reference_lines: truth
-                .and_then(of)
+                .and_then(&of)
                 .map(|t| vec![("truth".to_string(), t)])
                 .unwrap_or_default(),
             bands: band.into_iter().collect(),

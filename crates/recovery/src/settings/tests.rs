@@ -1,5 +1,6 @@
 //! The settings' defaults, their resolution and the combinations they refuse.
 use super::*;
+use inverse::params::OneOrRgb;
 
 fn no_depth() -> Result<Option<u32>, RecoveryError> {
     Ok(None)
@@ -137,7 +138,7 @@ fn a_free_light_scale_is_refused_where_it_cannot_run() {
     assert!(e.contains("single-render gradient"), "{e}");
 
     let mut s = RecoverySettings::default();
-    s.start.init.light_scale = Some(2.0);
+    s.start.init.light_scale = Some(OneOrRgb::One(2.0));
     let e = s.optimize_config(no_depth).unwrap_err().to_string();
     assert!(
         e.contains("init_light_scale 2 without free_light_scale"),
@@ -146,9 +147,9 @@ fn a_free_light_scale_is_refused_where_it_cannot_run() {
     s.schedule.params.free_light_scale = true;
     assert_eq!(
         s.optimize_config(no_depth).unwrap().init.light_scale,
-        Some(2.0)
+        Some(OneOrRgb::One(2.0))
     );
-    s.start.init.light_scale = Some(-1.0);
+    s.start.init.light_scale = Some(OneOrRgb::Rgb([1.0, -1.0, 1.0]));
     let e = s.optimize_config(no_depth).unwrap_err().to_string();
     assert!(e.contains("must be positive"), "{e}");
 }
