@@ -26,7 +26,7 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
 use crate::forward::{ForwardModel, ModelChoice};
-use crate::params::{ALBEDO_MAX, ALBEDO_MIN, OneOrRgb, Params};
+use crate::params::{OneOrRgb, Params};
 
 /// One target view.
 pub struct TargetView<'a> {
@@ -463,16 +463,12 @@ impl<'a> Optimizer<'a> {
         let moves_g = c.params.free_g && k >= c.effective_albedo_warmup();
         let d_g = d_g.filter(|_| moves_g);
         // A free light scale moves once σ_t and α have fitted the images under the lights as
-        // stated ([`OptimizeConfig::light_scale_start`]), or as soon as an α meets its clamp
-        // (the stated light too dim or too bright for any α to match), and from then on.
-        // Both α and k set the brightness: moved together from a start far darker than the
-        // images (α = 0.5), k took up the deficit and the flat α–k valley never gave it back.
-        // From the valley's floor k moves along it.
-        let at_clamp = |a: &f64| *a >= ALBEDO_MAX - 1e-7 || *a <= ALBEDO_MIN * (1.0 + 1e-6);
-        let moves_k = c.params.free_light_scale
-            && (k >= c.light_scale_start()
-                || p.albedo.iter().any(at_clamp)
-                || self.history.iter().any(|r| r.d_ln_light_scale.is_some()));
+        // stated ([`OptimizeConfig::light_scale_start`]). Both α and k set the brightness:
+        // moved together from a start far darker than the images (α = 0.5), k took up the
+        // deficit and the flat α–k valley never gave it back. From the valley's floor k moves
+        // along it. (An α at its clamp does not release k earlier: high-albedo media touch it
+        // on the way, and k then took up the deficit again.)
+        let moves_k = c.params.free_light_scale && k >= c.light_scale_start();
         let d_k = d_k.filter(|_| moves_k);
         let mut g = c
             .params

@@ -220,7 +220,7 @@ fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool
         };
         tracing::info!(
             "{what}, from k = {k}, held there until iteration {} while σ_t and α fit the \
-             images under the lights as stated (earlier if an α meets its clamp)",
+             images under the lights as stated",
             c.light_scale_start()
         );
     }

@@ -385,8 +385,7 @@ impl OptimizeConfig {
 
     /// The first iteration in which a free light scale moves: the refinement's first where the
     /// run has one, else the middle of the run, and never inside the α-first iterations. Until
-    /// then σ_t and α fit the images under the lights as stated (an α at its clamp releases k
-    /// earlier: [`super::Optimizer::step`]).
+    /// then σ_t and α fit the images under the lights as stated.
     pub fn light_scale_start(&self) -> u32 {
         let start = if self.refine_iterations > 0 {
             self.iterations.saturating_sub(self.refine_iterations)
