@@ -8,6 +8,7 @@ use serde_json::json;
 
 use inverse::optimize::{InverseError, IterationRecord, OptimizeConfig};
 use inverse::params::{OneOrRgb, Params};
+use inverse::uncertainty::Uncertainty;
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
@@ -165,25 +166,48 @@ pub fn add_assessment(
 /// A σ_t interval reaching this factor beyond the estimate on a side is printed in words.
 const WIDE: f64 = 100.0;
 
-/// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel (in words where it spans orders
-/// of magnitude: `anything above 20.0 fits these images`), and in plain words what the images
-/// leave open and which capture would settle it.
-pub fn interval_lines(est: &Params, u: &inverse::uncertainty::Uncertainty) -> Vec<String> {
-    const CH: [&str; 3] = ["R", "G", "B"];
-    // A bound too large or too small for `p` decimals reads in scientific notation: an interval
-    // of a flat valley can span many decades.
-    let num = |v: f64, p: usize| {
-        if v != 0.0 && (v.abs() >= 1e5 || v.abs() < 0.1f64.powi(p as i32)) {
-            format!("{v:.1e}")
-        } else {
-            format!("{v:.p$}")
-        }
-    };
-    let fmt = |v: f64, i: Option<[f64; 2]>, fixed: bool, p: usize| match i {
+/// `v` with `p` decimals, or in scientific notation where `p` decimals cannot show it: an
+/// interval of a flat valley can span many decades.
+fn num(v: f64, p: usize) -> String {
+    if v != 0.0 && (v.abs() >= 1e5 || v.abs() < 0.1f64.powi(p as i32)) {
+        format!("{v:.1e}")
+    } else {
+        format!("{v:.p$}")
+    }
+}
+
+/// `v` and its interval `i` (`fixed`: a parameter the run kept).
+fn fmt(v: f64, i: Option<[f64; 2]>, fixed: bool, p: usize) -> String {
+    match i {
         _ if fixed => format!("{v:.p$} (fixed)"),
         Some([lo, hi]) => format!("{v:.p$} [{}, {}]", num(lo, p), num(hi, p)),
         None => format!("{v:.p$} [no finite interval]"),
-    };
+    }
+}
+
+/// The recovered light scale's lines: one factor, or one per channel.
+fn light_scale_lines(u: &Uncertainty, est: &Params, out: &mut Vec<String>) {
+    match (&u.light_scale, est.light_scale) {
+        (Some(OneOrRgb::One(ku)), Some(k)) => out.push(format!(
+            "  light scale k = {} (the lights' stated intensity times k)",
+            fmt(k.channel(0), ku.interval, false, 4)
+        )),
+        (Some(OneOrRgb::Rgb(ku)), Some(k)) => {
+            out.push("  light scale per channel (the lights' stated intensity times k_c):".into());
+            for c in 0..3 {
+                let v = fmt(k.channel(c), ku[c].interval, false, 4);
+                out.push(format!("    {}: k = {v}", CHANNELS[c]));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The printed intervals: `σ_t = 72.1 [65.0, 80.2]` per channel (in words where it spans orders
+/// of magnitude: `anything above 20.0 fits these images`), and in plain words what the images
+/// leave open and which capture would settle it.
+pub fn interval_lines(est: &Params, u: &Uncertainty) -> Vec<String> {
+    const CH: [&str; 3] = CHANNELS;
     // An interval of σ_t that reaches orders of magnitude beyond the estimate says no more than
     // which side the images bound: it is printed as that, in words.
     let sigma_t = |v: f64, i: Option<[f64; 2]>| match i {
@@ -214,20 +238,7 @@ pub fn interval_lines(est: &Params, u: &inverse::uncertainty::Uncertainty) -> Ve
     if let (Some(gu), Some(g)) = (&u.g, est.g) {
         out.push(format!("  g = {}", fmt(g, gu.interval, false, 3)));
     }
-    match (&u.light_scale, est.light_scale) {
-        (Some(OneOrRgb::One(ku)), Some(k)) => out.push(format!(
-            "  light scale k = {} (the lights' stated intensity times k)",
-            fmt(k.channel(0), ku.interval, false, 4)
-        )),
-        (Some(OneOrRgb::Rgb(ku)), Some(k)) => {
-            out.push("  light scale per channel (the lights' stated intensity times k_c):".into());
-            for c in 0..3 {
-                let v = fmt(k.channel(c), ku[c].interval, false, 4);
-                out.push(format!("    {}: k = {v}", CH[c]));
-            }
-        }
-        _ => {}
-    }
+    light_scale_lines(u, est, &mut out);
     let open_t: Vec<&str> = (0..3)
         .filter(|&c| !u.fixed[0] && !u.determined_sigma_t[c])
         .map(|c| CH[c])

@@ -64,7 +64,15 @@ const FIGURES: &[(&str, &str, &str)] = &[
     ("would give at most 2.2–2.4×", NOISE, "2.2–2.4×"),
     ("23–202× less noisy per second", NOISE, "23–202×"),
     ("1.4–7× noisier in R", NOISE, "1.4–7×"),
+    // A light of unknown strength.
+    (
+        "1.629 [1.290, 2.058] against a truth of 2",
+        FREE,
+        "1.629 [1.290, 2.058]",
+    ),
 ];
+
+const FREE: &str = "### Recovering g and the light's strength (`--free`)";
 
 const RECOVERY_SPEED: &str = "### Recovery speed at the paper's workload";
 const ACCURACY: &str = "### Accuracy on the paper's experiment (`experiment accuracy`)";

@@ -277,6 +277,15 @@ mod tests {
     use super::*;
     use crate::uncertainty::Accumulator;
 
+    /// `value` plus uniform noise of width 0.01 per pixel and channel: a view's target.
+    fn noisy(value: &Image, rng: &mut base::rng::Sampler) -> Image {
+        let mut t = value.clone();
+        for x in t.data.iter_mut().flatten() {
+            *x += 0.01 * (rng.next_f32() - 0.5);
+        }
+        t
+    }
+
     /// Renders of a linear model I_c = J_c·θ with known Jacobians and independent target noise
     /// per view: where ∂I/∂g is zero the joint blocks equal the per-channel sandwich (g then
     /// has no information and A is singular, so g is left out by giving it its own pixels);
@@ -314,10 +323,7 @@ mod tests {
             });
             let d_g = img(&|p, _| if lower(p) { 0.0 } else { 0.5 });
             let value = img(&|p, c| 0.1 + 0.01 * ((p + c + view) % 7) as f32);
-            let noise: Vec<f32> = (0..3 * value.data.len())
-                .map(|_| 0.01 * (rng.next_f32() - 0.5))
-                .collect();
-            let target = img(&|p, c| value.data[p][c] + noise[3 * p + c]);
+            let target = noisy(&value, &mut rng);
             let r = ViewRenders {
                 value: [&value, &value],
                 d_sigma_t: [&d_sigma_t, &d_sigma_t],
@@ -388,10 +394,7 @@ mod tests {
             let d_sigma_t = img(&|p, c| (0.002 * (1 + (p + view) % 5 + c) as f64) as f32);
             let d_albedo = img(&|p, c| (0.3 + 0.1 * ((p * 3 + c) % 4) as f64) as f32);
             let value = img(&|p, c| 0.1 + 0.01 * ((p + c + view) % 7) as f32);
-            let noise: Vec<f32> = (0..3 * value.data.len())
-                .map(|_| 0.01 * (rng.next_f32() - 0.5))
-                .collect();
-            let target = img(&|p, c| value.data[p][c] + noise[3 * p + c]);
+            let target = noisy(&value, &mut rng);
             let r = ViewRenders {
                 value: [&value, &value],
                 d_sigma_t: [&d_sigma_t, &d_sigma_t],
