@@ -277,6 +277,21 @@ mod tests {
     use super::*;
     use crate::uncertainty::Accumulator;
 
+    /// One render used as both of a view's two renders.
+    fn renders<'a>(
+        value: &'a Image,
+        d_sigma_t: &'a Image,
+        d_albedo: &'a Image,
+        target: &'a Image,
+    ) -> ViewRenders<'a> {
+        ViewRenders {
+            value: [value, value],
+            d_sigma_t: [d_sigma_t, d_sigma_t],
+            d_albedo: [d_albedo, d_albedo],
+            target,
+        }
+    }
+
     /// `value` plus uniform noise of width 0.01 per pixel and channel: a view's target.
     fn noisy(value: &Image, rng: &mut base::rng::Sampler) -> Image {
         let mut t = value.clone();
@@ -324,12 +339,7 @@ mod tests {
             let d_g = img(&|p, _| if lower(p) { 0.0 } else { 0.5 });
             let value = img(&|p, c| 0.1 + 0.01 * ((p + c + view) % 7) as f32);
             let target = noisy(&value, &mut rng);
-            let r = ViewRenders {
-                value: [&value, &value],
-                d_sigma_t: [&d_sigma_t, &d_sigma_t],
-                d_albedo: [&d_albedo, &d_albedo],
-                target: &target,
-            };
+            let r = renders(&value, &d_sigma_t, &d_albedo, &target);
             joint.add_view(&r, &[[&d_g, &d_g]], sigma_t);
             per_channel.add_view(&r, sigma_t);
         }
@@ -395,12 +405,7 @@ mod tests {
             let d_albedo = img(&|p, c| (0.3 + 0.1 * ((p * 3 + c) % 4) as f64) as f32);
             let value = img(&|p, c| 0.1 + 0.01 * ((p + c + view) % 7) as f32);
             let target = noisy(&value, &mut rng);
-            let r = ViewRenders {
-                value: [&value, &value],
-                d_sigma_t: [&d_sigma_t, &d_sigma_t],
-                d_albedo: [&d_albedo, &d_albedo],
-                target: &target,
-            };
+            let r = renders(&value, &d_sigma_t, &d_albedo, &target);
             rgb.add_view(&r, &[[&value, &value]; 3], sigma_t);
             one.add_view(&r, &[[&value, &value]], sigma_t);
         }
