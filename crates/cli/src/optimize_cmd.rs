@@ -28,7 +28,8 @@ mod tests {
     fn optimize_demo_and_experiment_share_the_library_defaults() {
         let d = PathBuf::from("d");
         let o = OptimizeArgs::with_defaults(d.clone(), PathBuf::from("o"));
-        let config_for = |s: &RecoverySettings| s.optimize_config(|| Ok(None)).unwrap();
+        let config_for =
+            |s: &RecoverySettings| s.optimize_config(|| Ok(Default::default())).unwrap();
         // Every option's default is the library's.
         assert_eq!(o.settings(), RecoverySettings::default());
         assert_eq!(config_for(&o.settings()), OptimizeConfig::default());

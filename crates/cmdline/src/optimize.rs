@@ -92,9 +92,11 @@ pub struct OptimizeArgs {
     /// With --normalize-views: no view weighs more than 1/FLOOR times an average view.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().view_weight_floor, value_name = "FLOOR")]
     pub view_weight_floor: f64,
-    /// Initial σ_t (1/unit; one value or R,G,B).
-    #[arg(long, default_value = "50", value_parser = parse_rgb, allow_negative_numbers = true)]
-    pub init_sigma_t: [f32; 3],
+    /// Initial σ_t (1/unit; one value or R,G,B). Default: 50, or where the dataset states its
+    /// length unit a typical real material's, 1.50 mm⁻¹ at g = 0 (the geometric mean of Jensen
+    /// et al. 2001's twelve, at the object's g, in its unit).
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true)]
+    pub init_sigma_t: Option<[f32; 3]>,
     /// Initial albedo (one value or R,G,B).
     #[arg(long, default_value = "0.5", value_parser = parse_rgb, allow_negative_numbers = true)]
     pub init_albedo: [f32; 3],
@@ -192,7 +194,7 @@ pub struct OptimizeArgs {
     #[command(flatten)]
     pub seed: crate::Seed,
     /// Several initialisations first: N shorter runs (a third of --iterations each) from σ_t
-    /// between a third and three times --init-sigma-t; the one with the lowest loss starts the
+    /// between a third and three times σ_t's start; the one with the lowest loss starts the
     /// run. For images that may leave σ_t open; costs N/3 more runs. Listed in
     /// OUT/starts/starts.json and result.json.
     #[arg(long, default_value_t = RecoverySettings::default().start.starts, value_parser = clap::value_parser!(u32).range(1..=16))]
@@ -266,11 +268,14 @@ impl OptimizeArgs {
             },
             start: StartSettings {
                 init: Params {
-                    sigma_t: rgb(self.init_sigma_t),
+                    sigma_t: self
+                        .init_sigma_t
+                        .map_or(RecoverySettings::default().start.init.sigma_t, rgb),
                     albedo: rgb(self.init_albedo),
                     g: self.init_g,
                     light_scale: self.init_light_scale.map(OneOrRgb::One),
                 },
+                sigma_t_from_units: self.init_sigma_t.is_none(),
                 starts: self.starts,
             },
             schedule: Schedule {

@@ -468,6 +468,7 @@ pub fn run_args(
     s.schedule.albedo_warmup = a.albedo_warmup;
     // As `--init-sigma-t` and `--init-albedo` read them: in single precision.
     let single = |v: [f64; 3]| v.map(|x| f64::from(x as f32));
+    s.start.sigma_t_from_units = false;
     s.start.init = Params {
         sigma_t: single(init.sigma_t),
         albedo: single(init.albedo),

@@ -113,6 +113,7 @@ pub fn run(a: &VolumetricConfig, obs: &dyn Observer) -> Result<()> {
         let s = &mut o.settings;
         s.model.kind = v.model.unwrap_or_default();
         (s.schedule.iterations, s.schedule.spp) = (iterations, spp * v.spp_factor);
+        s.start.sigma_t_from_units = false;
         s.start.init = Params {
             sigma_t: [50.0; 3],
             albedo: TRUTH.albedo.map(f64::from),

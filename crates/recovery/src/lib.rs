@@ -87,10 +87,11 @@ pub struct RecoveryConfig {
 
 impl RecoveryConfig {
     /// The library's defaults ([`RecoverySettings::default`]) for `dataset` into `out`, with
-    /// the dataset's own tracer depth `depth` for the refinement.
-    pub fn new(dataset: PathBuf, out: PathBuf, depth: Option<u32>) -> Self {
+    /// what they need of the dataset given (`facts`: its tracer depth, its object's size)
+    /// instead of read ([`RecoverySettings::resolve_for`] reads them).
+    pub fn new(dataset: PathBuf, out: PathBuf, facts: settings::DatasetFacts) -> Self {
         RecoverySettings::default()
-            .resolve(dataset, out, || Ok(depth))
+            .resolve(dataset, out, || Ok(facts))
             .expect("the default settings resolve")
     }
 

@@ -20,8 +20,12 @@ use scene::setting::Setting;
 use super::{BiasCorrection, RecoveryConfig, RecoveryError};
 use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::OptimizeConfig;
-use inverse::params::{ParamSpec, Params};
+use inverse::params::ParamSpec;
 use inverse::uncertainty::UncertaintySettings;
+
+mod start;
+
+pub use start::{DatasetFacts, StartSettings};
 
 /// A recovery's settings, nested by concern; [`Default`] is the product's recovery.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,15 +61,6 @@ pub struct ModelSettings {
     /// The learned model's networks from a file (`None`, `shipped` or `learned`: the shipped
     /// model). Only the learned model reads one.
     pub file: Option<PathBuf>,
-}
-
-/// The initial medium and the number of initialisations tried first.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StartSettings {
-    /// Initial σ_t and α (the paper's σ_t = 50, α = 0.5).
-    pub init: Params,
-    /// Initialisations tried first (1: none; [`super::multi_start`]).
-    pub starts: u32,
 }
 
 /// The loop's schedule, shared by every model ([`OptimizeConfig`] documents each field).
@@ -225,6 +220,7 @@ impl Default for RecoverySettings {
             model: ModelSettings::default(),
             start: StartSettings {
                 init: c.init,
+                sigma_t_from_units: true,
                 starts: 1,
             },
             schedule: Schedule {
@@ -273,19 +269,20 @@ impl Default for RecoverySettings {
 }
 
 impl RecoverySettings {
-    /// The recovery of `dataset` into `out`, resolved. The dataset's own tracer depth is asked
-    /// of `dataset_depth` only when the tracer is used and no depth is given.
+    /// The recovery of `dataset` into `out`, resolved. What it needs of the dataset (its own
+    /// tracer depth when the tracer is used and no depth is given; the object's size when
+    /// σ_t's start is scaled to it) is asked of `facts`, at most once.
     pub fn resolve(
         &self,
         dataset: PathBuf,
         out: PathBuf,
-        dataset_depth: impl FnOnce() -> Result<Option<u32>, RecoveryError>,
+        facts: impl FnOnce() -> Result<DatasetFacts, RecoveryError>,
     ) -> Result<RecoveryConfig, RecoveryError> {
         let model_file = self.model_file()?;
         Ok(RecoveryConfig {
             dataset,
             out,
-            optimize: self.optimize_config(dataset_depth)?,
+            optimize: self.optimize_config(facts)?,
             model_file,
             max_depth: self.tracer.max_depth,
             refine_given: self.tracer.refine.is_some(),
@@ -300,17 +297,17 @@ impl RecoverySettings {
         })
     }
 
-    /// [`RecoverySettings::resolve`] with the depth read from the dataset's file when needed.
+    /// [`RecoverySettings::resolve`] with the facts read from the dataset's files when needed.
     pub fn resolve_for(
         &self,
         dataset: PathBuf,
         out: PathBuf,
     ) -> Result<RecoveryConfig, RecoveryError> {
-        let depth = {
+        let facts = {
             let d = dataset.clone();
-            move || Ok(scene::Dataset::load(&d)?.render.max_depth)
+            move || DatasetFacts::read(&d)
         };
-        self.resolve(dataset, out, depth)
+        self.resolve(dataset, out, facts)
     }
 
     /// The model file to read: `None` for the shipped model; an error for a file given to a
@@ -341,7 +338,7 @@ impl RecoverySettings {
     /// checkpoints and `result.json` record.
     pub fn optimize_config(
         &self,
-        dataset_depth: impl FnOnce() -> Result<Option<u32>, RecoveryError>,
+        facts: impl FnOnce() -> Result<DatasetFacts, RecoveryError>,
     ) -> Result<OptimizeConfig, RecoveryError> {
         let (s, t) = (&self.schedule, &self.tracer);
         let kind = self.model.kind;
@@ -367,11 +364,15 @@ impl RecoverySettings {
         // Only a run with a refinement records the choice (runs without one compare equal to
         // those written before it existed).
         c.refine_restarts_moments = c.refine_iterations > 0 && !t.refine_keeps_moments;
-        if kind == ModelKind::Volpath || c.refine_iterations > 0 {
-            c.volpath_max_depth = match t.max_depth {
-                Some(d) => Some(d),
-                None => dataset_depth()?,
-            };
+        let traces = kind == ModelKind::Volpath || c.refine_iterations > 0;
+        let facts = if (traces && t.max_depth.is_none()) || self.start.sigma_t_from_units {
+            facts()?
+        } else {
+            DatasetFacts::default()
+        };
+        c.init = self.start.init_for(&facts);
+        if traces {
+            c.volpath_max_depth = t.max_depth.or(facts.depth);
         }
         c.spp = s.spp;
         if let Some(r) = t.refine_spp {

@@ -75,7 +75,14 @@ fn edit_json(path: &std::path::Path, f: impl FnOnce(&mut serde_json::Value)) {
 }
 
 fn tracer_config(data: &std::path::Path, out: &std::path::Path) -> RecoveryConfig {
-    let mut cfg = RecoveryConfig::new(data.to_path_buf(), out.to_path_buf(), Some(16));
+    let mut cfg = RecoveryConfig::new(
+        data.to_path_buf(),
+        out.to_path_buf(),
+        recovery::settings::DatasetFacts {
+            depth: Some(16),
+            ..Default::default()
+        },
+    );
     cfg.optimize.model = ModelChoice::Volpath(TracerEstimator::Ad);
     cfg.optimize.refine_iterations = 0;
     cfg.optimize.volpath_max_depth = Some(16);
@@ -158,7 +165,14 @@ fn a_dataset_that_states_no_object_is_recovered_as_assumed_and_says_so() {
         o.remove("object");
         o.remove("truth");
     });
-    let mut cfg = RecoveryConfig::new(data.clone(), t.path().join("run"), Some(16));
+    let mut cfg = RecoveryConfig::new(
+        data.clone(),
+        t.path().join("run"),
+        recovery::settings::DatasetFacts {
+            depth: Some(16),
+            ..Default::default()
+        },
+    );
     cfg.optimize = cfg.optimize.with_iterations(2);
     cfg.optimize.spp = 1;
     cfg.uncertainty.views = 0;

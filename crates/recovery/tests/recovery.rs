@@ -52,7 +52,14 @@ fn a_recovery_runs_from_its_config_and_is_reused_only_with_its_settings() {
     let t = tempfile::tempdir().unwrap();
     let data = t.path().join("data");
     tiny_dataset(&data);
-    let mut cfg = RecoveryConfig::new(data.clone(), t.path().join("run"), Some(16));
+    let mut cfg = RecoveryConfig::new(
+        data.clone(),
+        t.path().join("run"),
+        recovery::settings::DatasetFacts {
+            depth: Some(16),
+            ..Default::default()
+        },
+    );
     cfg.optimize = cfg.optimize.with_iterations(4);
     cfg.optimize.spp = 2;
     cfg.final_spp = 1;

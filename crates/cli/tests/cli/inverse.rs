@@ -1330,6 +1330,10 @@ fn a_measured_medium_in_centimetres_is_reported_in_real_units() {
         ds["units"]
     );
     let r = ok(d, &TINY_OPTIMIZE);
+    // A dataset with a unit starts σ_t at a typical real material's: 1.50 mm⁻¹ = 15.0 cm⁻¹.
+    assert_stderr_has(&r, &["σ_t starts at 15.009 per cm"]);
+    let start = read_json(&d.join("o/result.json"))["config"]["init"]["sigma_t"].clone();
+    assert!((start[0].as_f64().unwrap() - 15.009).abs() < 1e-3, "{start}");
     assert_stdout_has(
         &r,
         &[

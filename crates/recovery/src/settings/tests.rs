@@ -2,8 +2,17 @@
 use super::*;
 use inverse::params::OneOrRgb;
 
-fn no_depth() -> Result<Option<u32>, RecoveryError> {
-    Ok(None)
+fn no_depth() -> Result<DatasetFacts, RecoveryError> {
+    Ok(DatasetFacts::default())
+}
+
+fn depth(d: u32) -> impl FnOnce() -> Result<DatasetFacts, RecoveryError> {
+    move || {
+        Ok(DatasetFacts {
+            depth: Some(d),
+            ..DatasetFacts::default()
+        })
+    }
 }
 
 /// The defaults resolve to the loop's own defaults: nothing is decided twice.
@@ -15,7 +24,7 @@ fn the_defaults_are_the_loops_defaults() {
         OptimizeConfig::default()
     );
     let cfg = s
-        .resolve(PathBuf::from("d"), PathBuf::from("o"), || Ok(Some(16)))
+        .resolve(PathBuf::from("d"), PathBuf::from("o"), depth(16))
         .unwrap();
     assert_eq!(cfg.optimize.volpath_max_depth, Some(16));
     assert!(cfg.model_file.is_none() && cfg.bias_correction.enabled && cfg.starts == 1);
@@ -30,7 +39,7 @@ fn the_refinement_follows_the_model_and_the_correction() {
     let c = s.optimize_config(no_depth).unwrap();
     assert_eq!((c.refine_iterations, c.volpath_max_depth), (0, None));
     s.model.kind = ModelKind::Volpath;
-    let c = s.optimize_config(|| Ok(Some(7))).unwrap();
+    let c = s.optimize_config(depth(7)).unwrap();
     assert_eq!((c.refine_iterations, c.volpath_max_depth), (0, Some(7)));
 
     let mut s = RecoverySettings::default();
@@ -152,4 +161,33 @@ fn a_free_light_scale_is_refused_where_it_cannot_run() {
     s.start.init.light_scale = Some(OneOrRgb::Rgb([1.0, -1.0, 1.0]));
     let e = s.optimize_config(no_depth).unwrap_err().to_string();
     assert!(e.contains("must be positive"), "{e}");
+}
+
+/// σ_t's start follows the dataset's stated unit unless it was given; the dataset is not read
+/// when nothing needs it.
+#[test]
+fn the_start_follows_the_stated_unit_unless_given() {
+    use scene::measured::LengthUnit;
+    let mut s = RecoverySettings::default();
+    let of_unit = |length_unit| {
+        move || {
+            Ok(DatasetFacts {
+                depth: Some(16),
+                length_unit,
+                g: 0.0,
+            })
+        }
+    };
+    assert_eq!(
+        s.optimize_config(of_unit(None)).unwrap().init.sigma_t,
+        [50.0; 3]
+    );
+    let mm = s.optimize_config(of_unit(Some(LengthUnit::Mm))).unwrap();
+    assert!((mm.init.sigma_t[0] - 1.5009).abs() < 1e-3, "{:?}", mm.init);
+    s.start.sigma_t_from_units = false;
+    let given = s.optimize_config(of_unit(Some(LengthUnit::Mm))).unwrap();
+    assert_eq!(given.init.sigma_t, [50.0; 3]);
+    s.model.kind = ModelKind::Dipole;
+    let unread = || -> Result<DatasetFacts, RecoveryError> { panic!("read") };
+    assert_eq!(s.optimize_config(unread).unwrap().init.sigma_t, [50.0; 3]);
 }
