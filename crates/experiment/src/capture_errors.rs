@@ -56,6 +56,9 @@ pub struct CaptureErrorsConfig {
     /// With a free light scale, one factor per channel (the remedy for an unknown white
     /// balance).
     pub light_scale_per_channel: bool,
+    /// The mesh's stated error that every run's intervals include (the remedy for a scanned
+    /// mesh: `optimize --mesh-error`).
+    pub mesh_error: Option<f64>,
     /// The mesh file of the suite's third shape.
     pub mesh: PathBuf,
     /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
@@ -78,6 +81,7 @@ impl Default for CaptureErrorsConfig {
             perturbations: None,
             free_light_scale: false,
             light_scale_per_channel: false,
+            mesh_error: None,
             mesh: PathBuf::from("data/meshes/spot.obj"),
             quick: false,
             seed: 0,
@@ -98,6 +102,7 @@ impl CaptureErrorsConfig {
             budget: self.budget,
             free_light_scale: self.free_light_scale,
             light_scale_per_channel: self.light_scale_per_channel,
+            mesh_error: self.mesh_error,
             mesh: self.mesh.clone(),
             quick: self.quick,
             seed: self.seed,

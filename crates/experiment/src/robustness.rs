@@ -86,6 +86,8 @@ pub struct RobustnessConfig {
     pub light_scale_per_channel: bool,
     /// The starting g of runs that free it (`None`: the dataset's stated g, the case's own).
     pub init_g: Option<f64>,
+    /// The mesh's stated error that every run's intervals include (`optimize --mesh-error`).
+    pub mesh_error: Option<f64>,
     /// The starting light scale of runs that free it (`None`: 1, the truth).
     pub init_light_scale: Option<f64>,
     /// Independent repetitions of every case (renders and runs; at least 1).
@@ -124,6 +126,7 @@ impl Default for RobustnessConfig {
             refine_spp: None,
             free_g: false,
             free_light_scale: false,
+            mesh_error: None,
             light_scale_per_channel: false,
             init_g: None,
             init_light_scale: None,
@@ -450,6 +453,7 @@ pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) 
     s.schedule.params.free_light_scale = a.free_light_scale;
     s.schedule.params.light_scale_per_channel = a.light_scale_per_channel;
     s.start.init.g = a.init_g;
+    s.checks.uncertainty.mesh_error = a.mesh_error;
     s.start.init.light_scale = a.init_light_scale.map(inverse::params::OneOrRgb::One);
     if a.quick {
         s.schedule.iterations = a.workload().iterations;

@@ -9,7 +9,9 @@
 //!   A = Σ_v Σ_p J_p J_pᵀ                       (Gauss–Newton: half the Hessian of L)
 //!   g_v = Σ_p J_p r_p                           (half the gradient of view v's loss)
 //!   B = V/(V − 1) · Σ_v (g_v − ḡ)(g_v − ḡ)ᵀ     (the views as independent draws of the capture)
-//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt + C_drift,   d = A⁻¹ Σ_v Σ_p J_p I_p
+//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt + C_drift (+ C_capture),   d = A⁻¹ Σ_v Σ_p J_p I_p
+//!
+//! (C_capture, for a stated capture error such as a scanned mesh's accuracy: [`capture`]).
 //!
 //! (the M-estimator sandwich with views as clusters: White 1980, Liang & Zeger 1986). B holds
 //! whatever makes the views disagree at the estimate: the targets' noise, the renderer's noise
@@ -67,6 +69,7 @@ pub const DETERMINED_ALBEDO_HALF_WIDTH: f64 = 0.02;
 /// g counts as determined when the half-width of its 95 % interval is at most this.
 pub const DETERMINED_G_HALF_WIDTH: f64 = 0.05;
 
+pub mod capture;
 pub mod joint;
 
 pub use joint::SharedUncertainty;
@@ -83,7 +86,15 @@ pub struct UncertaintySettings {
     /// s_b: standard deviation of the learned model's relative brightness error, common to all
     /// views (module docs).
     pub model_brightness_sd: f64,
+    /// The mesh's stated accuracy: the RMS displacement of its vertices along their normals as
+    /// a fraction of its bounding box's diagonal (a scan's noise), whose effect on the estimate
+    /// joins the intervals ([`capture`]); `None`: the mesh is taken as exact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_error: Option<f64>,
 }
+
+/// The perturbations drawn for a stated capture error ([`capture`]).
+pub const CAPTURE_DRAWS: usize = 8;
 
 impl Default for UncertaintySettings {
     fn default() -> Self {
@@ -92,6 +103,7 @@ impl Default for UncertaintySettings {
             spp: 32,
             tail_fraction: 1.0 / 3.0,
             model_brightness_sd: 0.03,
+            mesh_error: None,
         }
     }
 }
@@ -107,6 +119,8 @@ pub struct Accumulator {
     ji: [[f64; 2]; 3],
     /// Each view's share of A, in the order the views were added.
     view_a: Vec<[[f64; 3]; 3]>,
+    /// Σ_p J_p δI_p per channel of each draw of a stated capture error ([`capture`]).
+    capture: Vec<[[f64; 2]; 3]>,
 }
 
 /// One view's derivative renders at the estimate: value and ∂I/∂σ_t, ∂I/∂α images of two
@@ -220,10 +234,11 @@ impl Accumulator {
             ];
             let s2 = model_brightness_sd * model_brightness_sd;
             let m = sandwich(inv, b);
+            let cap = capture::channel_term(inv, self.capture.iter().map(|s| s[c]));
             Some([
-                m[0] + s2 * d[0] * d[0],
-                m[1] + s2 * d[0] * d[1],
-                m[2] + s2 * d[1] * d[1],
+                m[0] + s2 * d[0] * d[0] + cap[0],
+                m[1] + s2 * d[0] * d[1] + cap[1],
+                m[2] + s2 * d[1] * d[1] + cap[2],
             ])
         })
     }
@@ -333,6 +348,9 @@ pub struct Uncertainty {
     /// The light scale's interval where the run recovers it (one, or one per channel).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_scale: Option<OneOrRgb<SharedUncertainty>>,
+    /// The mesh's stated error that the intervals include ([`capture`]), where one was stated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_error: Option<f64>,
 }
 
 impl Uncertainty {
@@ -393,6 +411,7 @@ impl Uncertainty {
             fixed: [false, false],
             g: None,
             light_scale: None,
+            mesh_error: None,
             method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
                      error, the spread and drift of the last iterates"
                 .into(),
@@ -538,6 +557,10 @@ impl Uncertainty {
             j["interval95"]["g"] = serde_json::json!(g.interval);
             j["determined"]["g"] = serde_json::json!(g.determined);
             j["uncertainty"]["sd_g"] = serde_json::json!(g.sd);
+        }
+        if let Some(f) = self.mesh_error {
+            j["uncertainty"]["mesh_error"] =
+                serde_json::json!({ "fraction": f, "draws": CAPTURE_DRAWS });
         }
         if let Some(k) = &self.light_scale {
             j["interval95"]["light_scale"] = serde_json::json!(k.map(|k| k.interval));

@@ -459,13 +459,16 @@ fn intervals_cover_the_truth_where_the_model_is_exact() {
         let mut o = Optimizer::new(c, &s.accel, Some(&s.model), s.truth, targets).unwrap();
         o.run(None, |_, _| {}).unwrap();
         let u = o
-            .uncertainty(&inverse::uncertainty::UncertaintySettings {
-                views: 6,
-                spp: 64,
-                // The model is exact here: no allowance for its brightness error.
-                model_brightness_sd: 0.0,
-                ..Default::default()
-            })
+            .uncertainty(
+                &inverse::uncertainty::UncertaintySettings {
+                    views: 6,
+                    spp: 64,
+                    // The model is exact here: no allowance for its brightness error.
+                    model_brightness_sd: 0.0,
+                    ..Default::default()
+                },
+                &[],
+            )
             .unwrap();
         let est = o.params();
         for ch in 0..3 {

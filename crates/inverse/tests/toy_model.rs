@@ -239,10 +239,13 @@ fn a_free_g_is_recovered_through_the_same_loop() {
     }
     assert!(opt.history().iter().skip(1).all(|r| r.d_g.is_some()));
     let u = opt
-        .uncertainty(&inverse::uncertainty::UncertaintySettings {
-            views: 3,
-            ..Default::default()
-        })
+        .uncertainty(
+            &inverse::uncertainty::UncertaintySettings {
+                views: 3,
+                ..Default::default()
+            },
+            &[],
+        )
         .unwrap();
     let gu = u.g.expect("g has its interval");
     let [lo, hi] = gu.interval.expect("a finite interval");

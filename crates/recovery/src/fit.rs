@@ -14,7 +14,7 @@ use crate::report;
 use inverse::forward::ModelKind;
 use inverse::optimize::{InverseError, Optimizer};
 use inverse::params::Params;
-use inverse::uncertainty::Uncertainty;
+use inverse::uncertainty::{CAPTURE_DRAWS, Uncertainty};
 
 /// Runs the loop to the configured iterations, writing checkpoints and `iterations.csv`;
 /// returns the loop's seconds. A run that breaks down numerically leaves its record (the
@@ -81,7 +81,8 @@ pub(super) fn intervals(
     let estimate = opt.params();
     let uncertainty = if cfg.uncertainty.views > 0 {
         let pb = obs.progress(0, "95 % intervals");
-        let u = opt.uncertainty(&cfg.uncertainty)?;
+        let capture = capture_deltas(cfg, opt, p)?;
+        let u = opt.uncertainty(&cfg.uncertainty, &capture)?;
         pb.finish_and_clear();
         Some(u)
     } else {
@@ -134,6 +135,27 @@ pub(super) fn intervals(
         obs.say(&line);
     }
     Ok((estimate, uncertainty, result))
+}
+
+/// δI of the stated mesh error's draws ([`inverse::uncertainty::capture`]): the run's mesh with
+/// [`CAPTURE_DRAWS`] independent noises of the stated size, each rendered by the tracer at the
+/// estimate; none where no error is stated.
+fn capture_deltas(
+    cfg: &RecoveryConfig,
+    opt: &Optimizer,
+    p: &Prepared,
+) -> Result<Vec<Vec<scene::Image>>, RecoveryError> {
+    let Some(f) = cfg.uncertainty.mesh_error else {
+        return Ok(Vec::new());
+    };
+    let accels: Vec<geometry::Accel> = (0..CAPTURE_DRAWS)
+        .map(|k| {
+            let seed = base::rng::hash_key(&[cfg.optimize.seed, 0x3E5E_0000, k as u64]);
+            geometry::Accel::new(scene::capture::noisy_mesh(p.accel.mesh(), f as f32, seed))
+        })
+        .collect();
+    let refs: Vec<&geometry::Accel> = accels.iter().collect();
+    Ok(opt.capture_deltas(&cfg.uncertainty, &refs)?)
 }
 
 /// The medium the run reports and its intervals: the estimate, or its bias-corrected value for a

@@ -226,7 +226,13 @@ pub fn interval_lines(est: &Params, u: &Uncertainty) -> Vec<String> {
         }
         _ => fmt(v, i, u.fixed[0], 1),
     };
-    let mut out = vec!["95 % intervals (from the images):".to_string()];
+    let mut out = vec![match u.mesh_error {
+        Some(f) => format!(
+            "95 % intervals (from the images, and a mesh error of {} % of its diagonal):",
+            num(100.0 * f, 2)
+        ),
+        None => "95 % intervals (from the images):".to_string(),
+    }];
     for c in 0..3 {
         out.push(format!(
             "  {}: σ_t = {}  α = {}",

@@ -7,7 +7,7 @@
 
 mod export;
 
-pub use export::{CaptureExport, photo_name, write_capture};
+pub use export::{CaptureExport, noisy_mesh, photo_name, write_capture};
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -51,6 +51,10 @@ pub struct CaptureErrorsArgs {
     /// light-scale-rgb`), the remedy for a white balance the capture does not know.
     #[arg(long)]
     pub free_light_scale_rgb: bool,
+    /// State the mesh's accuracy in every run (`optimize --mesh-error`): the intervals include
+    /// what a mesh error of that size moves the estimate by.
+    #[arg(long, value_name = "FRACTION", value_parser = cmdline::optimize::parse_mesh_error)]
+    pub mesh_error: Option<f64>,
     /// The mesh file of the robustness suite's third shape.
     #[arg(long, default_value_os_t = CaptureErrorsConfig::default().mesh)]
     pub mesh: PathBuf,
@@ -75,6 +79,7 @@ impl CaptureErrorsArgs {
             perturbations: self.perturbations.clone(),
             free_light_scale: self.free_light_scale || self.free_light_scale_rgb,
             light_scale_per_channel: self.free_light_scale_rgb,
+            mesh_error: self.mesh_error,
             mesh: self.mesh.clone(),
             quick: *self.quick,
             seed: *self.seed,

@@ -111,6 +111,8 @@ impl RobustnessArgs {
             light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),
             init_g: self.init_g,
             init_light_scale: self.init_light_scale,
+            // The suite's meshes are exact.
+            mesh_error: None,
             seeds: self.seeds,
             suite: self.suite,
             cases: self.cases.clone(),

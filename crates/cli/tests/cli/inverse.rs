@@ -1333,7 +1333,10 @@ fn a_measured_medium_in_centimetres_is_reported_in_real_units() {
     // A dataset with a unit starts σ_t at a typical real material's: 1.50 mm⁻¹ = 15.0 cm⁻¹.
     assert_stderr_has(&r, &["σ_t starts at 15.009 per cm"]);
     let start = read_json(&d.join("o/result.json"))["config"]["init"]["sigma_t"].clone();
-    assert!((start[0].as_f64().unwrap() - 15.009).abs() < 1e-3, "{start}");
+    assert!(
+        (start[0].as_f64().unwrap() - 15.009).abs() < 1e-3,
+        "{start}"
+    );
     assert_stdout_has(
         &r,
         &[
@@ -1378,4 +1381,57 @@ fn a_measured_medium_in_centimetres_is_reported_in_real_units() {
         ],
     );
     assert_stderr_has(&e, &["--units"]);
+}
+
+/// `--mesh-error`: the same run with the mesh's error stated has intervals at least as wide in
+/// every channel (C_capture is added to the same covariance), says so in `result.json` and in
+/// its summary; a fraction outside (0, 0.1] is refused naming the option.
+#[test]
+fn a_stated_mesh_error_widens_the_intervals() {
+    let t = tiny_optimize_dataset("2");
+    let d = t.path();
+    let sd = |dir: &str| -> (Vec<f64>, serde_json::Value) {
+        let res = read_json(&d.join(dir).join("result.json"));
+        let sd = (0..3)
+            .map(|c| res["uncertainty"]["sd_ln_sigma_t"][c].as_f64().unwrap())
+            .collect();
+        (sd, res["uncertainty"]["mesh_error"].clone())
+    };
+    ok(
+        d,
+        &[&TINY_OPTIMIZE[..], &["--uncertainty-views", "2"]].concat(),
+    );
+    let (plain, none) = sd("o");
+    assert!(none.is_null(), "{none}");
+    // The same run into `m` (TINY_OPTIMIZE's `--out o` replaced).
+    let into_m: Vec<&str> = TINY_OPTIMIZE
+        .iter()
+        .map(|&a| if a == "o" { "m" } else { a })
+        .collect();
+    let r = ok(
+        d,
+        &[
+            &into_m[..],
+            &["--uncertainty-views", "2", "--mesh-error", "0.01"],
+        ]
+        .concat(),
+    );
+    assert_stdout_has(&r, &["a mesh error of 1.00 % of its diagonal"]);
+    let (wide, stated) = sd("m");
+    assert_eq!(stated["fraction"], 0.01);
+    assert_eq!(stated["draws"], 8);
+    for c in 0..3 {
+        assert!(
+            wide[c] >= plain[c],
+            "channel {c}: {wide:?} against {plain:?}"
+        );
+    }
+    assert!(
+        wide.iter().zip(&plain).any(|(w, p)| w > p),
+        "{wide:?} {plain:?}"
+    );
+    for bad in ["0", "0.5", "x"] {
+        let e = fails(d, &[&TINY_OPTIMIZE[..], &["--mesh-error", bad]].concat());
+        assert_stderr_has(&e, &["--mesh-error", "0.002"]);
+    }
 }

@@ -82,12 +82,15 @@ pub(super) fn report(a: &CaptureErrorsConfig, rows: &[Row]) -> (String, String) 
     let _ = writeln!(
         md,
         "Capture errors: {views} views {res}² (targets at {spp} spp by the volumetric path tracer), \
-         `optimize`'s defaults ({iterations} iterations{}), seed {}{}\n",
+         `optimize`'s defaults ({iterations} iterations{}{}), seed {}{}\n",
         match (a.free_light_scale, a.light_scale_per_channel) {
             (false, _) => "",
             (true, false) => ", the light scale free",
             (true, true) => ", the light scale free per channel",
         },
+        a.mesh_error
+            .map(|f| format!(", intervals with a mesh error of {} %", 100.0 * f))
+            .unwrap_or_default(),
         a.seed,
         if a.quick {
             " (quick: a smoke test, not a measurement)"

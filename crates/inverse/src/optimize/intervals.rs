@@ -14,36 +14,44 @@ use crate::uncertainty::{
     iterate_covariance, iterate_drift,
 };
 use bssrdf::diff::DiffImages;
-use scene::{Camera, PointLight};
+use geometry::Accel;
+use scene::{Camera, Image, PointLight};
+use volpath::VolpathSettings;
+
+use crate::forward::fd::Differencing;
+use crate::forward::volpath::Volpath;
+use crate::forward::{ForwardModel, TracerEstimator};
 
 impl Optimizer<'_> {
     /// The uncertainty of the current parameters from the target images
     /// ([`crate::uncertainty`]): two independent derivative renders of `s.views` views spread
     /// evenly over the targets, at `s.spp`, plus the spread and drift of the last iterates. Parameters the
     /// run keeps fixed get no interval.
-    pub fn uncertainty(&self, s: &UncertaintySettings) -> Result<Uncertainty, InverseError> {
+    ///
+    /// `capture`: δI of each draw of a stated capture error, per interval view
+    /// ([`Optimizer::capture_deltas`]), added as C_capture ([`crate::uncertainty::capture`]);
+    /// empty for none.
+    pub fn uncertainty(
+        &self,
+        s: &UncertaintySettings,
+        capture: &[Vec<Image>],
+    ) -> Result<Uncertainty, InverseError> {
         let c = &self.config;
         let p = self.params();
         let at = self.forward.at(p.medium(&self.base))?;
         let n = self.targets.len();
         let k = s.views.clamp(1, n);
+        if let Some(d) = capture.iter().find(|d| d.len() != k) {
+            return Err(InverseError::Invalid(format!(
+                "a capture error's draw has {} images for {k} interval views",
+                d.len()
+            )));
+        }
         let mut acc = Accumulator::default();
         // With a free g or light scale, the sandwich over all variables at once ([`joint`]).
-        let light_scales: Vec<Shared> = match c.params.light_scale_count() {
-            0 => vec![],
-            1 => vec![Shared::LnLightScale(None)],
-            _ => (0..3).map(|c| Shared::LnLightScale(Some(c))).collect(),
-        };
-        let shared: Vec<Shared> = c
-            .params
-            .free_g
-            .then_some(Shared::G)
-            .into_iter()
-            .chain(light_scales)
-            .collect();
+        let shared = self.shared_params();
         let mut acc_joint = (!shared.is_empty()).then(|| JointAccumulator::new(shared.clone()));
-        for i in 0..k {
-            let v = i * n / k;
+        for (i, v) in self.interval_views(s).into_iter().enumerate() {
             let t = &self.targets[v];
             let (a, b) = derivative_pair(at.as_ref(), t.camera, &p.light(t.light), s, c.seed, v)?;
             let renders = ViewRenders {
@@ -53,24 +61,15 @@ impl Optimizer<'_> {
                 target: t.image,
             };
             acc.add_view(&renders, p.sigma_t);
+            for (draw, deltas) in capture.iter().enumerate() {
+                acc.add_capture(draw, &renders, &deltas[i], p.sigma_t);
+            }
             if let Some(j) = acc_joint.as_mut() {
-                let d_shared = shared
-                    .iter()
-                    .map(|s| match s {
-                        Shared::G => match (&a.d_g, &b.d_g) {
-                            (Some(ga), Some(gb)) => Ok([ga, gb]),
-                            _ => Err(InverseError::Invalid(
-                                "the intervals of a free g need ∂I/∂g, which the run's final \
-                                 model does not render"
-                                    .into(),
-                            )),
-                        },
-                        // The images are linear in k: ∂I/∂ln k = I (in k_c's channel alone
-                        // for one factor per channel, `JointAccumulator::add_view`).
-                        Shared::LnLightScale(_) => Ok([&a.value, &b.value]),
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
+                let d_shared = shared_derivatives(&shared, &a, &b)?;
                 j.add_view(&renders, &d_shared, p.sigma_t);
+                for (draw, deltas) in capture.iter().enumerate() {
+                    j.add_capture(draw, &renders, &d_shared, &deltas[i], p.sigma_t);
+                }
             }
         }
         let tail = ((self.history.len() as f64 * s.tail_fraction).ceil() as usize)
@@ -125,6 +124,7 @@ impl Optimizer<'_> {
             .collect();
         u.fixed = fixed;
         u.optimiser = spread;
+        u.mesh_error = s.mesh_error.filter(|_| !capture.is_empty());
         if c.params.fix_sigma_t {
             u.sigma_t = [None; 3];
             u.sd_ln_sigma_t = [None; 3];
@@ -136,6 +136,82 @@ impl Optimizer<'_> {
             u.determined_albedo = [false; 3];
         }
         Ok(u)
+    }
+
+    /// The parameters besides σ_t and α that the run frees and every channel's images depend
+    /// on (g; ln k, one or per channel), in the joint sandwich's order.
+    fn shared_params(&self) -> Vec<Shared> {
+        let light_scales: Vec<Shared> = match self.config.params.light_scale_count() {
+            0 => vec![],
+            1 => vec![Shared::LnLightScale(None)],
+            _ => (0..3).map(|c| Shared::LnLightScale(Some(c))).collect(),
+        };
+        (self.config.params.free_g.then_some(Shared::G))
+            .into_iter()
+            .chain(light_scales)
+            .collect()
+    }
+
+    /// The targets whose renders the intervals take ([`Optimizer::uncertainty`]): `s.views`
+    /// spread evenly over them (all when there are fewer).
+    pub fn interval_views(&self, s: &UncertaintySettings) -> Vec<usize> {
+        let n = self.targets.len();
+        let k = s.views.clamp(1, n);
+        (0..k).map(|i| i * n / k).collect()
+    }
+
+    /// δI of each draw of a stated capture error at the current parameters
+    /// ([`crate::uncertainty::capture`]): per interval view ([`Optimizer::interval_views`]), the
+    /// volumetric path tracer's image of the scene on each mesh of `perturbed` minus its image
+    /// on the run's own mesh, both from the same random numbers, at `s.spp`; `[draw][view]`.
+    /// The tracer renders them whatever the run's model: δI is the physics' response to the
+    /// error, to which the run's own derivatives are then applied.
+    pub fn capture_deltas(
+        &self,
+        s: &UncertaintySettings,
+        perturbed: &[&Accel],
+    ) -> Result<Vec<Vec<Image>>, InverseError> {
+        let p = self.params();
+        let medium = p.medium(&self.base);
+        let settings = VolpathSettings {
+            max_depth: self.config.tracer_depth(),
+            ..VolpathSettings::default()
+        };
+        let estimator = Differencing {
+            estimator: TracerEstimator::Ad,
+            delta_rel: self.config.delta_rel,
+            delta_albedo: 0.0,
+        };
+        let reference = Volpath::new(self.accel, settings, estimator);
+        let models: Vec<Volpath> = perturbed
+            .iter()
+            .map(|a| Volpath::new(a, settings, estimator))
+            .collect();
+        let at_ref = reference.at(medium)?;
+        let ats = models
+            .iter()
+            .map(|m| m.at(medium))
+            .collect::<Result<Vec<_>, _>>()?;
+        let views = self.interval_views(s);
+        let mut deltas = vec![Vec::with_capacity(views.len()); perturbed.len()];
+        for &v in &views {
+            let t = &self.targets[v];
+            let light = p.light(t.light);
+            let rs = RenderSettings {
+                spp: s.spp.max(1),
+                seed: hash_key(&[self.config.seed, 0xCA97_0000]),
+                view: v as u64,
+            };
+            let base = at_ref.view(t.camera, &light).value(&rs, None)?;
+            for (at, d) in ats.iter().zip(&mut deltas) {
+                let mut img = at.view(t.camera, &light).value(&rs, None)?;
+                for (x, b) in img.data.iter_mut().zip(&base.data) {
+                    *x = [0, 1, 2].map(|c| x[c] - b[c]);
+                }
+                d.push(img);
+            }
+        }
+        Ok(deltas)
     }
 
     /// The Gauss–Newton A (per channel, [a00, a01, a11] in (ln σ_t, α)) that a view which was
@@ -174,6 +250,30 @@ impl Optimizer<'_> {
         );
         Ok(acc.view_breads()[0])
     }
+}
+
+/// The derivative images of the shared parameters `shared` in the two renders `a`, `b`.
+fn shared_derivatives<'r>(
+    shared: &[Shared],
+    a: &'r DiffImages,
+    b: &'r DiffImages,
+) -> Result<Vec<[&'r Image; 2]>, InverseError> {
+    shared
+        .iter()
+        .map(|s| match s {
+            Shared::G => match (&a.d_g, &b.d_g) {
+                (Some(ga), Some(gb)) => Ok([ga, gb]),
+                _ => Err(InverseError::Invalid(
+                    "the intervals of a free g need ∂I/∂g, which the run's final model does \
+                     not render"
+                        .into(),
+                )),
+            },
+            // The images are linear in k: ∂I/∂ln k = I (in k_c's channel alone for one factor
+            // per channel, `JointAccumulator::add_view`).
+            Shared::LnLightScale(_) => Ok([&a.value, &b.value]),
+        })
+        .collect()
 }
 
 /// Two independent derivative renders of one view (index `view` in the seeds) at `s.spp`.

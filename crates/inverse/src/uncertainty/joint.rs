@@ -57,6 +57,8 @@ pub struct JointAccumulator {
     g: Vec<DVector<f64>>,
     /// Σ_p J_p I_p.
     ji: DVector<f64>,
+    /// Σ_p J_p δI_p of each draw of a stated capture error ([`super::capture`]).
+    pub(super) capture: Vec<DVector<f64>>,
 }
 
 impl JointAccumulator {
@@ -68,7 +70,13 @@ impl JointAccumulator {
             a: DMatrix::zeros(n, n),
             g: Vec::new(),
             ji: DVector::zeros(n),
+            capture: Vec::new(),
         }
+    }
+
+    /// The shared parameters, in θ's order.
+    pub fn shared(&self) -> &[Shared] {
+        &self.shared
     }
 
     /// The number of variables.
@@ -131,7 +139,7 @@ impl JointAccumulator {
         self.g.push(gv);
     }
 
-    /// A⁻¹BA⁻¹ + s_b²·d dᵀ over the variables the run moves (`fixed`: [σ_t, α]; their rows and
+    /// A⁻¹BA⁻¹ + s_b²·d dᵀ (+ C_capture, [`super::capture`]) over the variables the run moves (`fixed`: [σ_t, α]; their rows and
     /// columns are 0), or `None` with fewer than two views or where A is not positive definite
     /// over them.
     pub fn covariance(&self, model_brightness_sd: f64, fixed: [bool; 2]) -> Option<Joint> {
@@ -158,7 +166,11 @@ impl JointAccumulator {
         }
         b *= v as f64 / (v as f64 - 1.0);
         let d = &s * DVector::from_fn(n, |i, _| self.ji[free[i]]);
-        let m = &s * b * &s + model_brightness_sd.powi(2) * &d * d.transpose();
+        let mut m = &s * b * &s + model_brightness_sd.powi(2) * &d * d.transpose();
+        for shift in &self.capture {
+            let d = &s * DVector::from_fn(n, |i, _| shift[free[i]]);
+            m += &d * d.transpose() / self.capture.len() as f64;
+        }
         let mut out = DMatrix::zeros(n_all, n_all);
         for (i, &fi) in free.iter().enumerate() {
             for (j, &fj) in free.iter().enumerate() {

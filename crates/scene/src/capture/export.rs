@@ -82,7 +82,7 @@ pub fn write_capture(
             overwrite,
         )?;
     }
-    let scan = noisy(mesh, settings.mesh_noise, settings.seed);
+    let scan = noisy_mesh(mesh, settings.mesh_noise, settings.seed);
     let path = dir.join("object.ply");
     crate::fsutil::check_overwrite(&path, overwrite)?;
     geometry::io::save_ply(&scan, &path).map_err(|e| SceneError::Parse {
@@ -106,9 +106,9 @@ fn silhouette(accel: &Accel, camera: &crate::Camera) -> PixelMask {
     m
 }
 
-/// `mesh` with each vertex moved along its normal by N(0, (f·diagonal)²) (Box–Muller normals
-/// from the capture's seed).
-fn noisy(mesh: &Mesh, f: f32, seed: u64) -> Mesh {
+/// `mesh` with each vertex moved along its normal by N(0, (f·diagonal)²), the diagonal of its
+/// bounding box (Box–Muller normals from `seed`): a scan's noise.
+pub fn noisy_mesh(mesh: &Mesh, f: f32, seed: u64) -> Mesh {
     let mut rng = Pcg32::seed_from_u64(seed);
     geometry::remesh::normal_noise(mesh, f, || {
         let u1 = rng.random::<f64>().max(1e-12);
