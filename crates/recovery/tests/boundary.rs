@@ -78,10 +78,7 @@ fn tracer_config(data: &std::path::Path, out: &std::path::Path) -> RecoveryConfi
     let mut cfg = RecoveryConfig::new(
         data.to_path_buf(),
         out.to_path_buf(),
-        recovery::settings::DatasetFacts {
-            depth: Some(16),
-            ..Default::default()
-        },
+        recovery::settings::DatasetFacts::at_depth(16),
     );
     cfg.optimize.model = ModelChoice::Volpath(TracerEstimator::Ad);
     cfg.optimize.refine_iterations = 0;
@@ -168,10 +165,7 @@ fn a_dataset_that_states_no_object_is_recovered_as_assumed_and_says_so() {
     let mut cfg = RecoveryConfig::new(
         data.clone(),
         t.path().join("run"),
-        recovery::settings::DatasetFacts {
-            depth: Some(16),
-            ..Default::default()
-        },
+        recovery::settings::DatasetFacts::at_depth(16),
     );
     cfg.optimize = cfg.optimize.with_iterations(2);
     cfg.optimize.spp = 1;

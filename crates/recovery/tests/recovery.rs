@@ -55,10 +55,7 @@ fn a_recovery_runs_from_its_config_and_is_reused_only_with_its_settings() {
     let mut cfg = RecoveryConfig::new(
         data.clone(),
         t.path().join("run"),
-        recovery::settings::DatasetFacts {
-            depth: Some(16),
-            ..Default::default()
-        },
+        recovery::settings::DatasetFacts::at_depth(16),
     );
     cfg.optimize = cfg.optimize.with_iterations(4);
     cfg.optimize.spp = 2;

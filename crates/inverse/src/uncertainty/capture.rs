@@ -116,19 +116,29 @@ mod tests {
     use super::super::joint::Shared;
     use super::*;
 
-    /// Two views whose renders are exact (no noise) with ∂I/∂σ_t and ∂I/∂α per pixel, at the
-    /// truth (the residuals are zero).
-    fn renders(w: usize, seed: u32) -> (Image, Image, Image) {
-        let mut value = Image::new(w as u32, 1);
-        let mut ds = Image::new(w as u32, 1);
-        let mut da = Image::new(w as u32, 1);
+    /// The renders of `v` ([`renders`]) as both of a view's two renders.
+    fn view(v: &[Image; 4]) -> ViewRenders<'_> {
+        let [value, ds, da, _] = v;
+        ViewRenders {
+            value: [value, value],
+            d_sigma_t: [ds, ds],
+            d_albedo: [da, da],
+            target: value,
+        }
+    }
+
+    /// A view whose renders are exact (no noise): the value, ∂I/∂σ_t, ∂I/∂α and ∂I/∂g per
+    /// pixel (g's in another direction, so that the joint A stays invertible).
+    fn renders(w: usize, seed: u32) -> [Image; 4] {
+        let mut out = [0; 4].map(|_| Image::new(w as u32, 1));
         for p in 0..w {
             let x = (p as f32 + 1.0 + seed as f32) / w as f32;
-            value.data[p] = [x; 3];
-            ds.data[p] = [-x * x, -0.5 * x, -0.2 * x];
-            da.data[p] = [1.0 - x, 0.5 + x * x, 0.3 + x * x];
+            out[0].data[p] = [x; 3];
+            out[1].data[p] = [-x * x, -0.5 * x, -0.2 * x];
+            out[2].data[p] = [1.0 - x, 0.5 + x * x, 0.3 + x * x];
+            out[3].data[p] = [x * x + 0.1; 3];
         }
-        (value, ds, da)
+        out
     }
 
     /// A perturbation that moves the images by exactly ε·∂I/∂σ_t (in ln σ_t: ε/σ_t·J₀) moves
@@ -141,44 +151,19 @@ mod tests {
         let mut acc = Accumulator::default();
         let mut joint = JointAccumulator::new(vec![Shared::G]);
         let views: Vec<_> = (0..3).map(|v| renders(16, v)).collect();
-        for (value, ds, da) in &views {
-            let r = ViewRenders {
-                value: [value, value],
-                d_sigma_t: [ds, ds],
-                d_albedo: [da, da],
-                target: value,
-            };
-            acc.add_view(&r, sigma_t);
-            // g's derivative: another direction, so that A stays invertible.
-            let dg = Image {
-                data: value.data.iter().map(|v| [v[0] * v[0] + 0.1; 3]).collect(),
-                ..value.clone()
-            };
-            joint.add_view(&r, &[[&dg, &dg]], sigma_t);
+        for v in &views {
+            acc.add_view(&view(v), sigma_t);
+            joint.add_view(&view(v), &[[&v[3], &v[3]]], sigma_t);
         }
-        for draw in 0..2 {
-            for (value, ds, da) in &views {
-                let r = ViewRenders {
-                    value: [value, value],
-                    d_sigma_t: [ds, ds],
-                    d_albedo: [da, da],
-                    target: value,
-                };
-                let sign = if draw == 0 { 1.0 } else { -1.0 };
+        for (draw, sign) in [1.0, -1.0].into_iter().enumerate() {
+            for v in &views {
+                let f = (sign * eps) as f32;
                 let delta = Image {
-                    data: ds
-                        .data
-                        .iter()
-                        .map(|d| d.map(|x| (sign * eps) as f32 * x))
-                        .collect(),
-                    ..ds.clone()
+                    data: v[1].data.iter().map(|d| d.map(|x| f * x)).collect(),
+                    ..v[1].clone()
                 };
-                let dg = Image {
-                    data: value.data.iter().map(|v| [v[0] * v[0] + 0.1; 3]).collect(),
-                    ..value.clone()
-                };
-                acc.add_capture(draw, &r, &delta, sigma_t);
-                joint.add_capture(draw, &r, &[[&dg, &dg]], &delta, sigma_t);
+                acc.add_capture(draw, &view(v), &delta, sigma_t);
+                joint.add_capture(draw, &view(v), &[[&v[3], &v[3]]], &delta, sigma_t);
             }
         }
         assert_eq!(acc.capture_draws(), 2);

@@ -64,6 +64,14 @@ pub struct DatasetFacts {
 }
 
 impl DatasetFacts {
+    /// A dataset rendered at tracer depth `depth`, with no unit.
+    pub fn at_depth(depth: u32) -> DatasetFacts {
+        DatasetFacts {
+            depth: Some(depth),
+            ..DatasetFacts::default()
+        }
+    }
+
     /// The facts of the dataset at `path` (its file or folder).
     pub fn read(path: &Path) -> Result<DatasetFacts, RecoveryError> {
         let ds = scene::Dataset::load(path)?;

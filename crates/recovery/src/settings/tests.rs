@@ -7,12 +7,7 @@ fn no_depth() -> Result<DatasetFacts, RecoveryError> {
 }
 
 fn depth(d: u32) -> impl FnOnce() -> Result<DatasetFacts, RecoveryError> {
-    move || {
-        Ok(DatasetFacts {
-            depth: Some(d),
-            ..DatasetFacts::default()
-        })
-    }
+    move || Ok(DatasetFacts::at_depth(d))
 }
 
 /// The defaults resolve to the loop's own defaults: nothing is decided twice.
