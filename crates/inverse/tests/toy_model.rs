@@ -133,6 +133,21 @@ fn target(medium: Medium, camera: &Camera, light: &PointLight) -> Image {
         .unwrap()
 }
 
+/// The optimiser of the toy model on one view: `camera`, `light` (as stated) and `target`.
+fn lambertian<'a>(
+    config: OptimizeConfig,
+    accel: &'a geometry::Accel,
+    (camera, light, target): (&'a Camera, &'a PointLight, &'a Image),
+    base: Medium,
+) -> Optimizer<'a> {
+    let targets = vec![TargetView {
+        camera,
+        light,
+        image: target,
+    }];
+    Optimizer::with_forward(config, accel, Box::new(Lambertian), None, base, targets).unwrap()
+}
+
 #[test]
 fn a_model_from_outside_the_library_runs_through_the_loop() {
     let accel = common::sphere(0.5);
@@ -147,14 +162,7 @@ fn a_model_from_outside_the_library_runs_through_the_loop() {
         lr_albedo: 0.02,
         ..OptimizeConfig::default()
     };
-    let targets = vec![TargetView {
-        camera: &camera,
-        light: &light,
-        image: &target,
-    }];
-    let mut opt =
-        Optimizer::with_forward(config, &accel, Box::new(Lambertian), None, truth, targets)
-            .unwrap();
+    let mut opt = lambertian(config, &accel, (&camera, &light, &target), truth);
     opt.run(None, |_, _| {}).unwrap();
     let p = opt.params();
     for c in 0..3 {
@@ -284,14 +292,7 @@ fn recovers_light_scale(factor: [f32; 3], per_channel: bool) {
     config.params.free_light_scale = true;
     config.params.light_scale_per_channel = per_channel;
     config.params.fix_albedo = true;
-    let targets = vec![TargetView {
-        camera: &camera,
-        light: &stated,
-        image: &target,
-    }];
-    let mut opt =
-        Optimizer::with_forward(config, &accel, Box::new(Lambertian), None, truth, targets)
-            .unwrap();
+    let mut opt = lambertian(config, &accel, (&camera, &stated, &target), truth);
     let p0 = opt.params();
     assert_eq!((0..3).map(|c| p0.light_scale_of(c)).sum::<f64>(), 3.0);
     let grad = opt.gradient(0, &p0).unwrap();
@@ -359,14 +360,7 @@ fn a_free_light_scale_waits_for_the_albedo() {
         ..OptimizeConfig::default()
     };
     config.params.free_light_scale = true;
-    let targets = vec![TargetView {
-        camera: &camera,
-        light: &stated,
-        image: &target,
-    }];
-    let mut opt =
-        Optimizer::with_forward(config, &accel, Box::new(Lambertian), None, TRUTH, targets)
-            .unwrap();
+    let mut opt = lambertian(config, &accel, (&camera, &stated, &target), TRUTH);
     opt.run(None, |_, _| {}).unwrap();
     let h = opt.history();
     assert_eq!(opt.config().light_scale_start(), 6);

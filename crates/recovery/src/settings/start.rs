@@ -91,12 +91,7 @@ mod tests {
     /// given explicitly, is not changed.
     #[test]
     fn only_a_start_not_given_follows_the_stated_unit() {
-        let init = Params {
-            sigma_t: [50.0, 60.0, 90.0],
-            albedo: [0.5; 3],
-            g: None,
-            light_scale: None,
-        };
+        let init = Params::new([50.0, 60.0, 90.0], [0.5; 3]);
         let mut s = StartSettings {
             init,
             sigma_t_from_units: true,
