@@ -215,6 +215,40 @@ impl RoughDielectric {
         }
     }
 
+    /// The fraction of the energy arriving from outside at cosine `mu` (to the macro normal)
+    /// that crosses into the object: ∫ D_wi(h) (1 − F(wi·h)) G1(wt, h) dh over the visible
+    /// normals h, with wt the refraction of wi through h (the transmission weight G1/η'² of
+    /// [`RoughDielectric::sample`] times η'², which undoes radiance's scaling by (η_i/η_t)²).
+    /// A midpoint rule over an `n` × `n` grid of the visible-normal sampler's numbers. Smaller
+    /// than the smooth 1 − F(μ) where the single-scattering microfacet model loses energy
+    /// (grazing angles, large α); equal to it as α → 0.
+    pub fn transmittance(&self, mu: f32, n: usize) -> f32 {
+        let mu = mu.clamp(1e-4, 1.0);
+        let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let h = self.ggx.sample_visible(wi, u1, u2);
+                let ih = wi.dot(h);
+                if ih <= 0.0 {
+                    continue;
+                }
+                let Some(wt) = refract(-wi, h, self.eta) else {
+                    continue;
+                };
+                if wt.z >= 0.0 {
+                    continue;
+                }
+                let t = (1.0 - fresnel_dielectric(ih, self.eta)) * self.ggx.g1(wt, h);
+                if t.is_finite() {
+                    sum += t as f64;
+                }
+            }
+        }
+        (sum / (n * n) as f64) as f32
+    }
+
     /// Draws `wo` for `wi` from three uniform numbers: a visible microfacet normal, then
     /// reflection with probability F or refraction. `None` when the sample leaves no valid
     /// direction (a grazing `wi`, or an outgoing direction on the wrong side of the surface).

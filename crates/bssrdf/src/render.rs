@@ -18,6 +18,9 @@
 //! [`Incidence::Isotropic`]). Stage 3 (placement, projection and the light term at the entry
 //! point) is in the submodule `entry`.
 //!
+//! A rough boundary adds its own reflection of the light at x_o to every channel of every camera
+//! sample ([`surface`]).
+//!
 //! Invalid samples (projection miss, back-facing light, occlusion) count with value 0.
 //! Batched: one image row (width × spp samples) per network call, one feature evaluation per
 //! shading point; rows run in parallel (rayon), buffers are reused per worker thread, and every
@@ -44,7 +47,7 @@ use rayon::prelude::*;
 use scene::{Camera, Image, Medium, PointLight, RayGen};
 
 use crate::curvature::{CurvatureCoords, CurvatureSlice, CurvatureTable};
-use crate::exit::{ExitLaw, ExitSlice, ExitTable};
+use crate::exit::{EscapeSlice, ExitLaw, ExitSlice, ExitTable};
 use crate::fit::{FitError, interpolate};
 use crate::gaussian::probit;
 use crate::incidence::{IncidenceSlice, IncidenceTable};
@@ -60,6 +63,7 @@ mod entry;
 mod features;
 mod networks;
 mod sampling;
+mod surface;
 mod walks;
 pub use entry::{Incidence, LightCurvature};
 pub(crate) use entry::{
@@ -69,6 +73,7 @@ pub use features::{DFIT_STEP, VertexFeatures};
 pub(crate) use networks::{NetOutputs, evaluate_networks, run_networks};
 use sampling::PixelPlan;
 pub use sampling::PixelSampling;
+pub use surface::Surface;
 pub use walks::{EntrySampler, MAX_TRIES as WALK_MAX_TRIES, walk_exit};
 pub(crate) use walks::{walk_entries, walk_media, walk_medium};
 
@@ -195,9 +200,14 @@ pub struct LearnedScene<'a> {
     pub(crate) exit: Option<Box<[ExitSlice; 3]>>,
     /// The incidence factor at each channel's albedo ([`Incidence::Directional`]).
     pub(crate) incidence: Option<Box<[IncidenceSlice; 3]>>,
-    /// The curvature correction at each channel's albedo ([`LightCurvature::Ball`] for a medium
-    /// with g = 0, η = 1).
+    /// The curvature correction at each channel's albedo ([`LightCurvature::Ball`]; not behind
+    /// a smooth dielectric boundary).
     pub(crate) curvature: Option<Box<[CurvatureSlice; 3]>>,
+    /// The rough boundary's reflection ([`surface`]; `None` for a smooth or index-matched one).
+    pub(crate) surface: Option<Surface>,
+    /// With a rough boundary and the half-space exit law: the escaped share of the entered
+    /// energy per channel through the rough and through the smooth boundary ([`surface`]).
+    pub(crate) escape: Option<Box<[(EscapeSlice, EscapeSlice); 3]>>,
 }
 
 impl<'a> LearnedScene<'a> {
@@ -244,12 +254,24 @@ impl<'a> LearnedScene<'a> {
             exit: None,
             incidence: None,
             curvature: None,
+            surface: Surface::of(&medium),
+            escape: None,
         };
         if settings.exit == ExitLaw::HalfSpace {
-            let table = ExitTable::for_medium(medium.g, medium.eta);
+            let table = ExitTable::for_medium(medium.g, medium.eta, medium.roughness);
             scene.exit = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
+            if medium.roughness > 0.0 {
+                // The networks' walks crossed a smooth boundary ([`surface`]).
+                let smooth = ExitTable::for_medium(medium.g, medium.eta, 0.0);
+                scene.escape = Some(Box::new(std::array::from_fn(|c| {
+                    (
+                        table.escape(medium.albedo[c]),
+                        smooth.escape(medium.albedo[c]),
+                    )
+                })));
+            }
         }
         if settings.incidence == Incidence::Directional {
             let table = IncidenceTable::for_medium(medium.g, medium.eta);
@@ -257,9 +279,14 @@ impl<'a> LearnedScene<'a> {
                 table.slice(medium.albedo[c])
             })));
         }
-        if settings.light_curvature == LightCurvature::Ball && medium.g == 0.0 && medium.eta == 1.0
+        // The balls' walks are index-matched. Behind a rough boundary the correction is that
+        // of the same medium without it (an approximation); a smooth one traps by total
+        // internal reflection the light that travels along the surface, the very light the
+        // correction is about, and goes without it (docs/notes/learned-real-media.md).
+        if settings.light_curvature == LightCurvature::Ball
+            && (medium.eta == 1.0 || medium.roughness > 0.0)
         {
-            let table = CurvatureTable::index_matched_isotropic();
+            let table = CurvatureTable::for_medium(medium.g);
             scene.curvature = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
@@ -487,9 +514,15 @@ pub(crate) fn prepare_row(
             if !hit.entering(d) {
                 continue;
             }
+            if let Some(surface) = &scene.surface {
+                surface.add_reflection(scene.accel, view.light, &hit, d, &mut buf.sums[x as usize]);
+            }
             let n_o = hit.ns;
             let cos_cam = (-d).dot(n_o).max(0.0);
-            let t_cam = transmittance(cos_cam, m.eta);
+            let t_cam = match &scene.surface {
+                Some(surface) => surface.transmittance(cos_cam),
+                None => transmittance(cos_cam, m.eta),
+            };
             let [i0, i1, i2] = mesh.indices[hit.tri as usize];
             let b = [1.0 - hit.bary.x - hit.bary.y, hit.bary.x, hit.bary.y];
             let polys = &scene.features.polys[channel];

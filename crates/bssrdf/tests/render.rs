@@ -126,7 +126,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             let d = match law {
                 ExitLaw::Cosine => sw(1.0, eta),
                 ExitLaw::HalfSpace => {
-                    let table = ExitTable::for_medium(0.0, eta);
+                    let table = ExitTable::for_medium(0.0, eta, 0.0);
                     table.slice(medium.albedo[c]).eval(1.0, 1.0).0 / std::f32::consts::PI
                 }
             };

@@ -83,6 +83,9 @@ pub struct WalkTableArgs {
     /// Relative index of refraction n_inside/n_outside (≥ 1).
     #[arg(long, default_value_t = 1.0)]
     eta: f32,
+    /// GGX roughness α of the boundary (0 = smooth; exit tables only, with --eta above 1).
+    #[arg(long, default_value_t = 0.0)]
+    roughness: f32,
     /// Walks per albedo and cosine bin.
     #[arg(long, default_value_t = 1_000_000)]
     walks: u32,
@@ -131,6 +134,7 @@ fn curvature_table(
     }
     let t0 = std::time::Instant::now();
     let table = bssrdf::curvature::CurvatureTable::generate(bssrdf::curvature::CurvatureSettings {
+        g: 0.0,
         collisions,
         seed,
     })
@@ -168,6 +172,7 @@ fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
         ref out,
         g,
         eta,
+        roughness,
         walks,
         seed,
         overwrite,
@@ -177,6 +182,16 @@ fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
     }
     if !(eta >= 1.0 && eta.is_finite()) {
         bail!("--eta {eta}: the relative index of refraction must be ≥ 1");
+    }
+    if !(0.0..=1.0).contains(&roughness) || (roughness > 0.0 && eta <= 1.0) {
+        bail!(
+            "--roughness {roughness}: the GGX roughness must lie in [0, 1], and be 0 unless --eta is above 1"
+        );
+    }
+    if roughness > 0.0 && matches!(kind, WalkTable::Incidence) {
+        bail!(
+            "--roughness {roughness}: the incidence table's walks cross a smooth boundary; fix: leave out --roughness"
+        );
     }
     if walks == 0 {
         bail!("--walks must be at least 1");
@@ -188,6 +203,7 @@ fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
                 bssrdf::exit::ExitTableSettings {
                     g,
                     eta,
+                    roughness,
                     walks,
                     seed,
                 },
@@ -200,6 +216,7 @@ fn walk_table(kind: WalkTable, args: &WalkTableArgs) -> Result<()> {
                     bssrdf::incidence::IncidenceSettings {
                         g,
                         eta,
+                        roughness: 0.0,
                         walks,
                         seed,
                     },

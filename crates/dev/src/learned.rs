@@ -1,8 +1,8 @@
 //! `translucent-dev learned-vs-volpath`: accuracy of the learned BSSRDF against the volumetric
 //! path tracer.
 //!
-//! For every shape × σ_t × α (η = 1, g = 0, objects about 1 unit across, camera rig at distance
-//! 2 with an attached light), render the views with volpath (≥ 1024 spp; cached as EXR under
+//! For every shape × σ_t × α × g × boundary (by default η = 1, g = 0; objects about 1 unit
+//! across, camera rig at distance 2 with an attached light), render the views with volpath (≥ 1024 spp; cached as EXR under
 //! `OUT/volpath/<case>/` and reused by later runs with the same settings) and with each model,
 //! with real and with planar features. Per case: the relative error of the image mean
 //! (mean over views of mean(learned)/mean(volpath) − 1, channels averaged: the medium is grey)
@@ -53,6 +53,18 @@ pub struct LearnedBenchArgs {
     /// Albedos α.
     #[arg(long, value_delimiter = ',', default_value = "0.8,0.9,0.98")]
     pub albedo: Vec<f32>,
+    /// Henyey–Greenstein anisotropies g.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0",
+        allow_hyphen_values = true
+    )]
+    pub g: Vec<f32>,
+    /// Boundaries: `null` (index-matched), `ETA` (a smooth dielectric of relative index ETA) or
+    /// `ETA/ALPHA` (a rough dielectric, GGX α = ALPHA), e.g. `null,1.5,1.33/0.1`.
+    #[arg(long, value_delimiter = ',', default_value = "null", value_parser = parse_boundary)]
+    pub boundary: Vec<(f32, f32)>,
     #[command(flatten)]
     pub views: cmdline::Views,
     #[command(flatten)]
@@ -78,6 +90,32 @@ pub struct LearnedBenchArgs {
     /// Light-side incidence of the learned renders.
     #[arg(long, value_enum, default_value_t)]
     pub incidence: bssrdf::render::Incidence,
+    /// Where the learned renders' entry points come from: the decoder or the walks it imitates.
+    #[arg(long, value_enum, default_value_t)]
+    pub entry_sampler: bssrdf::render::EntrySampler,
+}
+
+/// A boundary `null`, `ETA` or `ETA/ALPHA` as (η, GGX α).
+fn parse_boundary(s: &str) -> Result<(f32, f32), String> {
+    let bad =
+        || format!("bad boundary {s:?}: expected `null`, `ETA` or `ETA/ALPHA`, e.g. `1.33/0.1`");
+    if s.eq_ignore_ascii_case("null") {
+        return Ok((1.0, 0.0));
+    }
+    let (eta, alpha) = match s.split_once('/') {
+        Some((e, a)) => (e.parse().map_err(|_| bad())?, a.parse().map_err(|_| bad())?),
+        None => (s.parse().map_err(|_| bad())?, 0.0),
+    };
+    Ok((eta, alpha))
+}
+
+/// A boundary's name in the table and the cache: `null`, `smooth1.5`, `rough1.33a0.1`.
+fn boundary_name((eta, alpha): (f32, f32)) -> String {
+    match (eta == 1.0, alpha == 0.0) {
+        (true, _) => "null".into(),
+        (false, true) => format!("smooth{eta}"),
+        (false, false) => format!("rough{eta}a{alpha}"),
+    }
 }
 
 /// Relative error of the mean and relative RMSE of `a` against reference `b`, over views.
@@ -94,7 +132,7 @@ fn errors(a: &[Image], b: &[Image]) -> Result<(f64, f64)> {
 
 /// The table's and the CSV's headers: a mean error and an rRMSE per model and feature mode.
 fn headers(models: &[PathBuf], csv: &mut std::fs::File) -> Result<()> {
-    write!(csv, "shape,sigma_t,albedo")?;
+    write!(csv, "shape,sigma_t,albedo,g,boundary")?;
     for p in models {
         let name = p.file_stem().unwrap_or_default().to_string_lossy();
         write!(
@@ -103,7 +141,10 @@ fn headers(models: &[PathBuf], csv: &mut std::fs::File) -> Result<()> {
         )?;
     }
     writeln!(csv)?;
-    print!("{:<7} {:>5} {:>5}", "shape", "σ_t", "α");
+    print!(
+        "{:<7} {:>5} {:>5} {:>4} {:>13}",
+        "shape", "σ_t", "α", "g", "boundary"
+    );
     for p in models {
         let name = p.file_stem().unwrap_or_default().to_string_lossy();
         print!(
@@ -162,17 +203,29 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
         );
         rig.validate("bench rig")?;
         let views = rig.build();
-        for &st in &a.sigma_t {
-            for &al in &a.albedo {
+        let media = a.sigma_t.iter().flat_map(|&st| {
+            a.albedo.iter().flat_map(move |&al| {
+                a.g.iter()
+                    .flat_map(move |&g| a.boundary.iter().map(move |&b| (st, al, g, b)))
+            })
+        });
+        for (st, al, g, (eta, roughness)) in media {
+            {
                 let medium = Medium {
                     sigma_t: [st; 3],
                     albedo: [al; 3],
-                    g: 0.0,
-                    eta: 1.0,
-                    roughness: 0.0,
+                    g,
+                    eta,
+                    roughness,
                 };
                 medium.validate("bench medium")?;
-                let case = format!("{shape_name}_s{st}_a{al}");
+                let bname = boundary_name((eta, roughness));
+                // The index-matched isotropic cases keep their cache names.
+                let case = if g == 0.0 && bname == "null" {
+                    format!("{shape_name}_s{st}_a{al}")
+                } else {
+                    format!("{shape_name}_s{st}_a{al}_g{g}_{bname}")
+                };
                 let dir = a.out.join("volpath").join(format!(
                     "{case}_{}v_{}px_{}spp_seed{}",
                     *a.views, *a.res, a.volpath_spp, *a.seed
@@ -193,8 +246,8 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                     Some(v) => v,
                     None => tracer_reference(job, a.volpath_spp, &dir, &names)?,
                 };
-                print!("{shape_name:<7} {st:>5} {al:>5}");
-                write!(csv, "{shape_name},{st},{al}")?;
+                print!("{shape_name:<7} {st:>5} {al:>5} {g:>4} {bname:>13}");
+                write!(csv, "{shape_name},{st},{al},{g},{bname}")?;
                 for (mi, model) in models.iter().enumerate() {
                     for planar in [false, true] {
                         let settings = bssrdf::render::LearnedSettings {
@@ -202,6 +255,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                             projection: a.projection.rule(a.max_dist_scale),
                             exit: a.exit_law,
                             incidence: a.incidence,
+                            entry: a.entry_sampler,
                             ..Default::default()
                         };
                         let rep = by_rows(&views, "learned", |pb| {

@@ -1,7 +1,8 @@
 //! `translucent-dev plane`: the learned models against directly simulated random walks on a
 //! half-space (a distribution check on a plane).
 //!
-//! For each albedo (g = 0, η = 1, σ_t = 1 — the model is scale-invariant, docs/model.md §2) and
+//! For each albedo (σ_t = 1 — the model is scale-invariant, docs/model.md §2; g and η as given,
+//! by default 0 and 1) and
 //! incidence angle, random walks in the half-space below the plane p = u_z
 //! (`learn::walk::random_walk`, the exact physics of the training data) give the absorbed fraction
 //! and the radial distribution of exit points r/σ_n around the entry point. Each model gets the
@@ -57,6 +58,12 @@ pub struct PlaneBenchArgs {
         default_value = "0.3,0.8,0.9,0.95,0.98,0.995"
     )]
     pub albedo: Vec<f64>,
+    /// Henyey–Greenstein anisotropy g of the medium.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub g: f64,
+    /// Relative index of refraction η of the boundary (smooth; 1 = index-matched).
+    #[arg(long, default_value_t = 1.0)]
+    pub eta: f64,
     /// Incidence angles in degrees from the normal.
     #[arg(long, value_delimiter = ',', default_value = "0,60")]
     pub angle: Vec<f64>,
@@ -145,18 +152,18 @@ fn project(kappa: f64, x: DVec3, reach: f64) -> Option<DVec3> {
 fn simulate(
     poly: &Poly3,
     kappa: f64,
-    albedo: f64,
+    (albedo, g, eta): (f64, f64, f64),
     angle: f64,
     walks: u64,
     seed: u64,
 ) -> (f64, Vec<u64>) {
-    let sn = sigma_n(1.0, albedo, 0.0);
+    let sn = sigma_n(1.0, albedo, g);
     let surface = WalkSurface::new(poly, sn);
     let medium = WalkMedium {
         sigma_t: 1.0,
         albedo,
-        g: 0.0,
-        eta: 1.0,
+        g,
+        eta,
     };
     let d_in = Vec3::new(angle.sin() as f32, 0.0, -angle.cos() as f32);
     let (absorbed, hist) = (0..walks)
@@ -198,18 +205,17 @@ fn model_case(
     model: &ShapeAdaptiveModel,
     poly: &Poly3,
     kappa: f64,
-    albedo: f64,
+    (albedo, g, eta): (f64, f64, f64),
     angle: f64,
     n: usize,
     seed: u64,
 ) -> Result<ModelCase> {
     let d_in = Vec3::new(angle.sin() as f32, 0.0, -angle.cos() as f32);
     let ls = poly.to_light_space(d_in);
-    let red = ReducedMedium::new(1.0, albedo, 0.0);
-    let x: [f32; INPUT_DIM] =
-        model
-            .normalisation()
-            .normalise(ls.coeffs(), red.albedo_red, 0.0, 1.0);
+    let red = ReducedMedium::new(1.0, albedo, g);
+    let x: [f32; INPUT_DIM] = model
+        .normalisation()
+        .normalise(ls.coeffs(), red.albedo_red, g, eta);
     let mut f = vec![0.0f32; model.feature_dim()];
     model.features(&[x], &mut f)?;
     let mut absorb = [0.0f32];
@@ -283,7 +289,8 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
                 "--albedo values must be in (0, 1)"
             );
             let angle = angle_deg.to_radians();
-            let (abs_walk, h_walk) = simulate(&poly, kappa, albedo, angle, a.walks, *a.seed);
+            let (abs_walk, h_walk) =
+                simulate(&poly, kappa, (albedo, a.g, a.eta), angle, a.walks, *a.seed);
             let p_walk = normalised(&h_walk);
             let centre = |i: usize| (i as f64 + 0.5) * R_MAX / BINS as f64;
             let mut series = vec![Series::new(
@@ -297,8 +304,15 @@ pub fn run(a: &PlaneBenchArgs) -> Result<()> {
             let r_walk = mean_distance(&p_walk);
             print!("{albedo:>6} {angle_deg:>5} {kappa:>6} | {abs_walk:>9.4} {r_walk:>6.3}");
             for (name, m) in &models {
-                let ModelCase { absorb, hist, miss } =
-                    model_case(m, &poly, kappa, albedo, angle, a.samples, *a.seed)?;
+                let ModelCase { absorb, hist, miss } = model_case(
+                    m,
+                    &poly,
+                    kappa,
+                    (albedo, a.g, a.eta),
+                    angle,
+                    a.samples,
+                    *a.seed,
+                )?;
                 let p = normalised(&hist);
                 let l1: f64 = p.iter().zip(&p_walk).map(|(x, y)| (x - y).abs()).sum();
                 let r = mean_distance(&p);

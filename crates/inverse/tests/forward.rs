@@ -12,7 +12,7 @@ use bssrdf::nn::ShapeAdaptiveModel;
 use bssrdf::render::RenderSettings;
 use dipole::{DipoleScene, DipoleView};
 use geometry::Vec3;
-use inverse::forward::{ModelChoice, ModelKind, TracerEstimator};
+use inverse::forward::{ModelChoice, ModelKind, ModelSpec, TracerEstimator};
 use inverse::optimize::{OptimizeConfig, Optimizer, TargetView};
 use inverse::params::Params;
 use scene::{Camera, Image, Medium, PointLight};
@@ -362,5 +362,73 @@ fn every_model_leaves_unmeasured_pixels_out() {
                 assert_eq!(m, f, "{kind}: pixel {i}");
             }
         }
+    }
+}
+
+/// A rough boundary's highlight: the learned renderer's surface term
+/// (`bssrdf::render::Surface`, which it adds to every camera sample that meets the object) is
+/// the tracer's. On a sphere of black medium (α = 0: nothing comes back from inside) behind a
+/// rough dielectric (η 1.5, GGX α 0.3) lit from beside the camera, the tracer's image is the
+/// surface's reflection alone; the surface term averaged over a 6 × 6 grid in every pixel
+/// gives the same image up to the film's sampling (the tracer's 256 jittered samples): the
+/// image sums within 0.5 % per channel (measured: 0.07 %).
+#[test]
+fn the_learned_model_reflects_a_rough_boundary_as_the_tracer_does() {
+    let accel = common::sphere(0.5);
+    let black = Medium {
+        sigma_t: [10.0; 3],
+        albedo: [0.0; 3],
+        g: 0.0,
+        eta: 1.5,
+        roughness: 0.3,
+    };
+    let camera = Camera::look_at(Vec3::new(0.0, 0.2, 2.0), Vec3::ZERO, Vec3::Y, 35.0, 24, 24);
+    let light = PointLight {
+        position: Vec3::new(0.8, 0.6, 1.6),
+        intensity: [10.0, 5.0, 2.0],
+    };
+    let views = vec![scene::ViewDesc {
+        camera: camera.clone(),
+        light,
+    }];
+    let job = inverse::views::Job {
+        accel: &accel,
+        medium: &black,
+        views: &views,
+        spp: 256,
+        seed: 3,
+    };
+    let pb = indicatif::ProgressBar::hidden();
+    let tracer = ModelSpec::tracer(VolpathSettings::default());
+    let traced = inverse::views::render(tracer, &job, false, &pb)
+        .unwrap()
+        .images
+        .remove(0);
+
+    let surface = bssrdf::render::Surface::of(&black).unwrap();
+    let rays = camera.ray_gen();
+    let n = 6;
+    let mut sum = 0.0f64;
+    for y in 0..camera.height {
+        for x in 0..camera.width {
+            for k in 0..n * n {
+                let fx = x as f32 + ((k % n) as f32 + 0.5) / n as f32;
+                let fy = y as f32 + ((k / n) as f32 + 0.5) / n as f32;
+                let (o, d) = rays.ray(fx, fy);
+                if let Some(hit) = accel.closest(o, d, 0.0, f32::INFINITY) {
+                    sum += surface.reflection(&accel, &light, &hit, d) as f64;
+                }
+            }
+        }
+    }
+    let sum = sum / (n * n) as f64;
+    for c in 0..3 {
+        let b = traced.data.iter().map(|p| p[c] as f64).sum::<f64>();
+        let a = sum * light.intensity[c] as f64;
+        assert!(b > 0.0, "the tracer's image is black in channel {c}");
+        assert!(
+            (a / b - 1.0).abs() < 5e-3,
+            "channel {c}: the surface term's {a} against the tracer's {b}"
+        );
     }
 }

@@ -77,6 +77,7 @@ fn table_settings(g: f32, eta: f32) -> ExitTableSettings {
     ExitTableSettings {
         g,
         eta,
+        roughness: 0.0,
         walks: 40_000,
         seed: 1,
     }

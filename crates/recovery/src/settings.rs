@@ -500,7 +500,7 @@ impl RecoverySettings {
         if c.params.free_g && !last.differentiates_g() {
             let fix = match last.kind() {
                 ModelKind::Learned => format!(
-                    "the learned model was trained at g = 0 and does not differentiate g; fix: \
+                    "the learned model does not differentiate g; fix: \
                      keep the refinement ({} above 0), which frees g after the learned fit",
                     Setting::Refine
                 ),

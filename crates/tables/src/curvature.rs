@@ -11,8 +11,9 @@
 //!
 //! * **Exact**: walks enter at the camera point x_o (the ball's north pole, outward normal +z)
 //!   along the camera direction (cosine μ_c, forward direction +x; η = 1, so unrefracted) and
-//!   scatter isotropically with albedo α. At every collision, next-event estimation toward the
-//!   light: α·(1/4π)·e^{−t}, t the distance to the sphere along the light direction. Their mean is
+//!   scatter with albedo α (isotropically for the paper's media). At every collision,
+//!   next-event estimation toward the light: α·(1/4π)·e^{−t}, t the distance to the sphere along
+//!   the light direction. Their mean is
 //!   the radiance leaving x_o toward the camera per unit irradiance of the light (reciprocity).
 //! * **Model**: the same walks' exits x_i stand for the decoder's proposals and their escape
 //!   fraction for S_abs; each contributes f(α; μ_c, μ_l(x_i))/π·μ_l(x_i)·A/N, with the light
@@ -35,20 +36,27 @@
 //! forward direction, the light's cosine and forward direction there, and the mean curvature of
 //! the sample's fitted cubic in units of 1/σ_t (concave points use the half-space row κ = 0;
 //! beyond the last node the last row holds). Its σ_t-dependence (through κ/σ_t) enters the offset
-//! samples of `ours`, its α-derivative ∂I/∂α. The table is exact for balls and the paper's media
-//! (g = 0, η = 1; shipped in `data/curvature-g0-eta1.json`, `translucent model curvature-table`);
-//! for other media there is no correction (C = 1).
+//! samples of `ours`, its α-derivative ∂I/∂α. The table is exact for index-matched balls. For
+//! the paper's media (g = 0) it is shipped (`data/curvature-g0-eta1.json`, `translucent model
+//! curvature-table`); for a medium of another g the exact walks scatter by its Henyey–Greenstein
+//! phase function (next-event estimation α·p(θ)·e^{−t}, the model side the exit and incidence
+//! tables of that g) and the table is simulated at run time with fewer collisions
+//! ([`CurvatureTable::for_medium`], [`RUNTIME_COLLISIONS`]). Forward scattering makes it matter
+//! far more: light that travels around a convex surface escapes more often than on a plane, but
+//! along the surface, away from a light in front of it. The balls have no dielectric boundary;
+//! the renderer uses the same correction behind a rough one (an approximation) and none behind a
+//! smooth one, whose total internal reflection keeps that light inside
+//! (docs/notes/learned-real-media.md).
 
+use base::phase::HenyeyGreenstein;
 use base::rng::Sampler;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::exit::{
-    ExitSlice, ExitTable, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, albedo_spline,
-    shipped,
-};
+use crate::exit::{ExitSlice, ExitTable, ONE_MINUS_ALBEDO};
 use crate::incidence::{IncidenceSlice, IncidenceTable, fast_acos};
+use crate::table::{MediumCache, TableCheck, TableError, TableFile, albedo_spline, shipped};
 
 /// Camera-cosine nodes.
 pub const MU_C: [f32; 7] = [0.05, 0.15, 0.3, 0.5, 0.7, 0.9, 1.0];
@@ -130,12 +138,13 @@ fn isotropic(rng: &mut Sampler) -> Vec3 {
 }
 
 /// Exact and model radiance per unit irradiance at the camera point for every light of `lights`
-/// ([`module docs`](self)), from walks of albedo `albedo` entering at camera cosine `mu_c` into a
-/// ball of radius `radius` mean free paths (infinite: half-space). Walks are started until they
-/// have made `collisions` collisions together (at least one walk); returns (exact, model, walks).
+/// ([`module docs`](self)), from walks of albedo `albedo` and Henyey–Greenstein phase `g`
+/// entering at camera cosine `mu_c` into a ball of radius `radius` mean free paths (infinite:
+/// half-space). Walks are started until they have made `collisions` collisions together (at
+/// least one walk); returns (exact, model, walks).
 #[allow(clippy::too_many_arguments)]
 pub fn ball_response(
-    albedo: f32,
+    (albedo, g): (f32, f32),
     mu_c: f32,
     radius: f32,
     lights: &[LightDir],
@@ -148,6 +157,8 @@ pub fn ball_response(
     let dirs: Vec<Vec3> = lights.iter().map(|l| l.direction()).collect();
     let (mut exact, mut model) = (vec![0.0f64; lights.len()], vec![0.0f64; lights.len()]);
     let d0 = Vec3::new((1.0 - mu_c * mu_c).max(0.0).sqrt(), 0.0, -mu_c);
+    let phase = HenyeyGreenstein { g };
+    // NEE: α·p(θ)·e^{−t}, with p = 1/(4π) for isotropic scattering.
     let nee = albedo as f64 / (4.0 * std::f64::consts::PI);
     let (mut made, mut walks) = (0u64, 0u64);
     while walks == 0 || made < collisions {
@@ -180,13 +191,22 @@ pub fn ball_response(
             for (k, w_l) in dirs.iter().enumerate() {
                 let tl = ball.exit_distance(p, *w_l);
                 if tl.is_finite() {
-                    exact[k] += nee * (-tl as f64).exp();
+                    let p_phase = if g == 0.0 {
+                        nee
+                    } else {
+                        albedo as f64 * phase.eval(d, *w_l) as f64
+                    };
+                    exact[k] += p_phase * (-tl as f64).exp();
                 }
             }
             if rng.next_f32() >= albedo {
                 break;
             }
-            d = isotropic(&mut rng);
+            d = if g == 0.0 {
+                isotropic(&mut rng)
+            } else {
+                phase.sample(d, rng.next_f32(), rng.next_f32())
+            };
         }
     }
     let n = walks as f64;
@@ -196,6 +216,9 @@ pub fn ball_response(
         .for_each(|v| *v /= n);
     (exact, model, walks)
 }
+
+/// Collisions per batch of a table simulated at run time (the shipped one has 10⁶).
+pub const RUNTIME_COLLISIONS: u64 = 100_000;
 
 /// Collisions after which a walk counts as absorbed.
 const MAX_COLLISIONS: u32 = 100_000;
@@ -210,9 +233,17 @@ fn batch_lights() -> Vec<LightDir> {
 /// How a [`CurvatureTable`] is made.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CurvatureSettings {
+    /// Henyey–Greenstein g of the medium (files without the field: 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub g: f32,
     /// Collisions per batch (albedo, camera cosine, curvature).
     pub collisions: u64,
     pub seed: u64,
+}
+
+/// Serde: an isotropic medium's g is not written.
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 /// C = exact/model on the nodes ([`module docs`](self)), `c[a·PER_ALBEDO + …]` for grid albedo a,
@@ -228,11 +259,12 @@ const SHIPPED_JSON: &str = include_str!("../data/curvature-g0-eta1.json");
 const SHIPPED_NAME: &str = "data/curvature-g0-eta1.json";
 
 impl CurvatureTable {
-    /// Simulates the table for g = 0, η = 1 against the shipped exit and incidence tables (the
-    /// model side must be the renderer's).
+    /// Simulates the table for the medium's g (η = 1) against the renderer's exit and
+    /// incidence tables of that medium (the model side must be the renderer's: the shipped
+    /// ones at g = 0).
     pub fn generate(settings: CurvatureSettings) -> Self {
-        let exit = ExitTable::index_matched_isotropic();
-        let inc = IncidenceTable::index_matched_isotropic();
+        let exit = ExitTable::for_medium(settings.g, 1.0, 0.0);
+        let inc = IncidenceTable::for_medium(settings.g, 1.0);
         let lights = batch_lights();
         let batches = ONE_MINUS_ALBEDO.len() * MU_C.len() * KAPPA.len();
         let rows: Vec<Vec<f32>> = (0..batches)
@@ -247,7 +279,7 @@ impl CurvatureTable {
                     f32::INFINITY
                 };
                 let (e, mo, _) = ball_response(
-                    albedo,
+                    (albedo, settings.g),
                     MU_C[m],
                     radius,
                     &lights,
@@ -288,6 +320,28 @@ impl CurvatureTable {
         static TABLE: std::sync::OnceLock<std::sync::Arc<CurvatureTable>> =
             std::sync::OnceLock::new();
         shipped(&TABLE, SHIPPED_JSON, SHIPPED_NAME)
+    }
+
+    /// The table for an index-matched medium of phase g: the shipped one at g = 0, otherwise
+    /// simulated once per process ([`RUNTIME_COLLISIONS`] collisions per batch, seed 0) and
+    /// kept.
+    pub fn for_medium(g: f32) -> std::sync::Arc<CurvatureTable> {
+        static CACHE: MediumCache<CurvatureTable> = std::sync::Mutex::new(Vec::new());
+        let shipped = Self::index_matched_isotropic();
+        if shipped.settings.g == g {
+            return shipped;
+        }
+        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = cache.iter().find(|t| t.settings.g == g) {
+            return t.clone();
+        }
+        let t = std::sync::Arc::new(Self::generate(CurvatureSettings {
+            g,
+            collisions: RUNTIME_COLLISIONS,
+            seed: 0,
+        }));
+        cache.push(t.clone());
+        t
     }
 
     /// The table at albedo `albedo`, with ∂C/∂α.
@@ -429,163 +483,4 @@ impl CurvatureSlice {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Mean and standard error of `f(seed)` over seeds 0..k, per entry.
-    fn replicate(k: u64, f: impl Fn(u64) -> Vec<f64>) -> (Vec<f64>, Vec<f64>) {
-        let runs: Vec<Vec<f64>> = (0..k).map(f).collect();
-        let n = runs[0].len();
-        let mean: Vec<f64> = (0..n)
-            .map(|i| runs.iter().map(|r| r[i]).sum::<f64>() / k as f64)
-            .collect();
-        let se = (0..n)
-            .map(|i| {
-                let v = runs.iter().map(|r| (r[i] - mean[i]).powi(2)).sum::<f64>();
-                (v / (k - 1) as f64 / k as f64).sqrt()
-            })
-            .collect();
-        (mean, se)
-    }
-
-    /// The exact side in a half-space at a small albedo is single scattering, whose closed form
-    /// is α/(4π)·μ_l/(μ_l + μ_c) per unit irradiance (multiple scattering adds O(α²), 0.1 % of
-    /// it here); lights below the horizon get nothing.
-    #[test]
-    fn exact_side_is_single_scattering_at_low_albedo() {
-        let albedo = 1e-3;
-        let exit = ExitTable::index_matched_isotropic().slice(albedo);
-        let inc = IncidenceTable::index_matched_isotropic().slice(albedo);
-        let lights = [
-            LightDir {
-                mu_l: 1.0,
-                phi: 0.0,
-            },
-            LightDir {
-                mu_l: 0.3,
-                phi: 1.0,
-            },
-            LightDir {
-                mu_l: 0.05,
-                phi: 3.0,
-            },
-            LightDir {
-                mu_l: -0.2,
-                phi: 0.0,
-            },
-        ];
-        for mu_c in [0.2f32, 0.9] {
-            let (mean, se) = replicate(12, |seed| {
-                let r = ball_response(
-                    albedo,
-                    mu_c,
-                    f32::INFINITY,
-                    &lights,
-                    &exit,
-                    &inc,
-                    20_000,
-                    seed,
-                );
-                r.0
-            });
-            for (k, l) in lights.iter().enumerate() {
-                let want = if l.mu_l > 0.0 {
-                    albedo as f64 / (4.0 * std::f64::consts::PI) * (l.mu_l / (l.mu_l + mu_c)) as f64
-                } else {
-                    0.0
-                };
-                let tol = 4.0 * se[k] + 2e-3 * want;
-                assert!(
-                    (mean[k] - want).abs() <= tol,
-                    "μ_c {mu_c}, light {l:?}: {:.4e} ± {:.1e}, closed form {want:.4e}",
-                    mean[k],
-                    se[k]
-                );
-            }
-        }
-    }
-
-    /// Node values come back at the nodes, linear interpolation in between, clamping outside;
-    /// concave curvatures use the half-space row.
-    #[test]
-    fn slices_interpolate_between_nodes() {
-        let sizes = [MU_C.len(), KAPPA.len(), MU_L.len(), PHI.len()];
-        let value = |i: [usize; 4]| MU_C[i[0]] + 2.0 * KAPPA[i[1]] + 3.0 * MU_L[i[2]] + PHI[i[3]];
-        let mut c = Vec::with_capacity(PER_ALBEDO);
-        for a in 0..sizes[0] {
-            for b in 0..sizes[1] {
-                for d in 0..sizes[2] {
-                    for e in 0..sizes[3] {
-                        c.push(value([a, b, d, e]));
-                    }
-                }
-            }
-        }
-        let s = CurvatureSlice {
-            dc: vec![0.5; c.len()],
-            c,
-        };
-        let at = |mc: f32, k: f32, ml: f32, phi: f32| s.eval(mc, k, ml, phi.cos()).0;
-        let lin = |mc: f32, k: f32, ml: f32, phi: f32| mc + 2.0 * k + 3.0 * ml + phi;
-        for (mc, k, ml, phi) in [
-            (0.3, 0.025, 0.2, 0.0),
-            (0.4, 0.03, -0.07, 1.0),
-            (0.95, 0.07, 0.9, 2.5),
-        ] {
-            // fast_acos is accurate to about 1e-4 rad.
-            assert!(
-                (at(mc, k, ml, phi) - lin(mc, k, ml, phi)).abs() < 2e-3,
-                "{mc} {k} {ml} {phi}"
-            );
-        }
-        assert!((at(0.01, 0.2, 1.0, 0.0) - lin(0.05, 0.1, 1.0, 0.0)).abs() < 2e-3);
-        assert_eq!(at(0.5, -0.05, 0.2, 0.0), at(0.5, 0.0, 0.2, 0.0));
-        assert!((s.eval(0.5, 0.01, 0.3, 0.2).1 - 0.5).abs() < 1e-5);
-    }
-
-    /// The shipped table holds what a fresh simulation of one of its batches gives (α = 0.88,
-    /// μ_c = 0.7, R = 20 mean free paths), within 4 standard errors of twelve replicates of 10⁵
-    /// collisions combined with the shipped batch's own (10⁶ collisions: the replicates' spread
-    /// over √10), plus the rounding to 4 decimals.
-    #[test]
-    fn shipped_table_matches_a_fresh_batch() {
-        let (a, m, k) = (6, 4, 3);
-        let albedo = 1.0 - ONE_MINUS_ALBEDO[a];
-        let exit = ExitTable::index_matched_isotropic().slice(albedo);
-        let inc = IncidenceTable::index_matched_isotropic().slice(albedo);
-        let lights = batch_lights();
-        let (mean, se) = replicate(12, |seed| {
-            let (e, mo, _) = ball_response(
-                albedo,
-                MU_C[m],
-                1.0 / KAPPA[k],
-                &lights,
-                &exit,
-                &inc,
-                100_000,
-                1000 + seed,
-            );
-            let eps = REGULARISE * e.iter().chain(&mo).cloned().fold(0.0, f64::max);
-            e.iter()
-                .zip(&mo)
-                .map(|(&e, &m)| (e + eps) / (m + eps))
-                .collect()
-        });
-        let shipped = CurvatureTable::index_matched_isotropic().slice(albedo);
-        let mut checked = 0;
-        for (i, l) in lights.iter().enumerate() {
-            let (c, _) = shipped.eval(MU_C[m], KAPPA[k], l.mu_l, l.phi.cos());
-            let spread = se[i] * 12f64.sqrt();
-            let shipped_se = spread / 10f64.sqrt();
-            let tol = 4.0 * (se[i] * se[i] + shipped_se * shipped_se).sqrt() + 1e-4;
-            assert!(
-                (c as f64 - mean[i]).abs() <= tol,
-                "{l:?}: shipped {c:.4}, fresh {:.4} ± {:.4}",
-                mean[i],
-                se[i]
-            );
-            checked += 1;
-        }
-        assert_eq!(checked, MU_L.len() * PHI.len());
-    }
-}
+mod tests;

@@ -32,10 +32,15 @@
 //! with ∂ln f/∂α for the α-gradient; lookups are bilinear between bin centres.
 
 use base::fresnel::fresnel_dielectric;
+use base::microfacet::RoughDielectric;
 use base::phase::HenyeyGreenstein;
 use base::rng::Sampler;
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+
+pub use crate::table::{DEFAULT_RUNTIME_WALKS, TableError, TableFile};
+use crate::table::{MediumCache, TableCheck, WalkTable, albedo_spline, for_medium, shipped};
 
 /// The light-side exit law of the learned renderer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -72,10 +77,19 @@ pub struct ExitTableSettings {
     pub g: f32,
     /// Relative index of refraction n_inside/n_outside.
     pub eta: f32,
+    /// GGX roughness α of the boundary (0 = smooth; only with η > 1). Files without the field
+    /// are smooth.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub roughness: f32,
     /// Walks per (albedo, entry-cosine bin).
     pub walks: u32,
     /// Seed of the walks.
     pub seed: u64,
+}
+
+/// Serde: a smooth boundary's roughness is not written.
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 /// f(α; μ_c, μ_l) on the grid `ONE_MINUS_ALBEDO` × `MU_BINS` × `MU_BINS` (module docs).
@@ -84,7 +98,9 @@ pub struct ExitTable {
     pub settings: ExitTableSettings,
     /// `f[(a·MU_BINS + i)·MU_BINS + j]`: albedo a, entry bin i (camera), exit bin j (light).
     pub f: Vec<f32>,
-    /// Escaped fraction per (albedo, entry bin): a by-product, checked against the network.
+    /// Escaped fraction per (albedo, entry bin) of the energy that entered: a by-product,
+    /// checked against the network, and with a rough boundary the share of it that the
+    /// microfacets let out ([`ExitTable::escape`]).
     pub escaped: Vec<f32>,
 }
 
@@ -96,19 +112,101 @@ fn refract_out(mu: f32, eta: f32) -> Option<f32> {
     (s2 < 1.0).then(|| (1.0 - s2).sqrt())
 }
 
+/// The boundary of the half-space walks: smooth (Fresnel reflection with its probability,
+/// Snell refraction) or rough ([`RoughDielectric`], the tracer's GGX boundary).
+#[derive(Clone, Copy)]
+enum Boundary {
+    Smooth(f32),
+    Rough(RoughDielectric),
+}
+
+impl Boundary {
+    fn of(settings: &ExitTableSettings) -> Self {
+        if settings.roughness > 0.0 && settings.eta > 1.0 {
+            Boundary::Rough(RoughDielectric::new(settings.eta, settings.roughness))
+        } else {
+            Boundary::Smooth(settings.eta)
+        }
+    }
+
+    /// The inside cosine of a walk that entered from outside at cosine `mu_c`, and the energy
+    /// it carries: refraction (smooth: weight 1), or a transmitted sample of the rough boundary
+    /// (drawn until one crosses, weighted by its flux G₁: conditioned on transmission, as
+    /// the renderer applies the entry's transmittance separately). `None` when no sample
+    /// crosses.
+    fn enter(&self, mu_c: f32, rng: &mut Sampler) -> Option<(f32, f32)> {
+        match *self {
+            Boundary::Smooth(eta) => {
+                let mu = (1.0 - (1.0 - mu_c * mu_c) / (eta * eta)).max(0.0).sqrt();
+                Some((mu.max(1e-6), 1.0))
+            }
+            Boundary::Rough(b) => {
+                let wi = Vec3::new((1.0 - mu_c * mu_c).max(0.0).sqrt(), 0.0, mu_c.max(1e-4));
+                for _ in 0..64 {
+                    let s = b.sample(wi, rng.next_f32(), rng.next_f32(), rng.next_f32());
+                    if let Some(s) = s.filter(|s| s.transmitted) {
+                        return Some(((-s.wo.z).max(1e-6), s.weight * b.eta * b.eta));
+                    }
+                }
+                None
+            }
+        }
+    }
+
+    /// A walk reaching the boundary from inside going up with cosine `mu` > 0: `Ok(μ_out, w)`
+    /// when it leaves (outside cosine, energy factor), `Err(Some((μ', w)))` when it is
+    /// reflected back in (new z component μ' < 0, energy factor), `Err(None)` when the rough
+    /// boundary's sample fails (the microfacet model's loss: the walk ends).
+    fn meet(&self, mu: f32, rng: &mut Sampler) -> Result<(f32, f32), Option<(f32, f32)>> {
+        match *self {
+            Boundary::Smooth(eta) => {
+                let fr = if eta == 1.0 {
+                    0.0
+                } else {
+                    fresnel_dielectric(mu, 1.0 / eta)
+                };
+                let out = if fr > 0.0 && rng.next_f32() < fr {
+                    None
+                } else {
+                    refract_out(mu, eta)
+                };
+                match out {
+                    Some(mu_out) => Ok((mu_out, 1.0)),
+                    None => Err(Some((-mu, 1.0))),
+                }
+            }
+            Boundary::Rough(b) => {
+                // Seen back along the path (the BSDF's convention): below the macro surface.
+                let wi = Vec3::new(-(1.0 - mu * mu).max(0.0).sqrt(), 0.0, -mu);
+                let Some(s) = b.sample(wi, rng.next_f32(), rng.next_f32(), rng.next_f32()) else {
+                    return Err(None);
+                };
+                if s.transmitted {
+                    // Flux across: the weight times η'² = 1/η² seen from inside.
+                    Ok((s.wo.z, s.weight / (b.eta * b.eta)))
+                } else {
+                    Err(Some((s.wo.z, s.weight)))
+                }
+            }
+        }
+    }
+}
+
 /// One walk in the half-space z < 0 entering at the origin with inside direction cosine
 /// `-mu_in` (downwards). Only the depth and the direction's z component matter: the phase
-/// function rotates the z component as cos θ' = μ cos θ + √(1−μ²) sin θ cos φ. Returns the
-/// outside exit cosine, or `None` if absorbed.
+/// function rotates the z component as cos θ' = μ cos θ + √(1−μ²) sin θ cos φ, and an isotropic
+/// boundary's reflection depends on the z component alone. Returns the outside exit cosine and
+/// the energy factor of the boundary's crossings, or `None` if absorbed.
 fn walk(
     mu_in: f32,
     albedo: f32,
     phase: &HenyeyGreenstein,
-    eta: f32,
+    boundary: &Boundary,
     rng: &mut Sampler,
-) -> Option<f32> {
+) -> Option<(f32, f32)> {
     let mut mu = -mu_in; // z component of the propagation direction
     let mut z = -(-(rng.next_f32())).ln_1p() * mu; // first flight (σ_t = 1), z < 0
+    let mut weight = 1.0f32;
     let mut bounces = 0;
     loop {
         bounces += 1;
@@ -127,23 +225,15 @@ fn walk(
                 break;
             }
             // Reaches the boundary going up with inside cosine mu > 0.
-            let fr = if eta == 1.0 {
-                0.0
-            } else {
-                fresnel_dielectric(mu, 1.0 / eta)
-            };
-            let out = if fr > 0.0 && rng.next_f32() < fr {
-                None
-            } else {
-                refract_out(mu, eta)
-            };
-            match out {
-                Some(mu_out) => return Some(mu_out),
-                None => {
-                    // Specular internal reflection; fly on from the surface.
-                    mu = -mu;
+            match boundary.meet(mu, rng) {
+                Ok((mu_out, w)) => return Some((mu_out, weight * w)),
+                Err(Some((mu_back, w))) => {
+                    // Internal reflection; fly on from the surface.
+                    weight *= w;
+                    mu = mu_back;
                     z = 0.0;
                 }
+                Err(None) => return None,
             }
         }
     }
@@ -165,31 +255,9 @@ fn lambert_mass(j: usize) -> f32 {
 impl ExitTable {
     /// Simulate the table (module docs). Deterministic for equal settings, any thread count.
     pub fn generate(settings: ExitTableSettings) -> Self {
-        let phase = HenyeyGreenstein { g: settings.g };
-        let eta = settings.eta;
         let rows: Vec<(Vec<f32>, f32)> = (0..ONE_MINUS_ALBEDO.len() * MU_BINS)
             .into_par_iter()
-            .map(|row| {
-                let (a, i) = (row / MU_BINS, row % MU_BINS);
-                let albedo = 1.0 - ONE_MINUS_ALBEDO[a];
-                let mut rng = Sampler::new(settings.seed, 0xE817_7AB1, row as u64, 0);
-                let mut hist = [0u64; MU_BINS];
-                let mut escaped = 0u64;
-                for _ in 0..settings.walks {
-                    // Entry cosine outside, uniform in the bin; refracted into the medium.
-                    let mu_c = (i as f32 + rng.next_f32()) / MU_BINS as f32;
-                    let mu_in = (1.0 - (1.0 - mu_c * mu_c) / (eta * eta)).max(0.0).sqrt();
-                    if let Some(mu_out) = walk(mu_in.max(1e-6), albedo, &phase, eta, &mut rng) {
-                        hist[bin(mu_out)] += 1;
-                        escaped += 1;
-                    }
-                }
-                let n = escaped.max(1) as f32;
-                let f = (0..MU_BINS)
-                    .map(|j| hist[j] as f32 / n / lambert_mass(j))
-                    .collect();
-                (f, escaped as f32 / settings.walks.max(1) as f32)
-            })
+            .map(|row| Self::simulate_row(&settings, row))
             .collect();
         let mut f = Vec::with_capacity(rows.len() * MU_BINS);
         let mut escaped = Vec::with_capacity(rows.len());
@@ -204,6 +272,38 @@ impl ExitTable {
         }
     }
 
+    /// Row `row` = a·[`MU_BINS`] + i of the table (grid albedo a, entry bin i): f over the exit
+    /// bins, and the escaped share of the entered energy. Its own random stream (seed, row).
+    pub fn simulate_row(settings: &ExitTableSettings, row: usize) -> (Vec<f32>, f32) {
+        let phase = HenyeyGreenstein { g: settings.g };
+        let boundary = Boundary::of(settings);
+        let (a, i) = (row / MU_BINS, row % MU_BINS);
+        let albedo = 1.0 - ONE_MINUS_ALBEDO[a];
+        let mut rng = Sampler::new(settings.seed, 0xE817_7AB1, row as u64, 0);
+        // Energy per exit bin, escaped and entered (each walk's entry weight; exactly the walk
+        // count for a smooth boundary).
+        let mut hist = [0f64; MU_BINS];
+        let (mut escaped, mut entered) = (0f64, 0f64);
+        for _ in 0..settings.walks {
+            // Entry cosine outside, uniform in the bin; refracted into the medium.
+            let mu_c = (i as f32 + rng.next_f32()) / MU_BINS as f32;
+            let Some((mu_in, w_in)) = boundary.enter(mu_c, &mut rng) else {
+                continue;
+            };
+            entered += w_in as f64;
+            if let Some((mu_out, w)) = walk(mu_in, albedo, &phase, &boundary, &mut rng) {
+                let e = (w_in * w) as f64;
+                hist[bin(mu_out)] += e;
+                escaped += e;
+            }
+        }
+        let n = escaped.max(f64::MIN_POSITIVE);
+        let f = (0..MU_BINS)
+            .map(|j| (hist[j] / n) as f32 / lambert_mass(j))
+            .collect();
+        (f, (escaped / entered.max(f64::MIN_POSITIVE)) as f32)
+    }
+
     /// The table shipped for the paper's media (g = 0, η = 1), made by
     /// `translucent model exit-table` with the settings it records.
     pub fn index_matched_isotropic() -> std::sync::Arc<ExitTable> {
@@ -211,12 +311,20 @@ impl ExitTable {
         shipped(&TABLE, SHIPPED_JSON, SHIPPED_NAME)
     }
 
-    /// The table for a medium with phase g and index η: the shipped one for (0, 1), otherwise
-    /// simulated once per process ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
-    pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<ExitTable> {
+    /// The table for a medium with phase g behind a boundary of index η and GGX roughness
+    /// `roughness`: the shipped one for (0, 1, 0), otherwise simulated once per process
+    /// ([`DEFAULT_RUNTIME_WALKS`] walks per row, fixed seed) and kept.
+    pub fn for_medium(g: f32, eta: f32, roughness: f32) -> std::sync::Arc<ExitTable> {
         static CACHE: MediumCache<ExitTable> = std::sync::Mutex::new(Vec::new());
         let table = Self::index_matched_isotropic();
-        for_medium(&CACHE, table, (g, eta), DEFAULT_RUNTIME_WALKS)
+        for_medium(&CACHE, table, (g, eta, roughness), DEFAULT_RUNTIME_WALKS)
+    }
+
+    /// The escaped share of the entered energy per entry-cosine bin at albedo `albedo`, and its
+    /// α-derivative (the spline of [`ExitTable::slice`] through [`ExitTable::escaped`]).
+    pub fn escape(&self, albedo: f32) -> EscapeSlice {
+        let (e, de) = albedo_spline(&self.escaped, MU_BINS, albedo);
+        EscapeSlice { e, de }
     }
 
     /// The table at albedo `albedo`: a cubic Hermite spline in x = ln(1 − α) through the grid
@@ -225,121 +333,6 @@ impl ExitTable {
     pub fn slice(&self, albedo: f32) -> ExitSlice {
         let (f, df) = albedo_spline(&self.f, MU_BINS * MU_BINS, albedo);
         ExitSlice { f, df }
-    }
-}
-
-/// The tables simulated at run time for media other than the shipped one, per process.
-pub(crate) type MediumCache<T> = std::sync::Mutex<Vec<std::sync::Arc<T>>>;
-
-/// Errors of reading a table ([`TableFile::from_json`]); each names the file and the field.
-#[derive(Debug, thiserror::Error)]
-pub enum TableError {
-    /// The text is not the JSON of this kind of table.
-    #[error(
-        "{name}: not a valid {table} table ({reason}); fix: regenerate it with `translucent model {table}-table`"
-    )]
-    Parse {
-        /// The file.
-        name: String,
-        /// The kind of table (`exit`, `incidence`, `curvature`).
-        table: &'static str,
-        /// What the JSON parser said.
-        reason: String,
-    },
-    /// A field has the wrong length or an impossible value.
-    #[error(
-        "{name}: {table} table field `{field}` {reason}; fix: regenerate it with `translucent model {table}-table`"
-    )]
-    Invalid {
-        /// The file.
-        name: String,
-        /// The kind of table.
-        table: &'static str,
-        /// The field (`settings.g`, `a`, `a[17]`, …).
-        field: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-}
-
-/// A table stored as JSON (the shipped `data/*.json` files, written by `translucent model
-/// …-table`): parsed, then checked against the grid of this build, so that a damaged or
-/// mismatched file is an error naming the field and never an out-of-bounds lookup later.
-pub trait TableFile: serde::de::DeserializeOwned {
-    /// The kind of table, as in the command that writes it (`exit`, `incidence`, `curvature`).
-    const KIND: &'static str;
-
-    /// Checks lengths and values; `name` is the file, for the error.
-    fn check(&self, name: &str) -> Result<(), TableError>;
-
-    /// Parses and checks the JSON text of a table; `name` is the file, for errors.
-    fn from_json(text: &str, name: &str) -> Result<Self, TableError> {
-        let table: Self = serde_json::from_str(text).map_err(|e| TableError::Parse {
-            name: name.to_string(),
-            table: Self::KIND,
-            reason: e.to_string(),
-        })?;
-        table.check(name)?;
-        Ok(table)
-    }
-}
-
-/// Checks shared by the table files: lengths against the grid, values finite and in range.
-pub(crate) struct TableCheck<'a> {
-    pub(crate) name: &'a str,
-    pub(crate) table: &'static str,
-}
-
-impl TableCheck<'_> {
-    pub(crate) fn err(&self, field: impl Into<String>, reason: impl Into<String>) -> TableError {
-        TableError::Invalid {
-            name: self.name.to_string(),
-            table: self.table,
-            field: field.into(),
-            reason: reason.into(),
-        }
-    }
-
-    /// `len == expected`.
-    pub(crate) fn len(&self, field: &str, len: usize, expected: usize) -> Result<(), TableError> {
-        if len != expected {
-            return Err(self.err(
-                field,
-                format!("holds {len} values, this build's grid needs {expected}"),
-            ));
-        }
-        Ok(())
-    }
-
-    /// Every value finite and within `[lo, hi]`.
-    pub(crate) fn values(
-        &self,
-        field: &str,
-        v: &[f32],
-        lo: f32,
-        hi: f32,
-    ) -> Result<(), TableError> {
-        if let Some(i) = v
-            .iter()
-            .position(|x| !(x.is_finite() && (lo..=hi).contains(x)))
-        {
-            return Err(self.err(
-                format!("{field}[{i}]"),
-                format!("= {} is outside [{lo}, {hi}]", v[i]),
-            ));
-        }
-        Ok(())
-    }
-
-    /// The medium of a walk table: |g| < 1, η finite and positive.
-    pub(crate) fn settings(&self, s: &ExitTableSettings) -> Result<(), TableError> {
-        if !(s.g.is_finite() && s.g.abs() < 1.0) {
-            return Err(self.err("settings.g", format!("= {} is outside (-1, 1)", s.g)));
-        }
-        if !(s.eta.is_finite() && s.eta > 0.0) {
-            return Err(self.err("settings.eta", format!("= {} is not positive", s.eta)));
-        }
-        Ok(())
     }
 }
 
@@ -362,31 +355,6 @@ impl TableFile for ExitTable {
     }
 }
 
-/// A shipped table (JSON built into the binary, `name` its file under `data/`), parsed and
-/// checked once.
-pub(crate) fn shipped<T: TableFile>(
-    cell: &std::sync::OnceLock<std::sync::Arc<T>>,
-    json: &str,
-    name: &str,
-) -> std::sync::Arc<T> {
-    cell.get_or_init(|| {
-        std::sync::Arc::new(
-            T::from_json(json, name)
-                .unwrap_or_else(|e| panic!("a shipped table reads (checked by its tests): {e}")),
-        )
-    })
-    .clone()
-}
-
-/// A table simulated by half-space walks with [`ExitTableSettings`] (the exit and incidence
-/// tables), so that [`for_medium`] can make and look up the table of any medium.
-pub(crate) trait WalkTable: Sized {
-    /// The settings the table was made with.
-    fn settings(&self) -> &ExitTableSettings;
-    /// Simulate the table.
-    fn simulate(settings: ExitTableSettings) -> Self;
-}
-
 impl WalkTable for ExitTable {
     fn settings(&self) -> &ExitTableSettings {
         &self.settings
@@ -395,93 +363,6 @@ impl WalkTable for ExitTable {
         Self::generate(settings)
     }
 }
-
-/// The table of a medium `(g, η)`: `shipped` when its own (g, η) match, else one simulated with
-/// `walks` walks per row (seed 0) once per process and kept in `cache`.
-pub(crate) fn for_medium<T: WalkTable>(
-    cache: &MediumCache<T>,
-    shipped: std::sync::Arc<T>,
-    (g, eta): (f32, f32),
-    walks: u32,
-) -> std::sync::Arc<T> {
-    let key = |t: &T| (t.settings().g, t.settings().eta);
-    if key(&shipped) == (g, eta) {
-        return shipped;
-    }
-    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(t) = cache.iter().find(|t| key(t) == (g, eta)) {
-        return t.clone();
-    }
-    let t = std::sync::Arc::new(T::simulate(ExitTableSettings {
-        g,
-        eta,
-        walks,
-        seed: 0,
-    }));
-    cache.push(t.clone());
-    t
-}
-
-/// A table of rows over the albedo grid [`ONE_MINUS_ALBEDO`] (`rows[a·n..(a + 1)·n]` for grid
-/// albedo a) at albedo `albedo`, with its α-derivative: a cubic Hermite spline in
-/// x = ln(1 − α) through the grid albedos (tangents by central differences, one-sided at the
-/// ends; C¹, so the derivative is continuous), constant outside the grid (derivative 0). The
-/// spline is a linear combination of rows, so any linear normalisation of the rows holds for
-/// every albedo.
-pub(crate) fn albedo_spline(rows: &[f32], n: usize, albedo: f32) -> (Vec<f32>, Vec<f32>) {
-    let xs: Vec<f32> = ONE_MINUS_ALBEDO.iter().map(|x| x.ln()).collect();
-    let x = (1.0 - albedo).clamp(1e-6, 1.0).ln();
-    let last = xs.len() - 1;
-    let row = |a: usize| &rows[a * n..(a + 1) * n];
-    // Outside the grid (xs decreases with a): the end row, no α-dependence.
-    let end = if x >= xs[0] {
-        Some(0)
-    } else if x <= xs[last] {
-        Some(last)
-    } else {
-        None
-    };
-    if let Some(a) = end {
-        return (row(a).to_vec(), vec![0.0; n]);
-    }
-    let a = (0..last)
-        .find(|&a| x <= xs[a] && x >= xs[a + 1])
-        .unwrap_or(0);
-    let h = xs[a + 1] - xs[a]; // < 0
-    let t = (x - xs[a]) / h;
-    // Tangent dF/dx at node k for cell value index `i`.
-    let tangent = |k: usize, i: usize| {
-        let (lo, hi) = (k.saturating_sub(1), (k + 1).min(last));
-        (row(hi)[i] - row(lo)[i]) / (xs[hi] - xs[lo])
-    };
-    let (t2, t3) = (t * t, t * t * t);
-    let (h00, h10, h01, h11) = (
-        2.0 * t3 - 3.0 * t2 + 1.0,
-        t3 - 2.0 * t2 + t,
-        -2.0 * t3 + 3.0 * t2,
-        t3 - t2,
-    );
-    let (d00, d10, d01, d11) = (
-        6.0 * t2 - 6.0 * t,
-        3.0 * t2 - 4.0 * t + 1.0,
-        -6.0 * t2 + 6.0 * t,
-        3.0 * t2 - 2.0 * t,
-    );
-    // dx/dα = −1/(1 − α); dt/dx = 1/h.
-    let dt_da = -1.0 / ((1.0 - albedo).max(1e-6) * h);
-    let (r0, r1) = (row(a), row(a + 1));
-    let mut f = Vec::with_capacity(n);
-    let mut df = Vec::with_capacity(n);
-    for i in 0..n {
-        let (m0, m1) = (tangent(a, i) * h, tangent(a + 1, i) * h);
-        f.push(h00 * r0[i] + h10 * m0 + h01 * r1[i] + h11 * m1);
-        df.push((d00 * r0[i] + d10 * m0 + d01 * r1[i] + d11 * m1) * dt_da);
-    }
-    (f, df)
-}
-
-/// Walks per row of a table simulated at run time (the shipped one has more).
-pub const DEFAULT_RUNTIME_WALKS: u32 = 40_000;
 
 /// The table written by `translucent model exit-table` for g = 0, η = 1.
 const SHIPPED_JSON: &str = include_str!("../data/exit-g0-eta1.json");
@@ -492,6 +373,24 @@ const SHIPPED_NAME: &str = "data/exit-g0-eta1.json";
 pub struct ExitSlice {
     f: Vec<f32>,
     df: Vec<f32>,
+}
+
+/// The escaped share of the entered energy over the entry cosine at one albedo
+/// ([`ExitTable::escape`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EscapeSlice {
+    e: Vec<f32>,
+    de: Vec<f32>,
+}
+
+impl EscapeSlice {
+    /// (E(μ_c), ∂E/∂α), linear between bin centres.
+    #[inline]
+    pub fn eval(&self, mu_cam: f32) -> (f32, f32) {
+        let (i, t) = centre(mu_cam);
+        let at = |v: &[f32]| v[i] * (1.0 - t) + v[i + 1] * t;
+        (at(&self.e), at(&self.de))
+    }
 }
 
 /// Bin-centre interpolation weights of a cosine: (lower bin, weight of the upper one).

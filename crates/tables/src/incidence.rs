@@ -56,9 +56,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::exit::{
-    MU_BINS, MediumCache, ONE_MINUS_ALBEDO, TableCheck, TableError, TableFile, WalkTable,
-    albedo_spline, for_medium, shipped,
+use crate::exit::{MU_BINS, ONE_MINUS_ALBEDO};
+use crate::table::{
+    MediumCache, TableCheck, TableError, TableFile, WalkTable, albedo_spline, for_medium, shipped,
 };
 
 /// Distance bins (uniform in ln(1 + ρ/ρ₀), ρ in mean free paths; the last is open).
@@ -313,7 +313,7 @@ impl IncidenceTable {
     pub fn for_medium(g: f32, eta: f32) -> std::sync::Arc<IncidenceTable> {
         static CACHE: MediumCache<IncidenceTable> = std::sync::Mutex::new(Vec::new());
         let table = Self::index_matched_isotropic();
-        for_medium(&CACHE, table, (g, eta), DEFAULT_RUNTIME_WALKS)
+        for_medium(&CACHE, table, (g, eta, 0.0), DEFAULT_RUNTIME_WALKS)
     }
 
     /// The table at albedo `albedo` ([`crate::exit`]'s spline in ln(1 − α)); every slice keeps

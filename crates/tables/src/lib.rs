@@ -14,3 +14,4 @@
 pub mod curvature;
 pub mod exit;
 pub mod incidence;
+pub mod table;

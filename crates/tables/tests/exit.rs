@@ -21,7 +21,7 @@ fn counts(t: &ExitTable, r: usize) -> (f64, Vec<f64>) {
 fn every_row_is_a_distribution_over_exit_directions() {
     for t in [
         ExitTable::index_matched_isotropic(),
-        ExitTable::for_medium(0.4, 1.3),
+        ExitTable::for_medium(0.4, 1.3, 0.0),
     ] {
         assert_eq!(t.f.len(), ONE_MINUS_ALBEDO.len() * MU_BINS * MU_BINS);
         for r in 0..ONE_MINUS_ALBEDO.len() * MU_BINS {
@@ -69,6 +69,7 @@ fn the_shipped_table_is_the_generators_output() {
 /// At a grid albedo the slice is the table's row; between grid albedos ∂f/∂α is the slope of
 /// the interpolation (checked by a central difference), and the law departs from the cosine
 /// law in the way the walks say: grazing-in, grazing-out far above 1, normal-in, normal-out below.
+/// The same holds for the escaped share over the entry cosine.
 #[test]
 fn slices_interpolate_with_their_derivative() {
     let t = ExitTable::index_matched_isotropic();
@@ -95,6 +96,16 @@ fn slices_interpolate_with_their_derivative() {
     let s = t.slice(alpha);
     assert!(s.eval(0.03, 0.03).0 > 3.0);
     assert!(s.eval(1.0, 1.0).0 < 0.97);
+    // The escaped share: the row's value at a grid albedo and bin centre, its α-derivative
+    // the interpolation's slope.
+    let e = t.escape(1.0 - ONE_MINUS_ALBEDO[a]);
+    let want = t.escaped[a * MU_BINS + 4];
+    assert!((e.eval(4.5 / MU_BINS as f32).0 - want).abs() <= 1e-6 * want);
+    for mc in [0.1f32, 0.5, 0.97] {
+        let (_, d) = t.escape(alpha).eval(mc);
+        let fd = (t.escape(alpha + h).eval(mc).0 - t.escape(alpha - h).eval(mc).0) / (2.0 * h);
+        assert!(d > 0.0 && (d - fd).abs() <= 1e-2 * fd, "{mc}: {d} vs {fd}");
+    }
 }
 
 /// The tables are read through `TableFile::from_json`, which checks them against this build's

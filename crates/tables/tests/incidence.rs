@@ -20,6 +20,7 @@ fn a_is_an_angular_density_relative_to_uniform() {
     let other = IncidenceTable::generate(IncidenceSettings {
         g: 0.4,
         eta: 1.3,
+        roughness: 0.0,
         walks: 4_000,
         seed: 1,
     });

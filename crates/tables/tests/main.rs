@@ -3,3 +3,4 @@
 
 mod exit;
 mod incidence;
+mod rough;

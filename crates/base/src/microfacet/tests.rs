@@ -180,3 +180,40 @@ fn visible_normals_are_normalised() {
         );
     }
 }
+
+/// The transmittance by quadrature equals the mean transmitted flux of the sampler (each
+/// crossing weighted by η'², within 4.5 standard errors plus the quadrature's 1e-3), tends to
+/// the smooth 1 − F(μ) as α → 0, and loses energy at grazing angles for a large α.
+#[test]
+fn transmittance_is_the_sampled_transmitted_flux() {
+    for (mu, alpha, eta) in [(0.9f32, 0.3f32, 1.5f32), (0.3, 0.3, 1.5), (0.6, 0.1, 1.33)] {
+        let b = RoughDielectric::new(eta, alpha);
+        let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let mut s = Sampler::new(4, 1, 0, 0);
+        let mut flux = MeanEstimate::default();
+        for _ in 0..100_000 {
+            let f = match b.sample(wi, s.next_f32(), s.next_f32(), s.next_f32()) {
+                Some(x) if x.transmitted => x.weight * eta * eta,
+                _ => 0.0,
+            };
+            flux.push(f as f64);
+        }
+        let t = b.transmittance(mu, 64) as f64;
+        assert!(
+            (t - flux.mean()).abs() < 4.5 * flux.std_error() + 1e-3,
+            "μ {mu} α {alpha} η {eta}: quadrature {t} against sampled {}",
+            flux.mean()
+        );
+    }
+    for mu in [0.2f32, 0.7, 1.0] {
+        let smooth = 1.0 - crate::fresnel::fresnel_dielectric(mu, 1.5);
+        let t = RoughDielectric::new(1.5, 0.002).transmittance(mu, 32);
+        assert!(
+            (t - smooth).abs() < 2e-3,
+            "μ {mu}: {t} against 1 − F = {smooth}"
+        );
+    }
+    let rough = RoughDielectric::new(1.5, 0.6);
+    let smooth = 1.0 - crate::fresnel::fresnel_dielectric(0.2, 1.5);
+    assert!(rough.transmittance(0.2, 32) < smooth);
+}

@@ -52,9 +52,11 @@ pub enum LightCurvature {
     ///
     /// The light term as on a plane, whatever the curvature at the camera point.
     None,
-    /// Corrected by walks in balls of the surface's curvature (default; g = 0, η = 1 only).
+    /// Corrected by walks in balls of the surface's curvature (default).
     ///
-    /// C = exact/model of balls ([`crate::curvature::CurvatureTable`]; g = 0, η = 1 only).
+    /// C = exact/model of index-matched balls of the medium's g
+    /// ([`crate::curvature::CurvatureTable::for_medium`]), also behind a rough boundary; none
+    /// behind a smooth dielectric one.
     #[default]
     Ball,
 }
@@ -81,6 +83,27 @@ impl LearnedScene<'_> {
                 )
             }
             None => (sw(cos_l, self.medium.eta), 0.0),
+        }
+    }
+
+    /// The light side's change by a rough boundary ([`super::surface`]) and its α-derivative:
+    /// with the half-space exit law the ratio E_rough(μ_cam)/E_smooth(μ_cam) of the energy that
+    /// escapes half-space walks through the rough and through the smooth boundary (the exit law
+    /// itself is the rough walks'); with the cosine law T(μ_l)/(1 − F(μ_l)); (1, 0) for a smooth
+    /// or index-matched boundary.
+    #[inline]
+    pub(crate) fn rough_light_side(&self, p: &Pending, cos_l: f32) -> (f32, f32) {
+        match (&self.escape, &self.surface) {
+            (Some(e), _) => {
+                let (rough, smooth) = &e[p.channel as usize];
+                let ((er, der), (es, des)) = (rough.eval(p.mu_cam), smooth.eval(p.mu_cam));
+                if es <= 0.0 {
+                    return (1.0, 0.0);
+                }
+                (er / es, (der * es - er * des) / (es * es))
+            }
+            (None, Some(s)) => (s.light_side_factor(cos_l), 0.0),
+            (None, None) => (1.0, 0.0),
         }
     }
 
@@ -206,7 +229,9 @@ pub(crate) fn light_contribution(
     let g = cos_l / r2;
     let (v, dv) = ((d * a) * g, (dd * a + d * da) * g);
     let (k, dk) = scene.curvature_factor(p, sigma_t);
-    (v * k, dv * k + v * dk)
+    let (v, dv) = (v * k, dv * k + v * dk);
+    let (s, ds) = scene.rough_light_side(p, cos_l);
+    (v * s, dv * s + v * ds)
 }
 
 #[cfg(test)]
