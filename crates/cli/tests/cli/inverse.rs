@@ -816,7 +816,7 @@ fn experiment_robustness_quick_tabulates_every_case_and_resumes() {
 /// boundary at 300 mean free paths are rendered with the boundary and the phase function their
 /// datasets state, recovered with them (not with an assumed index-matched, isotropic object),
 /// and tabulated with their boundary and g. With the tracer as the model: the learned model
-/// would first simulate its walk tables at each case's (g, η), 32–79 s per case.
+/// would first simulate its walk tables at each case's (g, η), one to two minutes per case.
 #[test]
 fn experiment_robustness_dielectric_cases_state_and_use_their_object() {
     let t = tmp();
