@@ -1,7 +1,12 @@
 //! Where a long computation reports to: the lines a user reads and the progress bars. The
 //! binaries show them on the terminal; a test or a library caller passes [`Silent`].
 
+use std::ops::ControlFlow;
+
 use indicatif::ProgressBar;
+
+use crate::optimize::IterationRecord;
+use crate::params::Params;
 
 /// Where a recovery reports to: the lines a user reads and the progress bars.
 pub trait Observer: Sync {
@@ -9,6 +14,12 @@ pub trait Observer: Sync {
     fn progress(&self, len: u64, label: &str) -> ProgressBar;
     /// One line of the report.
     fn say(&self, line: &str);
+    /// Each iteration of an optimisation loop, after its step: the record and the parameters
+    /// after the step. [`ControlFlow::Break`] stops the run cleanly after this iteration
+    /// (checkpointed, resumable); the default never stops it.
+    fn iteration(&self, _record: &IterationRecord, _params: &Params) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
 }
 
 /// An observer that shows nothing.

@@ -13,6 +13,7 @@
 //! Everything random derives from (seed, iteration, view, pixel), so a run is reproducible for a
 //! given thread count and a resumed run continues exactly where the checkpoint left off.
 
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -530,19 +531,46 @@ impl<'a> Optimizer<'a> {
         checkpoint: Option<(&Path, u32)>,
         mut on_iter: impl FnMut(&IterationRecord, &Params),
     ) -> Result<(), InverseError> {
+        self.run_until(checkpoint, |r, p| {
+            on_iter(r, p);
+            ControlFlow::Continue(())
+        })
+        .map(|_| ())
+    }
+
+    /// [`Optimizer::run`], stopped early where `on_iter` breaks: the run then ends after that
+    /// iteration with a checkpoint (when a path is given), so that it resumes from there.
+    pub fn run_until(
+        &mut self,
+        checkpoint: Option<(&Path, u32)>,
+        mut on_iter: impl FnMut(&IterationRecord, &Params) -> ControlFlow<()>,
+    ) -> Result<Ran, InverseError> {
         while self.iteration() < self.config.iterations {
             self.step()?;
             let p = self.params();
-            on_iter(self.history.last().expect("stepped"), &p);
+            let flow = on_iter(self.history.last().expect("stepped"), &p);
             if let Some((path, every)) = checkpoint {
                 let k = self.iteration();
-                if k.is_multiple_of(every.max(1)) || k == self.config.iterations {
+                if k.is_multiple_of(every.max(1)) || k == self.config.iterations || flow.is_break()
+                {
                     self.save_checkpoint(path)?;
                 }
             }
+            if flow.is_break() && self.iteration() < self.config.iterations {
+                return Ok(Ran::Stopped);
+            }
         }
-        Ok(())
+        Ok(Ran::Completed)
     }
+}
+
+/// How [`Optimizer::run_until`] ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ran {
+    /// Every configured iteration ran.
+    Completed,
+    /// The caller stopped it before the last iteration.
+    Stopped,
 }
 
 /// The state of a run (what a fresh start and a resume provide differently).

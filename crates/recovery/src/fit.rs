@@ -12,13 +12,14 @@ use super::{
 };
 use crate::report;
 use inverse::forward::ModelKind;
-use inverse::optimize::{InverseError, Optimizer};
+use inverse::optimize::{InverseError, Optimizer, Ran};
 use inverse::params::Params;
 use inverse::uncertainty::{CAPTURE_DRAWS, Uncertainty};
 
 /// Runs the loop to the configured iterations, writing checkpoints and `iterations.csv`;
 /// returns the loop's seconds. A run that breaks down numerically leaves its record (the
-/// history and a `failed` result.json) and says so.
+/// history and a `failed` result.json) and says so; one that the observer stops
+/// ([`Observer::iteration`]) leaves its record, an `interrupted` result.json and a checkpoint.
 pub(super) fn fit(
     cfg: &RecoveryConfig,
     opt: &mut Optimizer,
@@ -29,14 +30,34 @@ pub(super) fn fit(
     let pb = obs.progress(opt.config().iterations as u64, "optimize");
     pb.set_position(opt.iteration() as u64);
     let csv = cfg.out.join("iterations.csv");
-    let ran = opt.run(Some((&p.ckpt, cfg.checkpoint_every)), |r, p| {
+    let ran = opt.run_until(Some((&p.ckpt, cfg.checkpoint_every)), |r, p| {
         pb.set_position(r.iteration as u64 + 1);
         pb.set_message(format!(
             "loss {:.3e} σ_t ({:.1}, {:.1}, {:.1}) α ({:.3}, {:.3}, {:.3})",
             r.loss, p.sigma_t[0], p.sigma_t[1], p.sigma_t[2], p.albedo[0], p.albedo[1], p.albedo[2]
         ));
+        obs.iteration(r, p)
     });
     pb.finish_and_clear();
+    if let Ok(Ran::Stopped) = ran {
+        // Stopped by the caller: the record so far, a result that says so, the checkpoint to
+        // resume from (written by the loop).
+        report::write_csv(opt.history(), &csv)?;
+        let done = opt.history().len();
+        let stopped = json!({
+            "status": "interrupted",
+            "complete": false,
+            "iterations": done,
+            "estimate": opt.params(),
+            "config": opt.config(),
+        });
+        write_result(&cfg.out, &stopped)?;
+        return Err(RecoveryError::Interrupted {
+            iteration: done,
+            of: opt.config().iterations as usize,
+            checkpoint: p.ckpt.clone(),
+        });
+    }
     if let Err(e) = ran {
         if !matches!(e, InverseError::NonFinite { .. }) {
             // A failed write (disk full, permissions) or render: the outputs on disk stay as

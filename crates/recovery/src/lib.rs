@@ -158,6 +158,19 @@ pub enum RecoveryError {
         #[source]
         source: Box<InverseError>,
     },
+    /// The observer stopped the loop ([`Observer::iteration`]); `result.json` says
+    /// `interrupted` and the checkpoint resumes the run.
+    #[error(
+        "the run was stopped after iteration {iteration} of {of}; {} holds it (continue it with \
+         {})",
+        .checkpoint.display(),
+        Setting::Resume
+    )]
+    Interrupted {
+        iteration: usize,
+        of: usize,
+        checkpoint: PathBuf,
+    },
     /// The loop broke down numerically; `result.json` records the failure.
     #[error(
         "the optimisation failed after {iterations} iterations (status in {})",
