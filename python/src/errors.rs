@@ -6,7 +6,6 @@
 //! | a value that cannot be used (`SceneError::Invalid`, `RecoveryError::Invalid`, `InverseError::Invalid`) | `ValueError` |
 //! | a file that exists and may not be replaced (`SceneError::Exists`) | `FileExistsError` |
 //! | a file that cannot be read or written (`SceneError::Io`) | `OSError` |
-//! | a run stopped by its callback (`RecoveryError::Interrupted`) | `translucent.Interrupted` |
 //! | anything else | `translucent.Error` |
 
 use pyo3::create_exception;
@@ -19,13 +18,6 @@ create_exception!(
     PyException,
     "An error of translucent: a render, a recovery or a file that failed (the message says what \
      and how to fix it)."
-);
-create_exception!(
-    translucent,
-    Interrupted,
-    Error,
-    "A recovery stopped before its last iteration (by its callback or Ctrl-C); its output \
-     folder holds a checkpoint that `optimize(..., resume=True)` continues."
 );
 
 /// The message and each cause, as `a: b: c` (anyhow's `{:#}`).
@@ -72,7 +64,6 @@ pub fn recovery(e: recovery::RecoveryError) -> PyErr {
         E::Invalid(m) => PyValueError::new_err(m),
         E::Scene(s) => scene(s),
         E::Inverse(i) => inverse(i),
-        e @ E::Interrupted { .. } => Interrupted::new_err(chain(&e)),
         e => Error::new_err(chain(&e)),
     }
 }

@@ -11,6 +11,7 @@
 //! | `Dataset` | [`dataset::PyDataset`] over `scene::Dataset` (and a mesh given as arrays) |
 //! | `render` | [`render::render`] over `inverse::views::render_with` |
 //! | `optimize` | [`optimize::optimize`] over `recovery::run` |
+//! | `import_colmap`, `import_nerf` | [`capture`] over `scene::capture` |
 //! | `read_image`, `write_image` | `scene::Image` |
 //!
 //! Every call that renders or optimises releases the GIL while Rust works and runs on a thread
@@ -21,6 +22,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod capture;
 mod dataset;
 mod errors;
 mod medium;
@@ -71,14 +73,26 @@ pub(crate) fn on_pool<T: Send>(
 #[pymodule]
 fn _translucent(m: &Bound<'_, PyModule>) -> PyResult<()> {
     scene::setting::name_settings(keyword_of);
+    // The library's warnings on stderr, as the CLI prints them (`TRANSLUCENT_LOG` overrides the
+    // level, e.g. `info`); a host that installed its own subscriber keeps it.
+    let filter = tracing_subscriber::EnvFilter::try_from_env("TRANSLUCENT_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_target(false)
+        .without_time()
+        .with_ansi(false)
+        .with_writer(std::io::stderr)
+        .try_init();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("Error", m.py().get_type::<errors::Error>())?;
-    m.add("Interrupted", m.py().get_type::<errors::Interrupted>())?;
     m.add_class::<medium::PyMedium>()?;
     m.add_class::<dataset::PyDataset>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(optimize::optimize, m)?)?;
     m.add_function(wrap_pyfunction!(optimize::default_options, m)?)?;
+    m.add_function(wrap_pyfunction!(capture::import_colmap, m)?)?;
+    m.add_function(wrap_pyfunction!(capture::import_nerf, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::write_image, m)?)?;
     Ok(())

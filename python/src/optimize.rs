@@ -179,7 +179,10 @@ pub fn optimize(
                 }
                 Err(k)
             }
-            None => Ok(()),
+            // Stopped by the callback: the run's record says so, unless the stop came in a
+            // run of its own (a start of several), whose folder the message names.
+            None if cfg.out.join("result.json").is_file() => Ok(()),
+            None => Err(errors::Error::new_err(errors::chain(&e))),
         },
         // A numerical breakdown leaves a failed result.json: a result, not an exception.
         Err(RecoveryError::Failed { .. }) => Ok(()),

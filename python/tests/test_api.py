@@ -220,3 +220,25 @@ def test_options_are_checked(dataset, tmp_path):
         tl.optimize(dataset, tmp_path / "o", free=["eta"])
     with pytest.raises(ValueError, match="model"):
         tl.optimize(dataset, tmp_path / "o", model="mitsuba")
+
+
+def test_a_render_releases_the_gil(scene_file):
+    import threading
+
+    ticks = []
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks.append(1)
+            done.wait(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    before = len(ticks)
+    tl.render(scene_file, spp=256, seed=0, threads=1)
+    during = len(ticks) - before
+    done.set()
+    t.join()
+    # The counting thread ran while Rust rendered (it could not have without the GIL).
+    assert during > 10

@@ -85,3 +85,24 @@ def test_a_dataset_made_in_memory_is_saved_with_the_run(tmp_path, scene_file):
     assert res.raw["method"]
     with pytest.raises(FileExistsError):
         tl.optimize(ds, tmp_path / "o", threads=2, verbose=False, model="volpath", **SHORT)
+
+
+def test_ctrl_c_stops_a_run_cleanly_and_raises_keyboard_interrupt(tmp_path, dataset):
+    import os
+    import signal
+    import threading
+
+    started = threading.Event()
+
+    def mark(iteration, params, loss):
+        started.set()
+
+    timer = threading.Timer(0.0, lambda: (started.wait(30), os.kill(os.getpid(), signal.SIGINT)))
+    timer.start()
+    long = {**SHORT, "iterations": 2000}
+    with pytest.raises(KeyboardInterrupt):
+        tl.optimize(dataset, tmp_path / "o", callback=mark, threads=2, verbose=False, **long)
+    timer.join()
+    result = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert result["status"] == "interrupted" and 0 < result["iterations"] < 2000
+    assert (tmp_path / "o" / "checkpoint.json").is_file()

@@ -29,17 +29,27 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from . import _translucent
-from ._translucent import Dataset, Error, Interrupted, Medium, __version__, read_image, write_image
+from ._translucent import (
+    Dataset,
+    Error,
+    Medium,
+    __version__,
+    import_colmap,
+    import_nerf,
+    read_image,
+    write_image,
+)
 from . import mitsuba
 
 __all__ = [
     "Dataset",
     "Error",
-    "Interrupted",
     "Medium",
     "Rendering",
     "Result",
     "default_options",
+    "import_colmap",
+    "import_nerf",
     "make_dataset",
     "mitsuba",
     "optimize",

@@ -14,9 +14,6 @@ __version__: str
 class Error(Exception):
     """An error of translucent: a render, a recovery or a file that failed."""
 
-class Interrupted(Error):
-    """A recovery stopped before its last iteration (resume it with resume=True)."""
-
 class Medium:
     """A homogeneous medium inside its boundary (σ_t per channel in 1/scene unit, albedo
     σ_s/σ_t per channel, Henyey–Greenstein g, relative index of refraction eta, the boundary's
@@ -125,3 +122,35 @@ def read_image(path: _Path) -> npt.NDArray[np.float32]: ...
 def write_image(
     path: _Path, image: npt.NDArray[np.float32], exposure: float = 1.0, overwrite: bool = False
 ) -> None: ...
+def import_colmap(
+    model: _Path,
+    images: _Path,
+    mesh: _Path,
+    *,
+    flash: Optional[Sequence[float]] = None,
+    light_positions: Optional[_Path] = None,
+    intensity: _Rgb = 1.0,
+    masks: Optional[_Path] = None,
+    transfer: Optional[str] = None,
+    exposure: float = 1.0,
+    eta: Optional[float] = None,
+    roughness: Optional[float] = None,
+    g: Optional[float] = None,
+    units: Optional[str] = None,
+) -> Dataset: ...
+def import_nerf(
+    transforms: _Path,
+    mesh: _Path,
+    *,
+    images: Optional[_Path] = None,
+    flash: Optional[Sequence[float]] = None,
+    light_positions: Optional[_Path] = None,
+    intensity: _Rgb = 1.0,
+    masks: Optional[_Path] = None,
+    transfer: Optional[str] = None,
+    exposure: float = 1.0,
+    eta: Optional[float] = None,
+    roughness: Optional[float] = None,
+    g: Optional[float] = None,
+    units: Optional[str] = None,
+) -> Dataset: ...

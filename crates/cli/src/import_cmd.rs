@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use glam::Vec3;
 use scene::Object;
-use scene::capture::{Capture, CaptureLight, CapturedView};
+use scene::capture::{Capture, CaptureLight};
 use scene::colmap::ColmapModel;
 use scene::image::{PhotoSettings, Transfer};
 use scene::measured::LengthUnit;
@@ -148,14 +148,7 @@ fn nerf(a: &NerfArgs) -> Result<()> {
     };
     let images = a.images.clone().unwrap_or_else(|| t.dir());
     let capture = a.capture.capture(&images, light)?;
-    let views: Vec<CapturedView> = t.views(|name| capture.image_size(name))?;
-    let units = format!(
-        "lengths in the units of {} (sigma_t in 1/those units); light intensity in W/sr, \
-         relative unless measured; images linear radiance",
-        a.transforms.display()
-    );
-    let fix = "pass the images the poses were made from, or correct w and h";
-    let ds = capture.dataset(&views, units, "transforms.json import", fix)?;
+    let ds = t.dataset(&capture)?;
     a.capture
         .save(&ds, &a.transforms.display().to_string(), "the file's")
 }

@@ -549,12 +549,10 @@ impl<'a> Optimizer<'a> {
             self.step()?;
             let p = self.params();
             let flow = on_iter(self.history.last().expect("stepped"), &p);
-            if let Some((path, every)) = checkpoint {
-                let k = self.iteration();
-                if k.is_multiple_of(every.max(1)) || k == self.config.iterations || flow.is_break()
-                {
-                    self.save_checkpoint(path)?;
-                }
+            let k = self.iteration();
+            let due = |every: u32| k.is_multiple_of(every.max(1)) || k == self.config.iterations;
+            if let Some((path, _)) = checkpoint.filter(|&(_, e)| due(e) || flow.is_break()) {
+                self.save_checkpoint(path)?;
             }
             if flow.is_break() && self.iteration() < self.config.iterations {
                 return Ok(Ran::Stopped);

@@ -12,11 +12,13 @@
 
 use crate::common;
 
+use std::ops::ControlFlow;
+
 use bssrdf::diff::DiffImages;
 use bssrdf::render::RenderSettings;
 use geometry::Vec3;
 use inverse::forward::{ForwardModel, MediumRenderer, Progress, ViewRenderer};
-use inverse::optimize::{InverseError, OptimizeConfig, Optimizer, TargetView};
+use inverse::optimize::{InverseError, OptimizeConfig, Optimizer, Ran, TargetView};
 use inverse::params::{OneOrRgb, Params};
 use scene::{Camera, Image, Medium, PointLight};
 
@@ -146,6 +148,52 @@ fn lambertian<'a>(
         image: target,
     }];
     Optimizer::with_forward(config, accel, Box::new(Lambertian), None, base, targets).unwrap()
+}
+
+/// A caller that breaks ends the run after that iteration with a checkpoint of it; the run then
+/// goes on to its end where it stopped.
+#[test]
+fn a_caller_stops_the_loop_after_an_iteration_with_a_checkpoint() {
+    let accel = common::sphere(0.5);
+    let (camera, light) = view(1.0);
+    let target = target(TRUTH, &camera, &light);
+    let config = OptimizeConfig {
+        iterations: 6,
+        refine_iterations: 0,
+        ..OptimizeConfig::default()
+    };
+    let mut opt = lambertian(config.clone(), &accel, (&camera, &light, &target), TRUTH);
+    let dir = tempfile::tempdir().unwrap();
+    let ck = dir.path().join("checkpoint.json");
+    let mut seen = Vec::new();
+    let ran = opt
+        .run_until(Some((&ck, 100)), |r, _| {
+            seen.push(r.iteration);
+            if r.iteration == 2 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+    assert_eq!(ran, Ran::Stopped);
+    assert_eq!(seen, [0, 1, 2]);
+    assert_eq!(opt.history().len(), 3);
+    let saved = inverse::optimize::Checkpoint::read(&ck).unwrap();
+    assert_eq!(
+        saved.history.len(),
+        3,
+        "the checkpoint holds the iterations run"
+    );
+    let ran = opt
+        .run_until(None, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    assert_eq!(ran, Ran::Completed);
+    assert_eq!(opt.history().len(), 6);
+    // A break in the first iteration stops the run after it.
+    let mut last = lambertian(config, &accel, (&camera, &light, &target), TRUTH);
+    let ran = last.run_until(None, |_, _| ControlFlow::Break(())).unwrap();
+    assert_eq!((ran, last.history().len()), (Ran::Stopped, 1));
 }
 
 #[test]

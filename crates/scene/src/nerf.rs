@@ -139,6 +139,19 @@ impl NerfTransforms {
         }
     }
 
+    /// The dataset of `capture` with these frames' cameras: each frame's image read from
+    /// `capture.images` (its size from the image where the file states none).
+    pub fn dataset(&self, capture: &crate::capture::Capture) -> Result<crate::Dataset, SceneError> {
+        let views = self.views(|name| capture.image_size(name))?;
+        let units = format!(
+            "lengths in the units of {} (sigma_t in 1/those units); light intensity in W/sr, \
+             relative unless measured; images linear radiance",
+            self.file.display()
+        );
+        let fix = "pass the images the poses were made from, or correct w and h";
+        capture.dataset(&views, units, "transforms.json import", fix)
+    }
+
     /// Each frame as a view: its camera, with the image size from `size` (called with the
     /// frame's `file_path`) where the file states none.
     pub fn views(
