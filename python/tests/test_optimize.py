@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import translucent as tl
@@ -43,6 +44,13 @@ def test_optimize_equals_the_cli(tmp_path, dataset, cli):
     assert "status" in str(res)
     csv = (tmp_path / "py" / "iterations.csv").read_text().splitlines()
     assert len(csv) == 7
+    # The run's Mitsuba 3 scene reads back as the dataset's rig made of the estimate.
+    back = tl.mitsuba.load_scene(tmp_path / "py" / "mitsuba" / "scene.xml")
+    assert len(back) == 4 and back.images == [None] * 4
+    assert np.allclose(back.to_world, dataset.to_world, atol=1e-5)
+    assert np.allclose(back.light_positions, dataset.light_positions, atol=1e-5)
+    assert back.truth.sigma_t == pytest.approx(res.estimate["sigma_t"], rel=1e-5)
+    assert back.truth.albedo == pytest.approx(res.estimate["albedo"], rel=1e-5)
 
 
 def test_the_callback_sees_every_iteration_and_stops_the_run(tmp_path, dataset):
