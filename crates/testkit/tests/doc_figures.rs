@@ -33,6 +33,10 @@ const FIGURES: &[(&str, &str, &str)] = &[
     ("median σ_t error 1.9 %", ROBUSTNESS, "1.9 %"),
     ("2 of 48 runs `failed`", ROBUSTNESS, "2 of 48"),
     ("(σ_t: 86 of 92", ROBUSTNESS, "86 of 92"),
+    // The Python package against the binary.
+    ("`render` 0.93×", PYTHON, "0.93"),
+    ("`optimize` 0.95×", PYTHON, "0.95"),
+    ("fresh clone 5 min 31 s", PYTHON, "5 min 31 s"),
     // The volumetric baseline.
     ("σ_t determined in 30 of 72 pairs", VOLUMETRIC, "30 of 72"),
     ("30 of 72 pairs, median error 0.6 %", VOLUMETRIC, "0.6 %"),
@@ -88,6 +92,7 @@ const DIPOLE: &str = "### The planar dipole baseline on the suite (`--model dipo
 const AGREEMENT: &str = "### Agreement with Mitsuba 3 (`validate-mitsuba`)";
 const TRACER_SPEED: &str = "### Speed against Mitsuba 3";
 const NOISE: &str = "## Learned BSSRDF on coloured media: pixel sampling (`translucent-dev noise`)";
+const PYTHON: &str = "## Python";
 
 fn read(name: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
