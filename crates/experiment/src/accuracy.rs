@@ -48,8 +48,13 @@ pub fn accuracy(a: &AccuracyConfig, obs: &dyn Observer) -> Result<Vec<Row>> {
         .shapes
         .iter()
         .map(|s| {
-            Ok(ShapeSpec::parse_compact(s, &Setting::Shapes.to_string())?
-                .to_shape(&Setting::Shapes.to_string())?)
+            let shape = ShapeSpec::parse_compact(s, &Setting::Shapes.to_string())?
+                .to_shape(&Setting::Shapes.to_string())?;
+            Ok(if a.coarse_meshes {
+                shape.coarse()
+            } else {
+                shape
+            })
         })
         .collect::<Result<_>>()?;
     // The cases: every shape × medium, named `<shape>-m<k>`.

@@ -60,8 +60,9 @@ impl Default for GradientsConfig {
 /// The estimators compared with the differences.
 const METHODS: [Estimator; 2] = [Estimator::Ours, Estimator::Naive];
 
-/// The scenes: a cone (the paper's Fig. 3) and a blob, with a medium of the paper's ranges.
-fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
+/// The scenes: a cone (the paper's Fig. 3) and a blob, with a medium of the paper's ranges; at a
+/// smoke test's resolution ([`Shape::coarse`]) with `quick`.
+fn scenes(quick: bool) -> Result<[(&'static str, Shape, Medium); 2]> {
     let medium = Medium {
         sigma_t: [60.0, 80.0, 100.0],
         albedo: [0.95, 0.9, 0.85],
@@ -69,9 +70,13 @@ fn scenes() -> Result<[(&'static str, Shape, Medium); 2]> {
         eta: 1.0,
         roughness: 0.0,
     };
+    let mesh = |name: &str| -> Result<Shape> {
+        let shape = Shape::from_name(name)?;
+        Ok(if quick { shape.coarse() } else { shape })
+    };
     Ok([
-        ("cone", Shape::from_name("cone")?, medium),
-        ("blob", Shape::from_name("blob")?, medium),
+        ("cone", mesh("cone")?, medium),
+        ("blob", mesh("blob")?, medium),
     ])
 }
 
@@ -97,7 +102,7 @@ fn stamp(out: &Path, settings: &str) -> Result<()> {
 
 pub fn run(a: &GradientsConfig, obs: &dyn Observer) -> Result<()> {
     let (res, spp) = if a.quick { (32, 4) } else { (a.res, a.spp) };
-    let scenes = scenes()?;
+    let scenes = scenes(a.quick)?;
     let cases: Vec<String> = scenes.iter().map(|(n, ..)| n.to_string()).collect();
     if a.jobs.listed(&cases, obs)? {
         return Ok(());

@@ -69,6 +69,7 @@ pub fn run(a: &InitsConfig, obs: &dyn Observer) -> Result<()> {
     acc.bc = BiasCorrection::off();
     if a.quick {
         (acc.views, acc.res, acc.target_spp, acc.inits) = (4, 32, 4, 3);
+        acc.coarse_meshes = true;
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();

@@ -100,28 +100,45 @@ pub fn run(cmd: &Experiment, obs: &dyn Observer) -> Result<()> {
     }
 }
 
-/// The blob dataset of the single-dataset experiments in `dir`: `views` views of `res`² on the
-/// paper's rig (one fixed light), `medium`, targets by the volumetric path tracer at `spp`
+/// The size of a single-dataset experiment's targets: `views` views of `res`² at `spp`, of the
+/// blob at a smoke test's resolution ([`geometry::Shape::coarse`]) with `quick`.
+#[derive(Clone, Copy, Debug)]
+pub struct Targets {
+    pub views: usize,
+    pub res: u32,
+    pub spp: u32,
+    pub quick: bool,
+}
+
+/// The blob dataset of the single-dataset experiments in `dir`: `t.views` views of `t.res`² on
+/// the paper's rig (one fixed light), `medium`, targets by the volumetric path tracer at `t.spp`
 /// (depth 32, seed `seed`); rendered unless `dir` holds it already.
 pub fn blob_dataset(
     dir: &Path,
-    views: usize,
-    res: u32,
+    t: Targets,
     medium: Medium,
-    spp: u32,
     seed: u64,
     obs: &dyn Observer,
 ) -> Result<Dataset> {
     if dir.join("dataset.json").exists() {
         return Ok(Dataset::load(dir)?);
     }
+    let Targets {
+        views,
+        res,
+        spp,
+        quick,
+    } = t;
     obs.say(&format!(
-        "dataset: blob, {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}",
-        medium.sigma_t, medium.albedo
+        "dataset: blob{}, {views} views {res}² at {spp} spp, σ_t = {:.1?}, α = {:.3?}",
+        if quick { " (coarse mesh)" } else { "" },
+        medium.sigma_t,
+        medium.albedo
     ));
+    let blob = geometry::Shape::from_name("blob")?;
     Ok(make_dataset(
         &paper_rig(views, res),
-        MeshSource::Shape(geometry::Shape::from_name("blob")?),
+        MeshSource::Shape(if quick { blob.coarse() } else { blob }),
         medium,
         RenderOpts {
             spp,

@@ -90,6 +90,7 @@ pub fn run(a: &PlanarConfig, obs: &dyn Observer) -> Result<()> {
     acc.bc = BiasCorrection::off();
     if a.quick {
         (acc.views, acc.res, acc.target_spp, acc.media) = (4, 32, 4, 1);
+        acc.coarse_meshes = true;
         (acc.budget.iterations, acc.budget.spp) = (6, 2);
     }
     acc.jobs = a.jobs.clone();

@@ -146,7 +146,13 @@ pub fn run(a: &PrbConfig, obs: &dyn Observer) -> Result<()> {
     let data = a.out.join("data");
     let truth = random_medium(a.seed);
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, truth, target_spp, a.seed, obs)
+        let t = super::Targets {
+            views,
+            res,
+            spp: target_spp,
+            quick: a.quick,
+        };
+        super::blob_dataset(&data, t, truth, a.seed, obs)
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();

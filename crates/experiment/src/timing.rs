@@ -112,15 +112,13 @@ pub fn run(a: &TimingConfig, obs: &dyn Observer) -> Result<()> {
     }
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
-    let ds = super::blob_dataset(
-        &data,
+    let targets = super::Targets {
         views,
         res,
-        random_medium(a.seed),
-        target_spp,
-        a.seed,
-        obs,
-    )?;
+        spp: target_spp,
+        quick: a.quick,
+    };
+    let ds = super::blob_dataset(&data, targets, random_medium(a.seed), a.seed, obs)?;
     if ds.views.first().map(|v| v.camera.width) != Some(res) {
         bail!(
             "{} holds a dataset of another resolution; use another {}",

@@ -92,7 +92,13 @@ pub fn run(a: &VolumetricConfig, obs: &dyn Observer) -> Result<()> {
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     a.jobs.shared_input(&a.out, "data", || {
-        super::blob_dataset(&data, views, res, TRUTH, target_spp, a.seed, obs)
+        let t = super::Targets {
+            views,
+            res,
+            spp: target_spp,
+            quick: a.quick,
+        };
+        super::blob_dataset(&data, t, TRUTH, a.seed, obs)
     })?;
     let mut missing = Vec::new();
     let mut curves = Vec::new();

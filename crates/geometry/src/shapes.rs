@@ -33,6 +33,10 @@ use crate::{GeometryError, Mesh};
 pub const MAX_SUBDIVISIONS: u32 = 8;
 /// Largest `segments` accepted (a 4096 × 2048 torus has 16.8 M triangles).
 pub const MAX_SEGMENTS: u32 = 4096;
+/// Icosphere subdivisions of [`Shape::coarse`].
+pub const COARSE_SUBDIVISIONS: u32 = 4;
+/// Segments of [`Shape::coarse`].
+pub const COARSE_SEGMENTS: u32 = 32;
 /// Largest number of blob bumps accepted.
 pub const MAX_BUMPS: u32 = 4096;
 
@@ -229,6 +233,23 @@ impl Shape {
                 *radius *= s;
             }
             Shape::Blob { radius, .. } => *radius *= s,
+        }
+        out
+    }
+
+    /// The same shape at a smoke test's resolution: icosphere subdivisions at most
+    /// [`COARSE_SUBDIVISIONS`], segments at most [`COARSE_SEGMENTS`] (sizes unchanged). The blob's
+    /// 6 subdivisions (40 962 vertices) become 4 (2 562), the torus's 128 × 64 segments 32 × 16:
+    /// the per-vertex work of the learned renderer (its shape descriptors) falls with them.
+    pub fn coarse(&self) -> Shape {
+        let mut out = self.clone();
+        match &mut out {
+            Shape::Sphere { subdivisions, .. } | Shape::Blob { subdivisions, .. } => {
+                *subdivisions = (*subdivisions).min(COARSE_SUBDIVISIONS)
+            }
+            Shape::Cone { segments, .. }
+            | Shape::Torus { segments, .. }
+            | Shape::RoundedBox { segments, .. } => *segments = (*segments).min(COARSE_SEGMENTS),
         }
         out
     }

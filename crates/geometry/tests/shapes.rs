@@ -413,6 +413,32 @@ fn scaled_scales_lengths() {
     );
 }
 
+/// The coarse shape keeps its name and size, stays watertight and outward, and has at most a
+/// quarter of the default's triangles (the smoke tests' meshes); a shape already that coarse
+/// (the rounded box's 32 segments) keeps its resolution.
+#[test]
+fn coarse_keeps_the_shape_at_a_quarter_of_the_triangles() {
+    for name in Shape::NAMES {
+        let shape = Shape::from_name(name).unwrap();
+        let full = shape.build().unwrap();
+        assert_eq!(shape.coarse().name(), name);
+        let coarse = check_shape_with(&shape.coarse(), 0.3, true);
+        assert!(
+            4 * coarse.triangle_count() <= full.triangle_count() || shape.coarse() == shape,
+            "{name}: {} of {} triangles",
+            coarse.triangle_count(),
+            full.triangle_count()
+        );
+        let (v1, v2) = (full.signed_volume(), coarse.signed_volume());
+        assert!(rel(v2, v1) < 0.05, "{name}: volume {v2} against {v1}");
+    }
+    let tiny = Shape::Sphere {
+        radius: 0.5,
+        subdivisions: 2,
+    };
+    assert_eq!(tiny.coarse(), tiny);
+}
+
 fn expect_param_error(shape: Shape, expected_param: &str) {
     match shape.build() {
         Err(GeometryError::ShapeParam {

@@ -324,7 +324,7 @@ impl CurvatureTable {
 
     /// The table for an index-matched medium of phase g: the shipped one at g = 0, otherwise
     /// simulated once per process ([`RUNTIME_COLLISIONS`] collisions per batch, seed 0) and
-    /// kept.
+    /// kept (and on disk for the next process, [`crate::disk`]).
     pub fn for_medium(g: f32) -> std::sync::Arc<CurvatureTable> {
         static CACHE: MediumCache<CurvatureTable> = std::sync::Mutex::new(Vec::new());
         let shipped = Self::index_matched_isotropic();
@@ -335,11 +335,15 @@ impl CurvatureTable {
         if let Some(t) = cache.iter().find(|t| t.settings.g == g) {
             return t.clone();
         }
-        let t = std::sync::Arc::new(Self::generate(CurvatureSettings {
+        let settings = CurvatureSettings {
             g,
             collisions: RUNTIME_COLLISIONS,
             seed: 0,
-        }));
+        };
+        let t = std::sync::Arc::new(crate::disk::load_or_simulate::<CurvatureTable>(
+            crate::disk::folder().as_deref(),
+            settings,
+        ));
         cache.push(t.clone());
         t
     }

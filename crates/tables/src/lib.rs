@@ -12,6 +12,7 @@
 //! its renderer, which re-export them (`bssrdf::exit`, …).
 
 pub mod curvature;
+pub mod disk;
 pub mod exit;
 pub mod incidence;
 pub mod table;

@@ -144,7 +144,7 @@ pub(crate) fn shipped<T: TableFile>(
 
 /// A table simulated by half-space walks with [`ExitTableSettings`] (the exit and incidence
 /// tables), so that [`for_medium`] can make and look up the table of any medium.
-pub(crate) trait WalkTable: Sized {
+pub(crate) trait WalkTable: TableFile + serde::Serialize {
     /// The settings the table was made with.
     fn settings(&self) -> &ExitTableSettings;
     /// Simulate the table.
@@ -152,7 +152,8 @@ pub(crate) trait WalkTable: Sized {
 }
 
 /// The table of a medium `(g, η, roughness)`: `shipped` when its own match, else one simulated
-/// with `walks` walks per row (seed 0) once per process and kept in `cache`.
+/// with `walks` walks per row (seed 0) once per process and kept in `cache` (and on disk for
+/// the next process, [`crate::disk`]).
 pub(crate) fn for_medium<T: WalkTable>(
     cache: &MediumCache<T>,
     shipped: std::sync::Arc<T>,
@@ -167,13 +168,17 @@ pub(crate) fn for_medium<T: WalkTable>(
     if let Some(t) = cache.iter().find(|t| key(t) == (g, eta, roughness)) {
         return t.clone();
     }
-    let t = std::sync::Arc::new(T::simulate(ExitTableSettings {
+    let settings = ExitTableSettings {
         g,
         eta,
         roughness,
         walks,
         seed: 0,
-    }));
+    };
+    let t = std::sync::Arc::new(crate::disk::load_or_simulate::<T>(
+        crate::disk::folder().as_deref(),
+        settings,
+    ));
     cache.push(t.clone());
     t
 }

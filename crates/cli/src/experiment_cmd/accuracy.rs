@@ -32,6 +32,10 @@ pub struct AccuracyArgs {
     /// `blob:amplitude=0.05`; its cases are named `blob-amplitude-0.05-m0`, …).
     #[arg(long, default_value = AccuracyConfig::default().shapes.join(","), value_delimiter = ',')]
     pub shapes: Vec<String>,
+    /// The shapes at a smoke test's resolution (icosphere subdivisions at most 4, at most 32
+    /// segments): a quick check of the pipeline, not a measurement.
+    #[arg(long)]
+    pub coarse_meshes: bool,
     /// Hidden media per shape, drawn from the paper's ranges.
     #[arg(long, default_value_t = AccuracyConfig::default().media)]
     pub media: u64,
@@ -79,6 +83,7 @@ impl AccuracyArgs {
         AccuracyConfig {
             out: self.out.to_path_buf(),
             shapes: self.shapes.clone(),
+            coarse_meshes: self.coarse_meshes,
             media: self.media,
             views: *self.views,
             res: *self.res,

@@ -289,6 +289,7 @@ fn tiny_accuracy_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
         "exp",
         "--shapes",
         "sphere",
+        "--coarse-meshes",
         "--media",
         "1",
         "--views",

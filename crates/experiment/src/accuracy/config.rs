@@ -16,6 +16,8 @@ pub struct AccuracyConfig {
     /// scene file's `shape` table, e.g. `blob:amplitude=0.05`; its cases are named
     /// `blob-amplitude-0.05-m0`, …).
     pub shapes: Vec<String>,
+    /// The shapes at a smoke test's resolution ([`geometry::Shape::coarse`]).
+    pub coarse_meshes: bool,
     /// Hidden media per shape, drawn from the paper's ranges.
     pub media: u64,
     /// Views per dataset.
@@ -50,6 +52,7 @@ impl Default for AccuracyConfig {
         AccuracyConfig {
             out: PathBuf::from("out/experiment-accuracy"),
             shapes: ["blob", "torus", "cone"].map(String::from).to_vec(),
+            coarse_meshes: false,
             media: 2,
             views: 40,
             res: 256,

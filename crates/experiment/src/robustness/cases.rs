@@ -254,17 +254,19 @@ pub(super) fn rig(case: &Case, views: usize, res: u32) -> Rig {
     }
 }
 
-/// The mesh of `case` at radius 0.5·scale: a built-in shape, or the mesh file centred on its
-/// bounding box and scaled to its bounding radius, written into `dir`. With `as_file`, a
-/// built-in shape is written into `dir` too (for renderers that read only mesh files).
+/// The mesh of `case` at radius 0.5·scale: a built-in shape (at a smoke test's resolution with
+/// `coarse`, [`geometry::Shape::coarse`]), or the mesh file centred on its bounding box and
+/// scaled to its bounding radius, written into `dir`. With `as_file`, a built-in shape is
+/// written into `dir` too (for renderers that read only mesh files).
 pub(super) fn mesh_source(
     case: &Case,
     mesh_file: &Path,
     dir: &Path,
-    as_file: bool,
+    (as_file, coarse): (bool, bool),
 ) -> Result<MeshSource> {
     let mesh = if case.shape != "spot" {
         let shape = geometry::Shape::from_name(case.shape)?.scaled(case.scale);
+        let shape = if coarse { shape.coarse() } else { shape };
         if !as_file {
             return Ok(MeshSource::Shape(shape));
         }

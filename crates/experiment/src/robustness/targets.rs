@@ -56,7 +56,7 @@ pub(crate) fn ensure_dataset(
     let mesh_dir = std::path::PathBuf::from(mesh_dir);
     match targets {
         Targets::Volpath => {
-            let mesh = mesh_source(case, &a.mesh, &mesh_dir, false)?;
+            let mesh = mesh_source(case, &a.mesh, &mesh_dir, (false, a.quick))?;
             make_dataset(
                 &rig(case, views, res),
                 mesh,
@@ -73,7 +73,7 @@ pub(crate) fn ensure_dataset(
             )?;
         }
         Targets::Mitsuba => {
-            let mesh = mesh_source(case, &a.mesh, &mesh_dir, true)?;
+            let mesh = mesh_source(case, &a.mesh, &mesh_dir, (true, a.quick))?;
             render_with_mitsuba(a, case, mesh, (views, res, spp), a.seed + rep, dir)?;
         }
     }
