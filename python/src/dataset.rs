@@ -184,6 +184,7 @@ impl PyDataset {
             views: Vec::new(),
             render: Default::default(),
             path: PathBuf::new(),
+            length_unit: None,
         });
         ds.views = views;
         ds.object = Some(object);

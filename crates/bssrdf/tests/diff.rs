@@ -23,6 +23,8 @@ use common::{layer, slab};
 use geometry::{Accel, Shape, Vec3};
 use scene::{Camera, Image, Medium, PointLight};
 
+mod boundary;
+
 /// Random feature and absorption MLPs; a decoder of z only with outputs of order one (samples
 /// spread over about σ_n).
 fn model() -> ShapeAdaptiveModel {

@@ -12,7 +12,7 @@ pub mod robustness;
 
 /// `--quick`'s help in the suites' commands (robustness, capture errors), whose quick scale is
 /// `RobustnessConfig::workload`'s.
-const SUITE_QUICK_HELP: &str = "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations): a smoke test of the pipeline, not a measurement";
+const SUITE_QUICK_HELP: &str = "A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations, coarse meshes): a smoke test of the pipeline, not a measurement";
 
 /// The `--help` heading of the scheduler options.
 const JOB_OPTIONS: &str = "Running the cases as separate jobs (a cluster's scheduler)";

@@ -69,6 +69,7 @@ fn sphere_dataset(dir: &Path, name: &str) -> (SceneDesc, PathBuf) {
         views: rig.build(),
         render: RenderInfo::default(),
         path: out.join("dataset.json"),
+        length_unit: None,
     };
     let opts = RenderOpts {
         spp: 4,

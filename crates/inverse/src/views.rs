@@ -245,6 +245,7 @@ pub fn make_dataset(
         views: rig.build(),
         render: RenderInfo::default(),
         path: out.join("dataset.json"),
+        length_unit: None,
     };
     let pb = obs.progress(total_rows(&desc.views), "volpath");
     let ds = render_dataset(desc, opts, out, overwrite, &pb)?;

@@ -57,6 +57,7 @@ fn dielectric_dataset(dir: &std::path::Path, medium: Medium) {
         views,
         render: RenderInfo::default(),
         path: dir.join("dataset.json"),
+        length_unit: None,
     };
     let opts = RenderOpts {
         spp: 64,

@@ -37,6 +37,7 @@ fn tiny_dataset(dir: &std::path::Path) {
         views,
         render: RenderInfo::default(),
         path: dir.join("dataset.json"),
+        length_unit: None,
     };
     let opts = RenderOpts {
         spp: 4,

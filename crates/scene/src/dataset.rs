@@ -149,11 +149,12 @@ impl Dataset {
             truth: Some(scene.medium),
             render: scene.render.clone(),
             metadata: DatasetMetadata {
-                units: Some(UNITS_NOTE.into()),
+                // With a stated unit, the written note names it (`save`).
+                units: scene.length_unit.is_none().then(|| UNITS_NOTE.into()),
                 conventions: Some(CONVENTIONS_NOTE.into()),
                 generator: Some(format!("translucent {}", env!("CARGO_PKG_VERSION"))),
                 notes: None,
-                length_unit: None,
+                length_unit: scene.length_unit,
             },
             root: PathBuf::new(),
             kind: DatasetKind::Native,
@@ -173,6 +174,7 @@ impl Dataset {
                 DatasetKind::MitsubaReference => REFERENCE_FILE,
                 DatasetKind::MitsubaScene => MITSUBA_SCENE_FILE,
             }),
+            length_unit: self.metadata.length_unit,
         }
     }
 

@@ -203,6 +203,7 @@ impl Parts {
                 .collect(),
             render,
             path: path.to_path_buf(),
+            length_unit: None,
         })
     }
 }

@@ -4,3 +4,4 @@
 
 mod pixel_bins;
 mod properties;
+mod scene_units;

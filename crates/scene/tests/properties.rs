@@ -139,6 +139,7 @@ proptest! {
                 .collect(),
             render: RenderInfo { spp: Some(spp), max_depth: Some(64), seed: Some(seed), renderer: Some("test".into()) },
             path: Default::default(),
+            length_unit: None,
         };
         let mut ds = Dataset::from_scene(&desc);
         for (k, v) in ds.views.iter_mut().enumerate() {

@@ -117,7 +117,7 @@ impl AccuracyArgs {
 #[command(mut_arg(
     "quick",
     cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement"
+        "A smoke test in seconds (4 views of 32², 6 iterations, 3 starts, coarse meshes): not a measurement"
     )
 ))]
 pub struct InitsArgs {
@@ -169,7 +169,7 @@ impl InitsArgs {
 #[command(mut_arg(
     "quick",
     cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement"
+        "A smoke test in seconds (4 views of 32², 6 iterations, one medium, coarse meshes): not a measurement"
     )
 ))]
 pub struct PlanarArgs {

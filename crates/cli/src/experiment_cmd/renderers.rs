@@ -31,7 +31,9 @@ use experiment::volumetric::VolumetricConfig;
 ))]
 #[command(mut_arg(
     "quick",
-    cmdline::groups::help("A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement")
+    cmdline::groups::help(
+        "A smoke test in seconds (32², 4 spp, 3 iterations, coarse meshes): not a measurement"
+    )
 ))]
 pub struct TimingArgs {
     #[command(flatten)]
@@ -87,7 +89,9 @@ impl TimingArgs {
 ))]
 #[command(mut_arg(
     "quick",
-    cmdline::groups::help("A smoke test in seconds (32², 4 spp): not a measurement")
+    cmdline::groups::help(
+        "A smoke test in seconds (32², 4 spp, coarse meshes): not a measurement"
+    )
 ))]
 pub struct GradientsArgs {
     #[command(flatten)]
@@ -130,7 +134,7 @@ impl GradientsArgs {
 #[command(mut_arg(
     "quick",
     cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement"
+        "A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp, coarse meshes): not a measurement"
     )
 ))]
 pub struct VolumetricArgs {
@@ -175,7 +179,7 @@ impl VolumetricArgs {
 #[command(mut_arg(
     "quick",
     cmdline::groups::help(
-        "A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement"
+        "A smoke test in seconds (4 views of 32², 6 iterations, 2 spp, coarse meshes): not a measurement"
     )
 ))]
 pub struct PrbArgs {

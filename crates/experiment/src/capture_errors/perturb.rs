@@ -341,6 +341,7 @@ mod tests {
             views: scene::rig::paper_rig(4, 8).build(),
             render: Default::default(),
             path: "dataset.json".into(),
+            length_unit: None,
         };
         let mut ds = Dataset::from_scene(&desc);
         for v in &mut ds.views {

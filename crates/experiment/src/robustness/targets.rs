@@ -107,6 +107,7 @@ fn render_with_mitsuba(
                 ..Default::default()
             },
             path: layout.join("dataset.json"),
+            length_unit: None,
         };
         let mut ds = Dataset::from_scene(&desc);
         for v in &mut ds.views {

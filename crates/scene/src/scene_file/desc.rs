@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::measured::LengthUnit;
 use crate::{Camera, Medium, PointLight, SceneError};
 
 /// Where the mesh comes from.
@@ -114,4 +115,7 @@ pub struct SceneDesc {
     pub render: RenderInfo,
     /// The file this scene was read from.
     pub path: PathBuf,
+    /// What one unit of the scene's lengths is, when the file states it (`length_unit`): σ_t is
+    /// then in 1/that unit, and a dataset made from the scene carries it.
+    pub length_unit: Option<LengthUnit>,
 }

@@ -9,8 +9,9 @@ use serde::Deserialize;
 
 use super::desc::{MeshSource, RenderInfo, SceneDesc, ViewDesc};
 use super::spec::{MediumSpec, Rgb, ShapeSpec};
+use crate::measured::{LengthUnit, MeasuredMedium};
 use crate::rig::{Rig, RigLight, check_intensity};
-use crate::{Camera, PointLight, SceneError};
+use crate::{Camera, Medium, PointLight, SceneError};
 
 /// Resolve `mesh` against `base_dir` and check that the file exists.
 pub(crate) fn resolve_mesh_path(
@@ -138,12 +139,101 @@ pub(crate) fn look_at_checked(
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawScene {
+    length_unit: Option<LengthUnit>,
     mesh: Option<PathBuf>,
     shape: Option<ShapeSpec>,
-    medium: MediumSpec,
+    medium: RawMedium,
     views: Option<Vec<RawView>>,
     rig: Option<RawRig>,
     render: Option<RenderInfo>,
+}
+
+/// The scene's `[medium]` as written: σ_t and α, or a measured medium by name (`measured`, in
+/// the scene's `length_unit`), and the object's g, η and boundary roughness.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMedium {
+    measured: Option<String>,
+    sigma_t: Option<Rgb>,
+    albedo: Option<Rgb>,
+    #[serde(default)]
+    g: f32,
+    #[serde(default = "crate::medium::one")]
+    eta: f32,
+    #[serde(default)]
+    roughness: f32,
+}
+
+impl RawMedium {
+    /// The validated medium; `file` names the scene file, `unit` is its `length_unit`.
+    fn medium(self, file: &str, unit: Option<LengthUnit>) -> Result<Medium, SceneError> {
+        let inv = |field: &str, reason: String| SceneError::Invalid {
+            location: format!("{file}: medium.{field}"),
+            reason,
+        };
+        let (sigma_t, albedo) = match (&self.measured, self.sigma_t, self.albedo) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                return Err(inv(
+                    "measured",
+                    "a measured medium gives σ_t and α itself; fix: remove sigma_t and albedo, \
+                     or remove measured"
+                        .into(),
+                ));
+            }
+            (Some(name), None, None) => {
+                let m = MeasuredMedium::find(name).map_err(|e| match e {
+                    SceneError::Invalid { reason, .. } => {
+                        let shown: String = name.chars().take(40).collect();
+                        let more = if shown.len() < name.len() { "…" } else { "" };
+                        inv("measured", format!("= {shown:?}{more}: {reason}"))
+                    }
+                    e => e,
+                })?;
+                let Some(unit) = unit else {
+                    return Err(SceneError::Invalid {
+                        location: format!("{file}: length_unit"),
+                        reason: format!(
+                            "missing: the measured medium {:?} is known in 1/mm, so the scene \
+                             must say what one of its units is; fix: add length_unit = \"mm\" \
+                             (or \"cm\", \"m\") at the top of the file",
+                            m.name
+                        ),
+                    });
+                };
+                if !(self.g.is_finite() && self.g.abs() < 1.0) {
+                    return Err(inv(
+                        "g",
+                        format!("= {} must be in (−1, 1); fix: e.g. g = 0", self.g),
+                    ));
+                }
+                let (sigma_t, albedo) = m.medium(self.g as f64, unit);
+                (Rgb(sigma_t), Rgb(albedo))
+            }
+            (None, Some(sigma_t), Some(albedo)) => (sigma_t, albedo),
+            (None, sigma_t, _) => {
+                let field = if sigma_t.is_none() {
+                    "sigma_t"
+                } else {
+                    "albedo"
+                };
+                return Err(inv(
+                    field,
+                    "missing; fix: add sigma_t (extinction in 1/scene unit) and albedo, three \
+                     numbers or one each, or name a measured medium with measured = \"marble\" \
+                     (and length_unit)"
+                        .into(),
+                ));
+            }
+        };
+        MediumSpec {
+            sigma_t,
+            albedo,
+            g: self.g,
+            eta: self.eta,
+            roughness: self.roughness,
+        }
+        .to_medium(&format!("{file}: medium"))
+    }
 }
 
 #[derive(Deserialize)]
@@ -234,7 +324,7 @@ impl RawScene {
             )?),
             (None, Some(s)) => MeshSource::Shape(s.to_shape(&format!("{file}: shape"))?),
         };
-        let medium = self.medium.to_medium(&format!("{file}: medium"))?;
+        let medium = self.medium.medium(&file, self.length_unit)?;
         let views = match (self.views, self.rig) {
             (Some(_), Some(_)) => {
                 return Err(inv(
@@ -259,6 +349,7 @@ impl RawScene {
             views,
             render,
             path: path.to_path_buf(),
+            length_unit: self.length_unit,
         })
     }
 }

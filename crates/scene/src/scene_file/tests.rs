@@ -520,7 +520,7 @@ fn scene_md_examples_parse() {
     std::fs::write(dir.path().join("bunny.ply"), b"ply\n").unwrap();
     let tomls = code_blocks(md, "toml");
     let jsons = code_blocks(md, "json");
-    assert_eq!((tomls.len(), jsons.len()), (2, 1));
+    assert_eq!((tomls.len(), jsons.len()), (3, 1));
     let a = SceneDesc::parse(&tomls[1], &dir.path().join("s.toml")).unwrap();
     let b = SceneDesc::parse(&jsons[0], &dir.path().join("s.json")).unwrap();
     assert_eq!(
@@ -529,6 +529,14 @@ fn scene_md_examples_parse() {
     );
     assert_eq!(a.medium.sigma_t, [60.0; 3]);
     SceneDesc::parse(&tomls[0], &dir.path().join("e.toml")).unwrap();
+    // The measured medium's fragment, with a view added.
+    let marble = format!(
+        "{}\n[[views]]\ncamera = {{ origin = [0, 0, 60], target = [0, 0, 0], width = 8, height = 8 }}\nlight = {{ position = [0, 0, 60], intensity = 1 }}\n",
+        tomls[2]
+    );
+    let m = SceneDesc::parse(&marble, &dir.path().join("m.toml")).unwrap();
+    assert_eq!(m.length_unit, Some(crate::measured::LengthUnit::Mm));
+    assert!(m.medium.sigma_t.iter().all(|s| (1.0..10.0).contains(s)));
 }
 
 #[test]
