@@ -61,7 +61,8 @@ pub struct CaptureErrorsConfig {
     pub mesh_error: Option<f64>,
     /// The mesh file of the suite's third shape.
     pub mesh: PathBuf,
-    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
+    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations,
+    /// coarse meshes):
     /// a smoke test of the pipeline, not a measurement.
     pub quick: bool,
     /// Seed of the media, renders, perturbations and runs.

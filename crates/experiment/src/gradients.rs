@@ -39,7 +39,7 @@ pub struct GradientsConfig {
     pub spp: u32,
     /// Seed of the renders.
     pub seed: u64,
-    /// A smoke test in seconds (32², 4 spp): not a measurement.
+    /// A smoke test in seconds (32², 4 spp, coarse meshes): not a measurement.
     pub quick: bool,
     pub jobs: super::jobs::Jobs,
 }

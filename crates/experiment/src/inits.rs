@@ -30,7 +30,7 @@ pub struct InitsConfig {
     pub budget: Budget,
     /// Seed of the medium, the renders, the starts and the runs.
     pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 3 starts): not a measurement.
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 3 starts, coarse meshes): not a measurement.
     pub quick: bool,
     pub jobs: super::jobs::Jobs,
 }

@@ -218,14 +218,21 @@ pub fn run_prb(
         .context("PRB's result.json has no seconds_per_iteration")
 }
 
-/// The workload of the single-dataset experiments (views, resolution, target spp, iterations,
-/// spp): the paper's (40 views of 256², targets at 128 spp, `iterations` × 32 spp), or the
-/// smoke test's with `quick` (4 views of 32², 4 spp, 6 iterations × 2 spp).
-pub fn workload(quick: bool, iterations: u32) -> (usize, u32, u32, u32, u32) {
+/// The workload of the single-dataset experiments (targets, iterations, spp): the paper's (40
+/// views of 256², targets at 128 spp, `iterations` × 32 spp), or the smoke test's with `quick`
+/// (4 views of 32² of the coarse blob, 4 spp, 6 iterations × 2 spp).
+pub fn workload(quick: bool, iterations: u32) -> (Targets, u32, u32) {
+    let (views, res, spp) = if quick { (4, 32, 4) } else { (40, 256, 128) };
+    let targets = Targets {
+        views,
+        res,
+        spp,
+        quick,
+    };
     if quick {
-        (4, 32, 4, 6, 2)
+        (targets, 6, 2)
     } else {
-        (40, 256, 128, iterations, 32)
+        (targets, iterations, 32)
     }
 }
 

@@ -49,7 +49,7 @@ pub struct PlanarConfig {
     pub budget: Budget,
     /// Seed of the media, the renders and the runs.
     pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, one medium): not a measurement.
+    /// A smoke test in seconds (4 views of 32², 6 iterations, one medium, coarse meshes): not a measurement.
     pub quick: bool,
     /// Samples per pixel of the re-renders of the first view (truth and each estimate, by the
     /// volumetric path tracer; module docs).

@@ -32,7 +32,7 @@ pub struct PrbConfig {
     pub seed: u64,
     /// A Python with Mitsuba 3: adds the PRB run.
     pub mitsuba_python: Option<PathBuf>,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp): not a measurement.
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 spp, coarse meshes): not a measurement.
     pub quick: bool,
     pub jobs: super::jobs::Jobs,
 }
@@ -134,7 +134,8 @@ fn figure(
 }
 
 pub fn run(a: &PrbConfig, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (targets, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (views, res) = (targets.views, targets.res);
     let mut cases = vec!["ours".to_string(), "volumetric".to_string()];
     if a.mitsuba_python.is_some() {
         cases.push("mitsuba-prb".into());
@@ -146,13 +147,7 @@ pub fn run(a: &PrbConfig, obs: &dyn Observer) -> Result<()> {
     let data = a.out.join("data");
     let truth = random_medium(a.seed);
     a.jobs.shared_input(&a.out, "data", || {
-        let t = super::Targets {
-            views,
-            res,
-            spp: target_spp,
-            quick: a.quick,
-        };
-        super::blob_dataset(&data, t, truth, a.seed, obs)
+        super::blob_dataset(&data, targets, truth, a.seed, obs)
     })?;
     let mut runs: Vec<(String, Vec<Step>)> = Vec::new();
     let mut missing = Vec::new();

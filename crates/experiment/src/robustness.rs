@@ -98,7 +98,8 @@ pub struct RobustnessConfig {
     pub cases: Option<Vec<String>>,
     /// The mesh file of the third shape.
     pub mesh: PathBuf,
-    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations):
+    /// A small scale that finishes in seconds (6 views of 24², 8 spp targets, 12 iterations,
+    /// coarse meshes):
     /// a smoke test of the pipeline, not a measurement.
     pub quick: bool,
     /// Seed of the media (renders and runs use seed + repetition).

@@ -36,7 +36,7 @@ pub struct TimingConfig {
     pub seed: u64,
     /// A Python with Mitsuba 3: adds the PRB row.
     pub mitsuba_python: Option<PathBuf>,
-    /// A smoke test in seconds (32², 4 spp, 3 iterations): not a measurement.
+    /// A smoke test in seconds (32², 4 spp, 3 iterations, coarse meshes): not a measurement.
     pub quick: bool,
     /// All rows are one case (`timing`): their times compare only when measured on one machine.
     pub jobs: super::jobs::Jobs,

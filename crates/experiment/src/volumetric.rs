@@ -31,7 +31,7 @@ pub struct VolumetricConfig {
     pub iterations: u32,
     /// Seed of the renders and the runs.
     pub seed: u64,
-    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp): not a measurement.
+    /// A smoke test in seconds (4 views of 32², 6 iterations, 2 and 8 spp, coarse meshes): not a measurement.
     pub quick: bool,
     pub jobs: super::jobs::Jobs,
 }
@@ -83,7 +83,8 @@ const VARIANTS: [Variant; 3] = [
 ];
 
 pub fn run(a: &VolumetricConfig, obs: &dyn Observer) -> Result<()> {
-    let (views, res, target_spp, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (targets, iterations, spp) = super::workload(a.quick, a.iterations);
+    let (views, res) = (targets.views, targets.res);
     let case = |v: &Variant| format!("{}-{}spp", v.name, spp * v.spp_factor);
     let cases: Vec<String> = VARIANTS.iter().map(case).collect();
     if a.jobs.listed(&cases, obs)? {
@@ -92,13 +93,7 @@ pub fn run(a: &VolumetricConfig, obs: &dyn Observer) -> Result<()> {
     let _lock = a.jobs.lock(&a.out)?;
     let data = a.out.join("data");
     a.jobs.shared_input(&a.out, "data", || {
-        let t = super::Targets {
-            views,
-            res,
-            spp: target_spp,
-            quick: a.quick,
-        };
-        super::blob_dataset(&data, t, TRUTH, a.seed, obs)
+        super::blob_dataset(&data, targets, TRUTH, a.seed, obs)
     })?;
     let mut missing = Vec::new();
     let mut curves = Vec::new();
