@@ -274,6 +274,13 @@ impl PyDataset {
         self.folder().map(Path::to_path_buf)
     }
 
+    /// What one unit of the dataset's lengths is ("mm", "cm", "m"; σ_t is in 1/that unit), or
+    /// None where the dataset or scene file does not say.
+    #[getter]
+    fn length_unit(&self) -> Option<&'static str> {
+        self.inner.metadata.length_unit.map(|u| u.name())
+    }
+
     /// Each view's camera-to-world matrix (N, 4, 4): columns x (image left), y (image up),
     /// z (view direction), position (Mitsuba 3's `to_world`).
     #[getter]

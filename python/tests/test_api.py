@@ -89,6 +89,28 @@ def test_dataset_views_as_arrays(scene_file):
     assert ds.images == [None] * 4
     assert ds.truth.sigma_t == (40, 50, 60)
     assert ds.object == {"eta": 1.0, "roughness": 0.0, "g": 0.0}
+    assert ds.length_unit is None
+
+
+def test_a_scene_in_millimetres_names_a_measured_medium(tmp_path, scene_file):
+    """A scene file's `length_unit` and `measured` medium: the marble of the CLI's `dataset
+    --measured marble --units mm`, and the unit saved with the dataset."""
+    text = scene_file.read_text()
+    text = 'length_unit = "mm"\n' + text.replace(
+        "sigma_t = [40.0, 50.0, 60.0]\nalbedo = [0.95, 0.90, 0.85]", 'measured = "marble"'
+    )
+    (tmp_path / "mm.toml").write_text(text)
+    ds = tl.Dataset.from_scene(tmp_path / "mm.toml")
+    assert ds.length_unit == "mm"
+    # Jensen et al.'s marble at g 0: σ_t = σ_s' + σ_a in 1/mm.
+    assert ds.truth.sigma_t == pytest.approx((2.19 + 0.0021, 2.62 + 0.0041, 3.00 + 0.0071), rel=1e-5)
+    r = tl.render(ds, spp=2, seed=0, threads=2)
+    saved = ds.with_images(r.images).save(tmp_path / "mm-dataset")
+    assert tl.Dataset.load(tmp_path / "mm-dataset").length_unit == "mm"
+    with pytest.raises(ValueError, match="length_unit"):
+        (tmp_path / "bad.toml").write_text(text.replace('length_unit = "mm"\n', ""))
+        tl.Dataset.from_scene(tmp_path / "bad.toml")
+    assert saved.length_unit == "mm"
 
 
 def test_render_equals_the_cli_bit_for_bit(tmp_path, scene_file, cli):
