@@ -1,6 +1,6 @@
 //! Tables simulated at run time, kept on disk between processes. A medium other than the shipped
 //! one (g = 0, η = 1) costs a simulation of its exit and incidence tables (and at g ≠ 0 its
-//! curvature table) at the first render of each run: 35 s on 2 cores at η 1.4, 103 s at g 0.3
+//! curvature table) at the first render of each run: 35.6 s on 2 cores at η 1.4, 103 s at g 0.3
 //! behind a rough surface (docs/notes/test-time.md). The same medium in the next run, or in
 //! another process, reads them back instead.
 //!
