@@ -1,6 +1,6 @@
 //! `translucent-dev`: the maintainers' measurements behind BENCHMARKS.md and docs/notes (the
 //! tracer's speed, the learned model's accuracy against the tracer and against random walks,
-//! loss scans, pixel and gradient noise). Users need only `translucent`; these diagnostics are
+//! loss scans, pixel and gradient noise, guided walks). Users need only `translucent`; these diagnostics are
 //! kept apart so that its commands stay the product's.
 
 mod learned;
@@ -9,6 +9,7 @@ mod plane;
 mod scan;
 mod spread;
 mod volpath_bench;
+mod walks;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -47,6 +48,9 @@ enum Command {
     /// against the volumetric path tracer at equal time, on coloured media, and the ceiling of
     /// any scheme that lets each sample serve every channel.
     Noise(noise::NoiseBenchArgs),
+    /// Guided random walks against classical ones: variance × time of the tracer's images, its
+    /// derivative images and the loss gradient.
+    Walks(walks::WalksBenchArgs),
 }
 
 fn main() {
@@ -67,5 +71,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Spread(a) => spread::run(&a),
         Command::LossScan(a) => scan::run(&a),
         Command::Noise(a) => noise::run(&a),
+        Command::Walks(a) => walks::run(&a),
     }
 }

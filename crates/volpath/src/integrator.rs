@@ -39,6 +39,7 @@ use glam::Vec3;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
 use crate::rough;
+use crate::steps::{Memory, Steps};
 use crate::vertex::{Estimates, score};
 
 pub use crate::settings::{
@@ -142,27 +143,23 @@ pub fn trace<T: Tally>(
 ) -> T {
     let m = &scene.medium;
     let phase = HenyeyGreenstein { g: m.g };
-    let mut w = settings.channel_sampling.start(s.next_below(3) as usize);
+    let w = settings.channel_sampling.start(s.next_below(3) as usize);
+    let (steps, mut w) = Steps::start(settings.walks, &m.albedo, w, s);
+    let mut mem = Memory::default();
     let mut l = T::default();
-    // The path's length inside the medium so far (its free flights).
-    let mut len = 0.0f32;
-    // Σ ∂ ln p/∂g over the phase-function directions sampled so far (with T::SCORES_PHASE).
-    let mut phase_score = 0.0f32;
-    let mut o = origin;
-    let mut d = dir;
-    let mut inside = false;
+    // The path's length inside the medium so far (its free flights), and Σ ∂ ln p/∂g over the
+    // phase-function directions sampled so far (with T::SCORES_PHASE).
+    let (mut len, mut phase_score) = (0.0f32, 0.0f32);
+    let (mut o, mut d, mut inside) = (origin, dir, false);
     // Real scatterings (what the path's throughput depends on the medium by) and the depth
     // (the scatterings, and the rough boundary's interactions, as Mitsuba 3's `volpath`
     // counts them).
-    let mut k = 0u32;
-    let mut depth = 0u32;
-    let mut interface_events = 0u32;
+    let (mut k, mut depth, mut interface_events) = (0u32, 0u32, 0u32);
     let rough = (m.eta != 1.0 && m.roughness > 0.0)
         .then(|| base::microfacet::RoughDielectric::new(m.eta, m.roughness));
     // The last scattering's guided connection through a rough boundary, until the path meets
     // the boundary, and then the weight of that meeting's next-event estimate against it.
-    let mut guide: Option<rough::Guide> = None;
-    let mut flight_weight = 1.0f32;
+    let (mut guide, mut flight_weight): (Option<rough::Guide>, f32) = (None, 1.0);
     // The path left the medium through a triangle whose plane has the whole mesh behind it
     // (`Accel::exit_is_final`) and moves away from that plane: it cannot meet the mesh again,
     // so the query for a re-entry is skipped (the BVH would answer "no hit").
@@ -171,11 +168,12 @@ pub fn trace<T: Tally>(
     // scattering yet), so the camera's lists can answer its queries.
     let mut line = line;
     let mut on_line = m.eta == 1.0;
-    let estimates = Estimates {
+    let est = Estimates {
         scene,
         settings,
         phase: &phase,
         rough: rough.as_ref(),
+        dwivedi: steps.0.as_ref(),
     };
     // The closest hit along `o + t·d`, `t < tmax`.
     let closest = |line: &mut Option<CameraLine>, on_line: bool, o: Vec3, d: Vec3, tmax: f32| {
@@ -185,20 +183,23 @@ pub fn trace<T: Tally>(
     loop {
         // The boundary the path meets next, or a scattering event / the end of the path.
         let hit = if inside {
-            let t = w.sample_distance(&m.sigma_t, s.next_f32());
+            let flight = steps.flight(d, &mem);
+            let t = steps.distance(flight.as_ref(), &m.sigma_t, &w, s);
             if let Some(hit) = closest(&mut line, on_line, o, d, t) {
                 if let Some(g) = guide.take() {
-                    let pass = w.pass_probability(&m.sigma_t, hit.t);
-                    flight_weight = g.flight_weight(&phase, d, pass);
+                    let phase_density = || phase.eval(g.d_in(), d);
+                    let f = flight.as_ref();
+                    let pa = steps.pass_density(f, &mem, &w, &m.sigma_t, hit.t, phase_density);
+                    flight_weight = g.flight_weight(pa, d);
                 }
-                w.pass(&m.sigma_t, hit.t);
+                steps.pass(flight.as_ref(), &mut w, &m.sigma_t, hit.t);
                 len += hit.t;
                 hit
             } else {
                 // Real scattering event.
                 o += t * d;
                 on_line = false;
-                w.scatter(&m.sigma_t, &m.albedo, t);
+                steps.scatter(flight.as_ref(), &mut w, &m.sigma_t, &m.albedo, t);
                 len += t;
                 k += 1;
                 depth += 1;
@@ -206,11 +207,10 @@ pub fn trace<T: Tally>(
                     break;
                 }
                 let sc = score::<T>(&phase, k, len, phase_score, None);
-                if !estimates.at_scattering(o, d, sc, depth, &mut w, &mut guide, &mut l, s) {
+                if !est.at_scattering(o, d, mem.normal, sc, depth, &mut w, &mut guide, &mut l, s) {
                     break;
                 }
-                let (u1, u2) = (s.next_f32(), s.next_f32());
-                let d_new = phase.sample(d, u1, u2);
+                let d_new = steps.direction(&phase, d, &mut mem, &mut w, s);
                 if T::SCORES_PHASE {
                     phase_score += phase.d_log_dg(d.dot(d_new));
                 }
@@ -224,7 +224,7 @@ pub fn trace<T: Tally>(
                 _ => closest(&mut line, on_line, o, d, f32::INFINITY),
             };
             let Some(hit) = hit else {
-                estimates.escape(score::<T>(&phase, k, len, phase_score, None), &w, &mut l);
+                est.escape(score::<T>(&phase, k, len, phase_score, None), &w, &mut l);
                 break;
             };
             hit
@@ -234,8 +234,9 @@ pub fn trace<T: Tally>(
             break;
         }
         let sc = score::<T>(&phase, k, len, phase_score, None);
+        mem.at_boundary(inside, &hit);
         let ray = (&mut o, &mut d, &mut inside);
-        if !estimates.at_boundary(
+        if !est.at_boundary(
             &hit,
             sc,
             &mut depth,

@@ -34,6 +34,7 @@ use geometry::{Frame, Hit};
 use glam::Vec3;
 use scene::PointLight;
 
+use crate::guided::Dwivedi;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
 use crate::settings::{SpawnOffset, VolpathScene};
@@ -158,12 +159,17 @@ impl Guide {
             .normalize()
     }
 
-    /// The balance-heuristic weight of the other strategy, the free flight from x along `w`
-    /// that passed the boundary (its pdf: the phase function's times the spectral pass
-    /// probability `pass`), against this guide.
+    /// The direction the path arrived at x in (the phase function's argument).
     #[inline]
-    pub(crate) fn flight_weight(&self, phase: &HenyeyGreenstein, w: Vec3, pass: f32) -> f32 {
-        let pa = phase.eval(self.d_in, w) * pass;
+    pub(crate) fn d_in(&self) -> Vec3 {
+        self.d_in
+    }
+
+    /// The balance-heuristic weight of the other strategy, the free flight from x along `w`
+    /// that passed the boundary, against this guide; `pa` is that flight's density (the
+    /// direction's times the spectral pass probability: [`free_flight_density`]).
+    #[inline]
+    pub(crate) fn flight_weight(&self, pa: f32, w: Vec3) -> f32 {
         let pb = self.pdf(w);
         if pa + pb > 0.0 { pa / (pa + pb) } else { 1.0 }
     }
@@ -179,6 +185,7 @@ impl Guide {
         bsdf: &RoughDielectric,
         spawn: SpawnOffset,
         phase: &HenyeyGreenstein,
+        walk: Option<(&Dwivedi, Vec3)>,
         light: &PointLight,
         x: Vec3,
         w: &SpectralWeight,
@@ -192,7 +199,7 @@ impl Guide {
         let st = &scene.medium.sigma_t;
         let pb = self.pdf(dir);
         let fp = phase.eval(self.d_in, dir);
-        let denom = fp * w.pass_probability(st, hit.t) + pb;
+        let denom = free_flight_density(walk, w, st, fp, dir, hit.t) + pb;
         if denom.is_nan() || denom <= 0.0 {
             return None;
         }
@@ -204,6 +211,25 @@ impl Guide {
             hit.t,
             self.d_in.dot(dir),
         ))
+    }
+}
+
+/// The density of the walk's own way to the boundary point at distance `t` along `dir` from a
+/// scattering vertex: the direction (phase-function density `fp`) and a flight that passes `t`,
+/// mixed over the channels as `w` mixes them; with guided walks (`walk`: their constants and the
+/// path's entry normal) both are [`crate::guided`]'s mixtures.
+#[inline]
+pub(crate) fn free_flight_density(
+    walk: Option<(&Dwivedi, Vec3)>,
+    w: &SpectralWeight,
+    sigma_t: &[f32; 3],
+    fp: f32,
+    dir: Vec3,
+    t: f32,
+) -> f32 {
+    match walk {
+        Some((dw, n)) => dw.flight_density(w, sigma_t, fp, dir.dot(n), t),
+        None => fp * w.pass_probability(sigma_t, t),
     }
 }
 

@@ -6,6 +6,7 @@ use geometry::{Accel, LightBins, bvh::offset_origin};
 use glam::Vec3;
 use scene::{Environment, Medium, PointLight};
 
+use crate::guided::WalkSampling;
 use crate::shadow::ShadowTransmittance;
 use crate::spectral::SpectralWeight;
 
@@ -86,6 +87,8 @@ pub struct VolpathSettings {
     pub light_lists: bool,
     /// Ray origins after boundary crossings ([`SpawnOffset`]).
     pub spawn_offset: SpawnOffset,
+    /// How the walks inside the medium are sampled ([`WalkSampling`]: classical or guided).
+    pub walks: WalkSampling,
 }
 
 /// The maximum depth of a render or dataset that states none (Mitsuba 3 `volpath`'s default
@@ -101,6 +104,7 @@ impl Default for VolpathSettings {
             shadow: ShadowTransmittance::default(),
             light_lists: true,
             spawn_offset: SpawnOffset::Robust,
+            walks: WalkSampling::Classical,
         }
     }
 }

@@ -25,6 +25,12 @@ pub struct SpectralWeight {
     pub beta: [f32; 3],
     r: [f32; 3],
     mis: bool,
+    /// Guided walks ([`crate::guided`]): the guided technique's share P of the paths (0: the
+    /// classical walk alone), whether this path draws with it, and its channels' relative
+    /// densities r_j under it (`r` holds the classical technique's).
+    share: f32,
+    guided: bool,
+    rg: [f32; 3],
 }
 
 impl SpectralWeight {
@@ -36,6 +42,9 @@ impl SpectralWeight {
             beta: [1.0; 3],
             r: [1.0; 3],
             mis: true,
+            share: 0.0,
+            guided: false,
+            rg: [1.0; 3],
         }
     }
 
@@ -47,6 +56,9 @@ impl SpectralWeight {
             beta: [1.0; 3],
             r: [1.0; 3],
             mis: false,
+            share: 0.0,
+            guided: false,
+            rg: [1.0; 3],
         }
     }
 
@@ -107,6 +119,76 @@ impl SpectralWeight {
             .map(|j| self.r[j] * (-sigma_t[j] * t).exp())
             .sum::<f32>()
             / 3.0
+    }
+
+    /// The same path drawn with two walk techniques, classical and guided ([`crate::guided`]),
+    /// the guided one with probability `share` (`guided`: this path's draw): the balance
+    /// heuristic then runs over (channel, technique) pairs, β_k = f_k / M with
+    /// M = (1/n) Σ_j ((1 − P) p_j,classical + P p_j,guided) over the path (n = 3 channels with
+    /// spectral MIS, the hero alone otherwise). Every later segment must go through
+    /// [`SpectralWeight::segment`].
+    pub fn with_techniques(mut self, share: f32, guided: bool) -> Self {
+        self.share = share;
+        self.guided = guided;
+        self
+    }
+
+    /// Whether this path draws its directions and flights with the guided technique.
+    #[inline]
+    pub fn guided(&self) -> bool {
+        self.guided
+    }
+
+    /// Account for a sampled segment (a direction, a flight) whose integrand is `f[k]` in channel
+    /// k and whose density under technique s (0 classical, 1 guided) and channel j is `p[s][j]`,
+    /// all possibly scaled by one common positive factor: β_k ← β_k f_k/p_hero and
+    /// r_s,j ← r_s,j p_s,j/p_hero, renormalised so that the mixture of the r is 1.
+    #[inline]
+    pub fn segment(&mut self, f: [f32; 3], p: [[f32; 3]; 2]) {
+        let ph = p[self.guided as usize][self.hero];
+        if !(ph > 0.0 && ph.is_finite()) {
+            self.beta = [0.0; 3];
+            return;
+        }
+        let inv = 1.0 / ph;
+        for j in 0..3 {
+            self.beta[j] *= f[j] * inv;
+            self.r[j] *= p[0][j] * inv;
+            self.rg[j] *= p[1][j] * inv;
+        }
+        let mean = self.mixture([[1.0; 3]; 2]);
+        if mean > 0.0 && mean.is_finite() {
+            let inv = 1.0 / mean;
+            for j in 0..3 {
+                self.beta[j] *= inv;
+                self.r[j] *= inv;
+                self.rg[j] *= inv;
+            }
+        } else {
+            self.beta = [0.0; 3];
+        }
+    }
+
+    /// A strategy's density mixed over the channels and techniques as this path mixes them:
+    /// (1/n) Σ_j ((1 − P) r_j p[0][j] + P r^g_j p[1][j]) over the channels it mixes (all three
+    /// with spectral MIS, the hero otherwise), `p[s][j]` the density under technique s and
+    /// channel j. With the classical walk alone, (1/3) Σ_j r_j p[0][j].
+    #[inline]
+    pub fn mixture(&self, p: [[f32; 3]; 2]) -> f32 {
+        let q = self.share;
+        let term = |j: usize| {
+            let c = self.r[j] * p[0][j];
+            if q > 0.0 {
+                (1.0 - q) * c + q * self.rg[j] * p[1][j]
+            } else {
+                c
+            }
+        };
+        if self.mis {
+            (term(0) + term(1) + term(2)) / 3.0
+        } else {
+            term(self.hero)
+        }
     }
 
     /// Multiply every channel by a deterministic factor (Fresnel, radiance scaling, roulette).

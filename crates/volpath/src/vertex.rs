@@ -8,6 +8,7 @@ use glam::Vec3;
 use scene::PointLight;
 
 use crate::fresnel::{fresnel_dielectric, reflect, refract};
+use crate::guided::Dwivedi;
 use crate::manifold;
 use crate::phase::HenyeyGreenstein;
 use crate::rng::Sampler;
@@ -45,6 +46,8 @@ pub(crate) struct Estimates<'a, 'b> {
     pub settings: &'a VolpathSettings,
     pub phase: &'a HenyeyGreenstein,
     pub rough: Option<&'a base::microfacet::RoughDielectric>,
+    /// The guided walks' constants (`None`: classical walks, [`crate::guided`]).
+    pub dwivedi: Option<&'a Dwivedi>,
 }
 
 impl Estimates<'_, '_> {
@@ -52,13 +55,14 @@ impl Estimates<'_, '_> {
     /// (its scatterings, its length inside and its phase-function score): the next-event
     /// estimate of the point light, then Russian roulette, then (behind a rough boundary) the
     /// guided connection, whose guide the path keeps until it meets the boundary. False when
-    /// the roulette ends the path.
+    /// the roulette ends the path. `normal` is the path's entry normal (the guided walks').
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn at_scattering<T: Tally>(
         &self,
         o: Vec3,
         d: Vec3,
+        normal: Vec3,
         at: PathScore,
         depth: u32,
         w: &mut SpectralWeight,
@@ -102,7 +106,17 @@ impl Estimates<'_, '_> {
             *guide = rough::Guide::at(scene, bsdf, light, o, d);
             let spawn = settings.spawn_offset;
             if let Some(g) = &*guide
-                && let Some((c, seg, cos)) = g.connect(scene, bsdf, spawn, phase, light, o, w, s)
+                && let Some((c, seg, cos)) = g.connect(
+                    scene,
+                    bsdf,
+                    spawn,
+                    phase,
+                    self.dwivedi.map(|dw| (dw, normal)),
+                    light,
+                    o,
+                    w,
+                    s,
+                )
             {
                 let sc = score::<T>(phase, k, len + seg, phase_score, Some(cos));
                 l.record(c, sc, &m.sigma_t, &m.albedo);

@@ -9,8 +9,9 @@
 //! Both are i.i.d. over i, so the means and standard errors come from the samples themselves.
 //! The test: |mean Y − mean D| ≤ 4.5·√(se_Y² + se_D²) + the truncation error of the central
 //! difference, estimated by Richardson from the difference at 2h: |D̄_2h − D̄_h|/3, itself
-//! with its standard error. Three set-ups: an index-matched boundary with exact shadow
-//! transmittance, the same with the tracked (Mitsuba) shadow estimator, a smooth dielectric
+//! with its standard error. The set-ups: an index-matched boundary with exact shadow
+//! transmittance, the same with the tracked (Mitsuba) shadow estimator and with guided walks
+//! (the walks' densities depend on σ_t and α; the common random numbers follow them), a smooth dielectric
 //! boundary (η = 1.5, manifold next-event estimation) and a rough one (η = 1.5, GGX α 0.3,
 //! next-event estimation at the boundary's vertices), under a point light and an environment.
 
@@ -20,8 +21,8 @@ use scene::{Camera, Environment, Medium, PointLight};
 use testkit::MeanEstimate;
 use volpath::rng::Sampler;
 use volpath::{
-    PathDerivatives, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings, radiance,
-    render_derivatives, render_image, trace,
+    PathDerivatives, RenderSettings, ShadowTransmittance, VolpathScene, VolpathSettings,
+    WalkSampling, radiance, render_derivatives, render_image, trace,
 };
 
 const SAMPLES: u64 = 40_000;
@@ -239,6 +240,11 @@ fn derivatives_match_finite_differences_index_matched() {
         ..VolpathSettings::default()
     };
     compare("tracked shadows", &accel, &scene, &tracked);
+    let guided = VolpathSettings {
+        walks: WalkSampling::Guided { probability: 0.5 },
+        ..VolpathSettings::default()
+    };
+    compare("guided walks", &accel, &scene, &guided);
 }
 
 #[test]

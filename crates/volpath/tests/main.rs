@@ -4,6 +4,7 @@
 
 mod derivatives;
 mod energy;
+mod guided;
 mod properties;
 mod sampling;
 mod shadow;

@@ -1,8 +1,10 @@
 //! χ² tests for every sampler the volumetric path tracer uses: Henyey–Greenstein direction
-//! sampling, free-flight distance sampling and the pixel (camera) jitter.
+//! sampling, free-flight distance sampling (classical and guided), the guided walks' directions
+//! and the pixel (camera) jitter.
 
 use glam::Vec3;
 use testkit::chi2_test;
+use volpath::guided::Dwivedi;
 use volpath::phase::HenyeyGreenstein;
 use volpath::render::pixel_jitter;
 use volpath::rng::Sampler;
@@ -98,6 +100,96 @@ fn free_flight_sampling_is_exponential_for_the_hero_channel() {
             r.statistic,
             r.p_value
         );
+    }
+}
+
+/// The guided technique's directions ([`Dwivedi::sample_direction`] on a guided path) follow
+/// p_D(ω) = 1/(2π L (ν₀ − μ)) about the normal n, in μ and in the azimuth, for the hero
+/// channel's albedo.
+#[test]
+fn guided_directions_match_their_density() {
+    let (n_mu, n_phi) = (24, 8);
+    let n = 240_000;
+    let normal = Vec3::new(-0.4, 0.7, 0.59).normalize();
+    let frame = geometry::Frame::from_normal(normal);
+    let albedo = [0.6f32, 0.95, 0.995];
+    let dw = Dwivedi::new(&albedo, 0.5);
+    let hg = HenyeyGreenstein { g: 0.5 };
+    let d_in = Vec3::new(0.2, 0.3, -0.93).normalize();
+    for hero in 0..3 {
+        let mut s = Sampler::new(14, hero as u64, 0, 0);
+        let mut obs = vec![0.0; n_mu * n_phi];
+        for _ in 0..n {
+            let mut w = SpectralWeight::new(hero).with_techniques(0.5, true);
+            let u = [s.next_f32(), s.next_f32()];
+            let classical = |u1, u2| hg.sample(d_in, u1, u2);
+            let (dir, _) = dw.sample_direction(normal, &mut w, u, classical, |o| hg.eval(d_in, o));
+            let l = frame.to_local(dir);
+            let mu = l.z.clamp(-1.0, 1.0) as f64;
+            let phi = (l.y as f64)
+                .atan2(l.x as f64)
+                .rem_euclid(std::f64::consts::TAU);
+            let i = (((mu + 1.0) / 2.0 * n_mu as f64) as usize).min(n_mu - 1);
+            let j = ((phi / std::f64::consts::TAU * n_phi as f64) as usize).min(n_phi - 1);
+            obs[i * n_phi + j] += 1.0;
+        }
+        let mut exp = vec![0.0; n_mu * n_phi];
+        for i in 0..n_mu {
+            let a = -1.0 + 2.0 * i as f64 / n_mu as f64;
+            let b = a + 2.0 / n_mu as f64;
+            let p = simpson(|mu| dw.direction_pdf(hero, mu as f32) as f64, a, b, 400)
+                * std::f64::consts::TAU
+                / n_phi as f64;
+            for j in 0..n_phi {
+                exp[i * n_phi + j] = p * n as f64;
+            }
+        }
+        let r = chi2_test(&obs, &exp, 5.0);
+        assert!(
+            r.p_value > ALPHA,
+            "guided directions, hero {hero} (α {}): χ²={} dof={} p={}",
+            albedo[hero],
+            r.statistic,
+            r.dof,
+            r.p_value
+        );
+    }
+}
+
+/// The guided technique's flights along a direction with μ = ω·n are exponential with the
+/// stretched extinction σ̃ = σ_t (1 − μ/ν₀) of the hero channel; the classical technique's with
+/// σ_t.
+#[test]
+fn guided_flights_are_exponential_in_the_stretched_extinction() {
+    let sigma_t = [30.0f32, 55.0, 100.0];
+    let albedo = [0.7f32, 0.9, 0.98];
+    let dw = Dwivedi::new(&albedo, 0.5);
+    let bins = 40;
+    let n = 100_000;
+    for (k, mu) in [0.9f32, -0.5].into_iter().enumerate() {
+        let flight = dw.flight(mu);
+        for hero in 0..3 {
+            for guided in [false, true] {
+                let w = SpectralWeight::new(hero).with_techniques(0.5, guided);
+                let nu0 = volpath::guided::nu0(albedo[hero]);
+                let rate = sigma_t[hero] as f64 * if guided { 1.0 - mu as f64 / nu0 } else { 1.0 };
+                let mut s = Sampler::new(15, (k * 6 + hero * 2 + guided as usize) as u64, 0, 0);
+                let mut obs = vec![0.0; bins];
+                for _ in 0..n {
+                    let t = dw.sample_distance(&flight, &sigma_t, &w, s.next_f32()) as f64;
+                    let cdf = 1.0 - (-rate * t).exp();
+                    obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
+                }
+                let exp = vec![n as f64 / bins as f64; bins];
+                let r = chi2_test(&obs, &exp, 5.0);
+                assert!(
+                    r.p_value > ALPHA,
+                    "μ {mu}, hero {hero}, guided {guided}: χ²={} p={}",
+                    r.statistic,
+                    r.p_value
+                );
+            }
+        }
     }
 }
 
