@@ -29,8 +29,9 @@
 //! The table gives, per case and channel, the σ_t error (corrected and uncorrected), whether the
 //! 95 % interval holds the truth, whether the images determine σ_t, the α error, the
 //! consistency (the uncorrected estimate re-rendered by the volumetric path tracer against the
-//! targets), the status and the seconds per iteration; the summary the calibration (how often
-//! the intervals hold the truth) and the accuracy where σ_t is determined, one table per set.
+//! targets), the status, the seconds per iteration and the time to an accurate answer
+//! ([`settle`]); the summary the calibration (how often the intervals hold the truth), the
+//! accuracy where σ_t is determined and how soon those runs got there, one table per set.
 //! `OUT/robustness.md` and `OUT/robustness.csv`; an interrupted run continues where it stopped.
 
 use recovery::Observer;
@@ -51,6 +52,7 @@ use recovery::reuse::read_json;
 
 mod cases;
 mod report;
+mod settle;
 mod targets;
 
 pub use cases::{Capture, Case, Suite, Targets, cases, dielectric_cases};
@@ -205,6 +207,9 @@ pub struct Outcome {
     pub g: Option<Recovered>,
     /// The recovered light scale likewise, one or one per channel (its truth is 1).
     pub light_scale: Option<OneOrRgb<Recovered>>,
+    /// Per channel, when the run's estimate entered σ_t ± 5 % and α ± 0.01 for good
+    /// ([`settle`]; `None`: never, or no trajectory), and the loop's total seconds.
+    pub settled: ([Option<settle::Settled>; 3], f64),
 }
 
 /// A run's recovered g or light scale.
@@ -353,7 +358,33 @@ pub(crate) fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) ->
         model_ratio: [f64::NAN; 3],
         g: Recovered::of(&v, "g", [-1.0, 1.0]),
         light_scale: Recovered::light_scale(&v),
+        settled: trajectory(case, &v, result)?,
     })
+}
+
+/// [`settle::settled_from_csv`] for the run whose `result.json` is `result` (read as `v`): its
+/// `iterations.csv` beside it and its final estimate before any bias correction.
+fn trajectory(
+    case: &Case,
+    v: &serde_json::Value,
+    result: &Path,
+) -> Result<([Option<settle::Settled>; 3], f64)> {
+    let csv = result.with_file_name("iterations.csv");
+    let end = if v["estimate_uncorrected"].is_object() {
+        &v["estimate_uncorrected"]
+    } else {
+        &v["estimate"]
+    };
+    if !csv.exists() || !end.is_object() {
+        return Ok(([None; 3], f64::NAN));
+    }
+    let m = &case.medium;
+    settle::settled_from_csv(
+        &csv,
+        (rgb(&end["sigma_t"]), rgb(&end["albedo"])),
+        m.sigma_t.map(f64::from),
+        m.albedo.map(f64::from),
+    )
 }
 
 /// The model's error at the truth: every third view of the dataset rendered by the run's

@@ -77,6 +77,24 @@ fn henyey_greenstein_sampling_matches_its_density() {
     }
 }
 
+/// χ² of `n` distances from `draw` against the exponential of `rate`, in `bins` equally spaced
+/// in its CDF 1 − e^{−rate·t} (equal expected counts).
+fn assert_exponential(n: usize, bins: usize, rate: f64, mut draw: impl FnMut() -> f64, what: &str) {
+    let mut obs = vec![0.0; bins];
+    for _ in 0..n {
+        let cdf = 1.0 - (-rate * draw()).exp();
+        obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
+    }
+    let exp = vec![n as f64 / bins as f64; bins];
+    let r = chi2_test(&obs, &exp, 5.0);
+    assert!(
+        r.p_value > ALPHA,
+        "free flight, {what}: χ²={} p={}",
+        r.statistic,
+        r.p_value
+    );
+}
+
 #[test]
 fn free_flight_sampling_is_exponential_for_the_hero_channel() {
     let sigma_t = [30.0f32, 55.0, 100.0];
@@ -85,21 +103,8 @@ fn free_flight_sampling_is_exponential_for_the_hero_channel() {
     for hero in 0..3 {
         let w = SpectralWeight::new(hero);
         let mut s = Sampler::new(12, hero as u64, 0, 0);
-        let mut obs = vec![0.0; bins];
-        // Bins equally spaced in the CDF 1 − e^{−σ t} ⇒ equal expected counts.
-        for _ in 0..n {
-            let t = w.sample_distance(&sigma_t, s.next_f32()) as f64;
-            let cdf = 1.0 - (-(sigma_t[hero] as f64) * t).exp();
-            obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
-        }
-        let exp = vec![n as f64 / bins as f64; bins];
-        let r = chi2_test(&obs, &exp, 5.0);
-        assert!(
-            r.p_value > ALPHA,
-            "free flight hero {hero}: χ²={} p={}",
-            r.statistic,
-            r.p_value
-        );
+        let draw = || w.sample_distance(&sigma_t, s.next_f32()) as f64;
+        assert_exponential(n, bins, sigma_t[hero] as f64, draw, &format!("hero {hero}"));
     }
 }
 
@@ -174,20 +179,9 @@ fn guided_flights_are_exponential_in_the_stretched_extinction() {
                 let nu0 = volpath::guided::nu0(albedo[hero]);
                 let rate = sigma_t[hero] as f64 * if guided { 1.0 - mu as f64 / nu0 } else { 1.0 };
                 let mut s = Sampler::new(15, (k * 6 + hero * 2 + guided as usize) as u64, 0, 0);
-                let mut obs = vec![0.0; bins];
-                for _ in 0..n {
-                    let t = dw.sample_distance(&flight, &sigma_t, &w, s.next_f32()) as f64;
-                    let cdf = 1.0 - (-rate * t).exp();
-                    obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
-                }
-                let exp = vec![n as f64 / bins as f64; bins];
-                let r = chi2_test(&obs, &exp, 5.0);
-                assert!(
-                    r.p_value > ALPHA,
-                    "μ {mu}, hero {hero}, guided {guided}: χ²={} p={}",
-                    r.statistic,
-                    r.p_value
-                );
+                let draw = || dw.sample_distance(&flight, &sigma_t, &w, s.next_f32()) as f64;
+                let what = format!("μ {mu}, hero {hero}, guided {guided}");
+                assert_exponential(n, bins, rate, draw, &what);
             }
         }
     }

@@ -473,3 +473,46 @@ fn bad_all_black_dataset() {
         ],
     );
 }
+
+/// `render --guided-walks` takes the share of guided walks, between 0 and 1: outside it is an
+/// error that says so; inside it renders.
+#[test]
+fn render_guided_walks_is_a_share() {
+    let t = tmp();
+    write(&t.path().join("scene.toml"), good_scene());
+    let r = fails(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "scene.toml",
+            "--out",
+            "o",
+            "--spp",
+            "2",
+            "--guided-walks",
+            "1.5",
+        ],
+    );
+    assert_stderr_has(&r, &["--guided-walks", "between 0 and 1"]);
+    assert!(
+        !t.path().join("o/view_000.exr").exists(),
+        "{}",
+        r.describe()
+    );
+    ok(
+        t.path(),
+        &[
+            "-q",
+            "render",
+            "scene.toml",
+            "--out",
+            "o",
+            "--spp",
+            "2",
+            "--guided-walks",
+            "0.5",
+        ],
+    );
+    assert!(t.path().join("o/view_000.exr").exists());
+}

@@ -23,7 +23,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The CSV's columns: one row per case, repetition and channel.
-const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g";
+const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g,settled_iteration,settled_seconds,loop_seconds";
 
 /// The Markdown header, then a table with its summary per set of cases (index-matched or
 /// dielectric; a heading each when both ran), and the CSV.
@@ -228,9 +228,12 @@ fn shared_table(md: &mut String, outcomes: &[Outcome], col: &SharedColumn) {
 fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&SharedColumn]) {
     let _ = writeln!(
         md,
-        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it |"
+        "| case | targets | rep | σ_t truth | σ_t error % (uncorrected) | in 95 % interval σ_t / α | σ_t determined | α error | consistency ratio / L2÷noise | valley curvature, tracer ÷ model | model at truth ÷ targets | status | s/it | within 5 % / 0.01 from, R, G, B: iteration (s of the loop's) |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        md,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     let f3 = |v: [f64; 3], s: f64, p: usize| {
         format!(
             "{:+.p$}, {:+.p$}, {:+.p$}",
@@ -245,7 +248,7 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&Share
         let cov = o.covered();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} |",
+            "| {} | {} | {} | {:.1}, {:.1}, {:.1} | {} ({}) | {} / {} | {} | {} | {:.3}, {:.3}, {:.3} / {:.2}, {:.2}, {:.2} | {:.2}, {:.2}, {:.2} | {:.3}, {:.3}, {:.3} | {} | {:.2} | {} |",
             o.case.name,
             o.targets.name(),
             o.rep,
@@ -271,7 +274,14 @@ fn table(md: &mut String, csv: &mut String, outcomes: &[Outcome], free: &[&Share
             o.model_ratio[1],
             o.model_ratio[2],
             o.status,
-            o.seconds_per_iteration
+            o.seconds_per_iteration,
+            o.settled
+                .0
+                .map(|s| match s {
+                    Some(s) => format!("{} ({:.0} of {:.0})", s.iteration, s.seconds, o.settled.1),
+                    None => "never".to_string(),
+                })
+                .join(", ")
         );
         csv_rows(csv, o, free);
     }
@@ -332,6 +342,15 @@ fn csv_rows(csv: &mut String, o: &Outcome, free: &[&SharedColumn]) {
             o.case.medium.roughness,
             o.case.medium.g
         );
+        let (settled, total) = o.settled;
+        match settled[c] {
+            Some(s) => {
+                let _ = write!(csv, ",{},{:.2},{total:.2}", s.iteration, s.seconds);
+            }
+            None => {
+                let _ = write!(csv, ",,,{total:.2}");
+            }
+        }
         // The shared parameters' columns (the same on the three channel rows).
         for col in free {
             match (col.of)(o) {
@@ -433,6 +452,7 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
         "{ind}- runs whose status is not ok: {failed} of {}",
         outcomes.len()
     );
+    time_to_accuracy(md, ind, outcomes);
     // Where the model itself is off at the truth, and the calibration of the runs that
     // did not report a failure (a failed run's interval is not meant to be trusted).
     let off = |o: &Outcome| {
@@ -462,6 +482,35 @@ fn summary(md: &mut String, label: &str, outcomes: &[Outcome]) {
         ok.len(),
         6 * ok.len(),
         100.0 * covered_ok as f64 / (6 * ok.len()).max(1) as f64
+    );
+}
+
+/// The summary line of the time to an accurate answer ([`super::settle`]) on the (run, channel)
+/// pairs whose σ_t is determined.
+fn time_to_accuracy(md: &mut String, ind: &str, outcomes: &[Outcome]) {
+    let pairs: Vec<Option<(f64, f64)>> = outcomes
+        .iter()
+        .flat_map(|o| {
+            (0..3)
+                .filter(|&c| o.determined_sigma_t[c])
+                .map(move |c| o.settled.0[c].map(|s| (s.iteration as f64, s.seconds / o.settled.1)))
+        })
+        .collect();
+    if pairs.is_empty() {
+        return;
+    }
+    let settled: Vec<(f64, f64)> = pairs.iter().flatten().copied().collect();
+    let _ = writeln!(
+        md,
+        "{ind}- time to σ_t within {:.0} % and α within {} for good, on the {} determined pairs: {} settle, at a median iteration {:.0} ({:.0} % of the loop's seconds; latest {:.0}); {} never do",
+        100.0 * super::settle::SIGMA_T_BAND,
+        super::settle::ALBEDO_BAND,
+        pairs.len(),
+        settled.len(),
+        median(settled.iter().map(|s| s.0).collect()),
+        100.0 * median(settled.iter().map(|s| s.1).collect()),
+        settled.iter().map(|s| s.0).fold(f64::NAN, f64::max),
+        pairs.len() - settled.len()
     );
 }
 
