@@ -358,33 +358,8 @@ pub(crate) fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) ->
         model_ratio: [f64::NAN; 3],
         g: Recovered::of(&v, "g", [-1.0, 1.0]),
         light_scale: Recovered::light_scale(&v),
-        settled: trajectory(case, &v, result)?,
+        settled: settle::of_run(&case.medium, &v, result)?,
     })
-}
-
-/// [`settle::settled_from_csv`] for the run whose `result.json` is `result` (read as `v`): its
-/// `iterations.csv` beside it and its final estimate before any bias correction.
-fn trajectory(
-    case: &Case,
-    v: &serde_json::Value,
-    result: &Path,
-) -> Result<([Option<settle::Settled>; 3], f64)> {
-    let csv = result.with_file_name("iterations.csv");
-    let end = if v["estimate_uncorrected"].is_object() {
-        &v["estimate_uncorrected"]
-    } else {
-        &v["estimate"]
-    };
-    if !csv.exists() || !end.is_object() {
-        return Ok(([None; 3], f64::NAN));
-    }
-    let m = &case.medium;
-    settle::settled_from_csv(
-        &csv,
-        (rgb(&end["sigma_t"]), rgb(&end["albedo"])),
-        m.sigma_t.map(f64::from),
-        m.albedo.map(f64::from),
-    )
 }
 
 /// The model's error at the truth: every third view of the dataset rendered by the run's

@@ -106,6 +106,34 @@ pub fn settled_from_csv(
     Ok((settled(&params, &seconds, sigma_t, albedo), total))
 }
 
+/// [`settled_from_csv`] for the run whose `result.json` is `result` (read as `v`), of the
+/// medium `truth`: its `iterations.csv` beside it and its final estimate before any bias
+/// correction; `None`s without a trajectory.
+pub fn of_run(
+    truth: &scene::Medium,
+    v: &serde_json::Value,
+    result: &Path,
+) -> Result<([Option<Settled>; 3], f64)> {
+    let csv = result.with_file_name("iterations.csv");
+    let end = if v["estimate_uncorrected"].is_object() {
+        &v["estimate_uncorrected"]
+    } else {
+        &v["estimate"]
+    };
+    if !csv.exists() || !end.is_object() {
+        return Ok(([None; 3], f64::NAN));
+    }
+    let rgb = |x: &serde_json::Value| -> [f64; 3] {
+        std::array::from_fn(|c| x[c].as_f64().unwrap_or(f64::NAN))
+    };
+    settled_from_csv(
+        &csv,
+        (rgb(&end["sigma_t"]), rgb(&end["albedo"])),
+        truth.sigma_t.map(f64::from),
+        truth.albedo.map(f64::from),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
