@@ -14,6 +14,18 @@ use volpath::spectral::SpectralWeight;
 /// (fixed seeds make each run deterministic).
 const ALPHA: f64 = 1e-3;
 
+/// The χ² test of observed bin counts against expected ones at [`ALPHA`].
+fn assert_chi2(obs: &[f64], exp: &[f64], what: &str) {
+    let r = chi2_test(obs, exp, 5.0);
+    assert!(
+        r.p_value > ALPHA,
+        "{what}: χ²={} dof={} p={}",
+        r.statistic,
+        r.dof,
+        r.p_value
+    );
+}
+
 /// ∫ f over [a, b] by composite Simpson with `n` (even) intervals.
 fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
     let h = (b - a) / n as f64;
@@ -66,14 +78,7 @@ fn henyey_greenstein_sampling_matches_its_density() {
             (total / n as f64 - 1.0).abs() < 1e-3,
             "HG density does not integrate to 1 for g={g}: {total}"
         );
-        let r = chi2_test(&obs, &exp, 5.0);
-        assert!(
-            r.p_value > ALPHA,
-            "HG g={g}: χ²={} dof={} p={}",
-            r.statistic,
-            r.dof,
-            r.p_value
-        );
+        assert_chi2(&obs, &exp, &format!("HG g={g}"));
     }
 }
 
@@ -86,13 +91,7 @@ fn assert_exponential(n: usize, bins: usize, rate: f64, mut draw: impl FnMut() -
         obs[((cdf * bins as f64) as usize).min(bins - 1)] += 1.0;
     }
     let exp = vec![n as f64 / bins as f64; bins];
-    let r = chi2_test(&obs, &exp, 5.0);
-    assert!(
-        r.p_value > ALPHA,
-        "free flight, {what}: χ²={} p={}",
-        r.statistic,
-        r.p_value
-    );
+    assert_chi2(&obs, &exp, &format!("free flight, {what}"));
 }
 
 #[test]
@@ -149,15 +148,8 @@ fn guided_directions_match_their_density() {
                 exp[i * n_phi + j] = p * n as f64;
             }
         }
-        let r = chi2_test(&obs, &exp, 5.0);
-        assert!(
-            r.p_value > ALPHA,
-            "guided directions, hero {hero} (α {}): χ²={} dof={} p={}",
-            albedo[hero],
-            r.statistic,
-            r.dof,
-            r.p_value
-        );
+        let what = format!("guided directions, hero {hero} (α {})", albedo[hero]);
+        assert_chi2(&obs, &exp, &what);
     }
 }
 
@@ -202,13 +194,7 @@ fn pixel_jitter_is_uniform_over_the_pixel() {
             obs[(y * grid as f32) as usize * grid + (x * grid as f32) as usize] += 1.0;
         }
         let exp = vec![n as f64 / (grid * grid) as f64; grid * grid];
-        let r = chi2_test(&obs, &exp, 5.0);
-        assert!(
-            r.p_value > ALPHA,
-            "pixel jitter key {key}: χ²={} p={}",
-            r.statistic,
-            r.p_value
-        );
+        assert_chi2(&obs, &exp, &format!("pixel jitter key {key}"));
     }
 }
 

@@ -480,39 +480,11 @@ fn bad_all_black_dataset() {
 fn render_guided_walks_is_a_share() {
     let t = tmp();
     write(&t.path().join("scene.toml"), good_scene());
-    let r = fails(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--out",
-            "o",
-            "--spp",
-            "2",
-            "--guided-walks",
-            "1.5",
-        ],
-    );
+    let args = |share: &str| format!("-q render scene.toml --out o --spp 2 --guided-walks {share}");
+    let r = fails(t.path(), &args("1.5").split(' ').collect::<Vec<_>>());
     assert_stderr_has(&r, &["--guided-walks", "between 0 and 1"]);
-    assert!(
-        !t.path().join("o/view_000.exr").exists(),
-        "{}",
-        r.describe()
-    );
-    ok(
-        t.path(),
-        &[
-            "-q",
-            "render",
-            "scene.toml",
-            "--out",
-            "o",
-            "--spp",
-            "2",
-            "--guided-walks",
-            "0.5",
-        ],
-    );
-    assert!(t.path().join("o/view_000.exr").exists());
+    let image = t.path().join("o/view_000.exr");
+    assert!(!image.exists(), "{}", r.describe());
+    ok(t.path(), &args("0.5").split(' ').collect::<Vec<_>>());
+    assert!(image.exists());
 }
