@@ -26,7 +26,8 @@ moves the light to each view's light (scene parameter `light.position`/`light.in
 renders with `spp` samples per pixel, takes the L2 loss (mean over pixels and channels of the
 squared difference to the target; averaged over the views) and back-propagates through
 prbvolpath; Adam (mi.ad.Adam = drjit.opt.Adam) updates ln(sigma_t) and albedo with their own
-learning rates, and albedo is clamped to [1e-4, 0.99995] after each step.
+learning rates (both times --decay every --decay-every iterations; by default constant), and albedo
+is clamped to [1e-4, 0.99995] after each step.
 
 Prints every --print-every iterations: iteration, view(s), loss, sigma_t, albedo, seconds of the
 iteration and the kernels Dr.Jit had to compile in it (cache misses). At the end: the mean seconds
@@ -204,7 +205,7 @@ def builtin_mesh(spec):
         return (pos - centre).astype(np.float32), faces
     sys.exit(
         f"error: built-in shape {name!r} is not rebuilt by this script (only blob and sphere); "
-        "make the dataset from a mesh file instead (`translucent dataset --mesh FILE`)"
+        "give its mesh with --mesh FILE, or make the dataset from a mesh file (`translucent dataset --mesh FILE`)"
     )
 
 
@@ -409,6 +410,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dataset", type=Path, help="dataset folder (dataset.json) or reference folder (scene.json)")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument(
+        "--mesh",
+        type=Path,
+        default=None,
+        help="the object's mesh (.ply/.obj) in place of the dataset's: for a built-in shape this script does not rebuild",
+    )
     ap.add_argument("--iterations", type=int, default=300)
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--views-per-iter", type=int, default=1)
@@ -416,6 +423,13 @@ def main():
     ap.add_argument("--init-albedo", default="0.5", help="one value or R,G,B")
     ap.add_argument("--lr-sigma-t", type=float, default=0.015, help="Adam step on ln(sigma_t)")
     ap.add_argument("--lr-albedo", type=float, default=0.02, help="Adam step on albedo")
+    ap.add_argument(
+        "--decay",
+        type=float,
+        default=1.0,
+        help="both learning rates times this every --decay-every iterations (translucent optimize: 0.85 every 50)",
+    )
+    ap.add_argument("--decay-every", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0, help="view choice and render seeds")
     ap.add_argument("--max-depth", type=int, default=None, help="default: the dataset's, else 64")
     ap.add_argument("--rr-depth", type=int, default=5)
@@ -463,7 +477,9 @@ def main():
         dr.set_thread_count(a.threads)
 
     # Geometry.
-    if ds["mesh"] is not None:
+    if a.mesh is not None:
+        mesh_path = a.mesh
+    elif ds["mesh"] is not None:
         mesh_path = ds["mesh"]
     else:
         pos, faces = builtin_mesh(ds["shape"])
@@ -556,6 +572,9 @@ def main():
     seen = set()
     for it in range(a.iterations):
         t0 = time.perf_counter()
+        if a.decay != 1.0 and it > 0 and it % a.decay_every == 0:
+            f = a.decay ** (it // a.decay_every)
+            opt.set_learning_rate({"log_sigma_t": a.lr_sigma_t * f, "albedo": a.lr_albedo * f})
         vs = rng.sample(range(nv), a.views_per_iter)
         loss_total = 0.0
         for j, vi in enumerate(vs):
@@ -662,6 +681,7 @@ def main():
         views=nv,
         resolution=sorted({f"{v['width']}x{v['height']}" for v in ds["views"]}),
         lr=dict(log_sigma_t=a.lr_sigma_t, albedo=a.lr_albedo),
+        lr_decay=dict(factor=a.decay, every=a.decay_every),
         seed=a.seed,
         integrator=dict(type="prbvolpath", max_depth=max_depth, rr_depth=a.rr_depth),
         boundary="null" if eta == 1.0 else "dielectric",

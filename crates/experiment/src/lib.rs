@@ -183,15 +183,18 @@ fn write_tables(
 }
 
 /// Mitsuba 3's PRB (`tools/mitsuba/prb_optimize.py`, run by `python`) on the dataset `data`
-/// into `out`: `iterations` × `spp`, one view per iteration, seed `seed`. Returns its mean
+/// (its object's mesh from the file `mesh` where given) into `out`: `iterations` × `spp`, one
+/// view per iteration, seed `seed`, both learning rates × `decay.0` every `decay.1` iterations
+/// where `decay` is given (constant otherwise). Returns its mean
 /// seconds per iteration after the first (from its `result.json`).
 pub fn run_prb(
     python: &Path,
-    data: &Path,
+    (data, mesh): (&Path, Option<&Path>),
     out: &Path,
     iterations: u32,
     spp: u32,
     seed: u64,
+    decay: Option<(f32, u32)>,
 ) -> Result<f64> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/mitsuba/prb_optimize.py");
     let status = std::process::Command::new(python)
@@ -201,6 +204,18 @@ pub fn run_prb(
         .args(["--spp", &spp.to_string()])
         .args(["--seed", &seed.to_string()])
         .args(["--views-per-iter", "1", "--print-every", "50"])
+        .args(
+            mesh.iter()
+                .flat_map(|m| [std::ffi::OsStr::new("--mesh"), m.as_os_str()]),
+        )
+        .args(decay.iter().flat_map(|(f, n)| {
+            [
+                "--decay".to_string(),
+                f.to_string(),
+                "--decay-every".to_string(),
+                n.to_string(),
+            ]
+        }))
         .args(["--overwrite", "--out"])
         .arg(out)
         .status()

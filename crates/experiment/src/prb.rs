@@ -176,7 +176,7 @@ pub fn run(a: &PrbConfig, obs: &dyn Observer) -> Result<()> {
             if prb_finished(&dir, iterations, spp) {
                 obs.say(&format!("run Mitsuba PRB: reusing {}", dir.display()));
             } else {
-                super::run_prb(py, &data, &dir, iterations, spp, a.seed)?;
+                super::run_prb(py, (&data, None), &dir, iterations, spp, a.seed, None)?;
             }
         }
         if prb_finished(&dir, iterations, spp) {

@@ -51,6 +51,7 @@ use inverse::views::build_accel;
 use recovery::reuse::read_json;
 
 mod cases;
+mod prb;
 mod report;
 mod settle;
 mod targets;
@@ -113,6 +114,12 @@ pub struct RobustnessConfig {
     pub mitsuba_script: PathBuf,
     /// The Python interpreter (with Mitsuba 3) that runs the script.
     pub python: PathBuf,
+    /// Recover every case also with Mitsuba 3's PRB for this many iterations, run by `python`,
+    /// and set its time to an accurate answer beside the defaults' ([`prb`]).
+    pub prb_iterations: Option<u32>,
+    /// PRB's learning rates decay as the defaults' do (×0.85 every 50 iterations) rather than
+    /// staying constant (Mitsuba's own examples).
+    pub prb_decay: bool,
     pub jobs: super::jobs::Jobs,
 }
 
@@ -142,6 +149,8 @@ impl Default for RobustnessConfig {
             targets: None,
             mitsuba_script: PathBuf::from("tools/mitsuba/render_dataset.py"),
             python: PathBuf::from("python3"),
+            prb_iterations: None,
+            prb_decay: false,
             jobs: super::jobs::Jobs::default(),
         }
     }
@@ -210,6 +219,8 @@ pub struct Outcome {
     /// Per channel, when the run's estimate entered σ_t ± 5 % and α ± 0.01 for good
     /// ([`settle`]; `None`: never, or no trajectory), and the loop's total seconds.
     pub settled: ([Option<settle::Settled>; 3], f64),
+    /// Mitsuba 3's PRB on the same case, where it ran.
+    pub prb: Option<prb::PrbOutcome>,
 }
 
 /// A run's recovered g or light scale.
@@ -359,6 +370,7 @@ pub(crate) fn outcome(case: &Case, rep: u64, targets: Targets, result: &Path) ->
         g: Recovered::of(&v, "g", [-1.0, 1.0]),
         light_scale: Recovered::light_scale(&v),
         settled: settle::of_run(&case.medium, &v, result)?,
+        prb: None,
     })
 }
 
@@ -541,6 +553,7 @@ pub fn run(a: &RobustnessConfig, obs: &dyn Observer) -> Result<()> {
             // A finished job measured it; a table assembled here only reads it.
             read_json(&run_dir.join("model-ratio.json")).map_or([f64::NAN; 3], |v| rgb(&v["ratio"]))
         };
+        out.prb = prb::of_case(a, case, (rep, tag), &data, run, obs)?;
         outcomes.push(out);
     }
     a.jobs.report_missing(&missing, obs);

@@ -192,11 +192,12 @@ pub fn run(a: &TimingConfig, obs: &dyn Observer) -> Result<()> {
     if let (Some(py), None) = (&a.mitsuba_python, record.prb) {
         record.prb = Some(super::run_prb(
             py,
-            &data,
+            (&data, None),
             &a.out.join("prb"),
             settings.iterations,
             settings.spp,
             0,
+            None,
         )?);
         scene::fsutil::atomic_write(&path, &serde_json::to_vec_pretty(&record)?, true)?;
     }

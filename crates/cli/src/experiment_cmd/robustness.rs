@@ -89,6 +89,16 @@ pub struct RobustnessArgs {
     /// The Python interpreter (with Mitsuba 3) that runs `--mitsuba-script`.
     #[arg(long = "mitsuba-python", default_value_os_t = RobustnessConfig::default().python)]
     pub python: PathBuf,
+    /// Recover every case also with Mitsuba 3's differentiable `prbvolpath`
+    /// (`tools/mitsuba/prb_optimize.py`, run by --mitsuba-python) for N iterations from the same
+    /// start at the same samples per pixel, and set its time to an accurate answer beside the
+    /// defaults'.
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub prb_iterations: Option<u32>,
+    /// PRB's learning rates decay as `optimize`'s do (×0.85 every 50 iterations) instead of
+    /// staying constant.
+    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, requires = "prb_iterations")]
+    pub prb_decay: bool,
     #[command(flatten)]
     pub jobs: super::JobArgs,
 }
@@ -122,6 +132,8 @@ impl RobustnessArgs {
             targets: self.targets.clone(),
             mitsuba_script: self.mitsuba_script.clone(),
             python: self.python.clone(),
+            prb_iterations: self.prb_iterations,
+            prb_decay: self.prb_decay,
             jobs: self.jobs.jobs(),
         }
     }

@@ -9,7 +9,7 @@ use inverse::params::OneOrRgb;
 
 use super::{Outcome, RobustnessConfig, Targets};
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(super) fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -23,7 +23,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The CSV's columns: one row per case, repetition and channel.
-const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g,settled_iteration,settled_seconds,loop_seconds";
+const CSV_HEADER: &str = "case,capture,mfp,shape,targets,rep,channel,sigma_t_true,sigma_t_est,sigma_t_err,sigma_t_err_uncorrected,sigma_t_lo,sigma_t_hi,sigma_t_covered,sigma_t_determined,albedo_true,albedo_est,albedo_err,albedo_lo,albedo_hi,albedo_covered,consistency_ratio,consistency_l2,valley_curvature,model_ratio,status,seconds_per_iteration,eta,roughness,g,settled_iteration,settled_seconds,loop_seconds,prb_settled_iteration,prb_settled_seconds,prb_loop_seconds";
 
 /// The Markdown header, then a table with its summary per set of cases (index-matched or
 /// dielectric; a heading each when both ran), and the CSV.
@@ -119,6 +119,7 @@ pub(super) fn report(a: &RobustnessConfig, outcomes: &[Outcome]) -> (String, Str
             shared_table(&mut md, &set, col);
         }
     }
+    super::prb::table(&mut md, outcomes);
     (md, csv)
 }
 
@@ -342,13 +343,17 @@ fn csv_rows(csv: &mut String, o: &Outcome, free: &[&SharedColumn]) {
             o.case.medium.roughness,
             o.case.medium.g
         );
-        let (settled, total) = o.settled;
-        match settled[c] {
-            Some(s) => {
-                let _ = write!(csv, ",{},{:.2},{total:.2}", s.iteration, s.seconds);
-            }
-            None => {
-                let _ = write!(csv, ",,,{total:.2}");
+        let mut settled = vec![o.settled];
+        settled.extend(o.prb.as_ref().map(|p| p.settled));
+        settled.resize(2, ([None; 3], f64::NAN));
+        for (settled, total) in settled {
+            match settled[c] {
+                Some(s) => {
+                    let _ = write!(csv, ",{},{:.2},{total:.2}", s.iteration, s.seconds);
+                }
+                None => {
+                    let _ = write!(csv, ",,,{total:.2}");
+                }
             }
         }
         // The shared parameters' columns (the same on the three channel rows).

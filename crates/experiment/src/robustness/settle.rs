@@ -62,14 +62,11 @@ fn settled_channel(
     })
 }
 
-/// [`settled`] for the run whose `iterations.csv` is `csv` and whose final estimate is
-/// `estimate`, and the loop's total seconds; `None`s when the file holds no iterations.
-pub fn settled_from_csv(
-    csv: &Path,
-    estimate: ([f64; 3], [f64; 3]),
-    sigma_t: [f64; 3],
-    albedo: [f64; 3],
-) -> Result<([Option<Settled>; 3], f64)> {
+/// A run's trajectory from its `iterations.csv` (columns by name): the parameters of each
+/// row and its seconds.
+type Trajectory = (Vec<([f64; 3], [f64; 3])>, Vec<f64>);
+
+fn read_trajectory(csv: &Path) -> Result<Trajectory> {
     let text = std::fs::read_to_string(csv).context(format!("reading {}", csv.display()))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
@@ -98,11 +95,41 @@ pub fn settled_from_csv(
         ));
         seconds.push(num(sec)?);
     }
+    Ok((params, seconds))
+}
+
+/// [`settled`] for the run whose `iterations.csv` is `csv` and whose final estimate is
+/// `estimate`, and the loop's total seconds; `None`s when the file holds no iterations.
+pub fn settled_from_csv(
+    csv: &Path,
+    estimate: ([f64; 3], [f64; 3]),
+    sigma_t: [f64; 3],
+    albedo: [f64; 3],
+) -> Result<([Option<Settled>; 3], f64)> {
+    let (mut params, seconds) = read_trajectory(csv)?;
     let total = seconds.iter().sum();
     if params.is_empty() {
         return Ok(([None; 3], total));
     }
     params.push(estimate);
+    Ok((settled(&params, &seconds, sigma_t, albedo), total))
+}
+
+/// [`settled`] for a run whose `iterations.csv` holds the parameters *after* each iteration's
+/// step (Mitsuba 3's PRB baseline, `tools/mitsuba/prb_optimize.py`), started from `start`: the
+/// trajectory is `start` followed by the rows, the last row being the final estimate.
+pub fn settled_after_steps(
+    csv: &Path,
+    start: ([f64; 3], [f64; 3]),
+    sigma_t: [f64; 3],
+    albedo: [f64; 3],
+) -> Result<([Option<Settled>; 3], f64)> {
+    let (rows, seconds) = read_trajectory(csv)?;
+    let total = seconds.iter().sum();
+    if rows.is_empty() {
+        return Ok(([None; 3], total));
+    }
+    let params: Vec<_> = std::iter::once(start).chain(rows).collect();
     Ok((settled(&params, &seconds, sigma_t, albedo), total))
 }
 
@@ -187,6 +214,10 @@ mod tests {
         let (s, total) = settled_from_csv(&csv, at(1.0, 0.0), S, A).expect("read");
         assert_eq!(total, 0.75);
         assert_eq!(s[0].map(|s| (s.iteration, s.seconds)), Some((1, 0.5)));
+        // The same rows as the parameters after each step, from a start far off: the
+        // trajectory is the start, then the rows.
+        let (s, _) = settled_after_steps(&csv, at(2.0, 0.0), S, A).expect("read");
+        assert_eq!(s[0].map(|s| (s.iteration, s.seconds)), Some((2, 0.75)));
         std::fs::write(&csv, "iteration,loss\n0,1\n").expect("write");
         let e = settled_from_csv(&csv, at(1.0, 0.0), S, A).unwrap_err();
         assert!(format!("{e:#}").contains("sigma_t_r"), "{e:#}");
