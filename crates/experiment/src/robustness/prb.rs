@@ -49,7 +49,8 @@ fn finished(dir: &Path, (iterations, spp, _, decay): PrbSettings) -> bool {
     read_json(&dir.join("result.json")).is_ok_and(|v| {
         v["iterations"].as_u64() == Some(iterations as u64)
             && v["spp"].as_u64() == Some(spp as u64)
-            && v["lr_decay"]["factor"].as_f64().unwrap_or(1.0) == factor
+            // The factor went through its decimal form (an f32 printed, read as f64).
+            && (v["lr_decay"]["factor"].as_f64().unwrap_or(1.0) - factor).abs() < 1e-6
     })
 }
 
@@ -327,16 +328,21 @@ mod tests {
         // PRB: 4 iterations of 3 s after which it is in the band from its third step on.
         let prb = dir.path().join("prb");
         let no_mesh = || -> Result<PathBuf> { unreachable!("not run") };
-        let none = run_or_read(
-            Path::new("/nonexistent"),
-            (&ours, &no_mesh),
-            &prb,
-            (4, 32, 0, None),
-            &m,
-            false,
-            &recovery::Silent,
-        );
-        assert!(none.expect("no run").is_none());
+        // Read (never run) PRB's folder with these settings.
+        let read = |settings: PrbSettings| {
+            let at = Path::new("/nonexistent");
+            run_or_read(
+                at,
+                (&ours, &no_mesh),
+                &prb,
+                settings,
+                &m,
+                false,
+                &recovery::Silent,
+            )
+            .expect("read")
+        };
+        assert!(read((4, 32, 0, None)).is_none());
         std::fs::create_dir_all(&prb).expect("mkdir");
         std::fs::write(
             prb.join("iterations.csv"),
@@ -348,17 +354,7 @@ mod tests {
         r["spp"] = 32.into();
         r["seconds_per_iteration"] = 3.0.into();
         std::fs::write(prb.join("result.json"), r.to_string()).expect("write");
-        let p = run_or_read(
-            Path::new("/nonexistent"),
-            (&ours, &no_mesh),
-            &prb,
-            (4, 32, 0, None),
-            &m,
-            false,
-            &recovery::Silent,
-        )
-        .expect("read")
-        .expect("finished");
+        let p = read((4, 32, 0, None)).expect("finished");
         // The start, then rows 0, 1, 2: in the band from row 2 (the trajectory's index 3).
         assert_eq!(
             p.settled.0[1].map(|s| (s.iteration, s.seconds)),
@@ -366,16 +362,12 @@ mod tests {
         );
         assert_eq!(p.settled.1, 12.0);
         // Other settings: not this run.
-        let other = run_or_read(
-            Path::new("/nonexistent"),
-            (&ours, &no_mesh),
-            &prb,
-            (5, 32, 0, None),
-            &m,
-            false,
-            &recovery::Silent,
-        );
-        assert!(other.expect("no run").is_none());
+        assert!(read((5, 32, 0, None)).is_none());
+        // The same run with a decay, as the script records it: reused only with that decay.
+        r["lr_decay"] = serde_json::json!({"factor": 0.85, "every": 50});
+        std::fs::write(prb.join("result.json"), r.to_string()).expect("write");
+        assert!(read((4, 32, 0, Some((0.85, 50)))).is_some());
+        assert!(read((4, 32, 0, None)).is_none());
 
         o.prb = Some(p);
         let mut md = String::new();
