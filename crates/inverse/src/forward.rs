@@ -133,7 +133,7 @@ impl ModelKind {
             gaps.push(format!(
                 "the learned model renders an anisotropic medium (g {}) less accurately than \
                  an isotropic one: measured against the tracer, image means up to 16 % off at \
-                 g 0.3–0.9 on front-lit spheres and blobs, and 42–234 % too bright on back-lit \
+                 g 0.3–0.9 on front-lit spheres and blobs, and 32–234 % too bright on back-lit \
                  objects at g 0.9 (within 3 % at g 0); the tracer's refinement renders it exactly",
                 object.g
             ));

@@ -143,9 +143,9 @@ fn run_or_read(
             rgb(&v["estimate"]["albedo"]),
         ],
         seconds_per_iteration: v["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN),
-        settled: settle::settled_after_steps(
+        settled: settle::settled_from_csv(
             &dir.join("iterations.csv"),
-            START,
+            settle::Rows::After(START),
             truth.sigma_t.map(f64::from),
             truth.albedo.map(f64::from),
         )?,

@@ -98,11 +98,21 @@ fn read_trajectory(csv: &Path) -> Result<Trajectory> {
     Ok((params, seconds))
 }
 
-/// [`settled`] for the run whose `iterations.csv` is `csv` and whose final estimate is
-/// `estimate`, and the loop's total seconds; `None`s when the file holds no iterations.
+/// What a run's `iterations.csv` leaves out of its trajectory.
+#[derive(Clone, Copy, Debug)]
+pub enum Rows {
+    /// Rows of the parameters each iteration started from (ours): the final estimate follows.
+    Before(([f64; 3], [f64; 3])),
+    /// Rows of the parameters *after* each iteration's step (Mitsuba 3's PRB baseline,
+    /// `tools/mitsuba/prb_optimize.py`): the start precedes them, the last row is the estimate.
+    After(([f64; 3], [f64; 3])),
+}
+
+/// [`settled`] for the run whose `iterations.csv` is `csv`, its rows completed by `rows`, and
+/// the loop's total seconds; `None`s when the file holds no iterations.
 pub fn settled_from_csv(
     csv: &Path,
-    estimate: ([f64; 3], [f64; 3]),
+    rows: Rows,
     sigma_t: [f64; 3],
     albedo: [f64; 3],
 ) -> Result<([Option<Settled>; 3], f64)> {
@@ -111,25 +121,10 @@ pub fn settled_from_csv(
     if params.is_empty() {
         return Ok(([None; 3], total));
     }
-    params.push(estimate);
-    Ok((settled(&params, &seconds, sigma_t, albedo), total))
-}
-
-/// [`settled`] for a run whose `iterations.csv` holds the parameters *after* each iteration's
-/// step (Mitsuba 3's PRB baseline, `tools/mitsuba/prb_optimize.py`), started from `start`: the
-/// trajectory is `start` followed by the rows, the last row being the final estimate.
-pub fn settled_after_steps(
-    csv: &Path,
-    start: ([f64; 3], [f64; 3]),
-    sigma_t: [f64; 3],
-    albedo: [f64; 3],
-) -> Result<([Option<Settled>; 3], f64)> {
-    let (rows, seconds) = read_trajectory(csv)?;
-    let total = seconds.iter().sum();
-    if rows.is_empty() {
-        return Ok(([None; 3], total));
+    match rows {
+        Rows::Before(estimate) => params.push(estimate),
+        Rows::After(start) => params.insert(0, start),
     }
-    let params: Vec<_> = std::iter::once(start).chain(rows).collect();
     Ok((settled(&params, &seconds, sigma_t, albedo), total))
 }
 
@@ -155,7 +150,7 @@ pub fn of_run(
     };
     settled_from_csv(
         &csv,
-        (rgb(&end["sigma_t"]), rgb(&end["albedo"])),
+        Rows::Before((rgb(&end["sigma_t"]), rgb(&end["albedo"]))),
         truth.sigma_t.map(f64::from),
         truth.albedo.map(f64::from),
     )
@@ -211,15 +206,15 @@ mod tests {
              1,1,51,61,71,0.9,0.8,0.7,0.25\n",
         )
         .expect("write");
-        let (s, total) = settled_from_csv(&csv, at(1.0, 0.0), S, A).expect("read");
+        let (s, total) = settled_from_csv(&csv, Rows::Before(at(1.0, 0.0)), S, A).expect("read");
         assert_eq!(total, 0.75);
         assert_eq!(s[0].map(|s| (s.iteration, s.seconds)), Some((1, 0.5)));
         // The same rows as the parameters after each step, from a start far off: the
         // trajectory is the start, then the rows.
-        let (s, _) = settled_after_steps(&csv, at(2.0, 0.0), S, A).expect("read");
+        let (s, _) = settled_from_csv(&csv, Rows::After(at(2.0, 0.0)), S, A).expect("read");
         assert_eq!(s[0].map(|s| (s.iteration, s.seconds)), Some((2, 0.75)));
         std::fs::write(&csv, "iteration,loss\n0,1\n").expect("write");
-        let e = settled_from_csv(&csv, at(1.0, 0.0), S, A).unwrap_err();
+        let e = settled_from_csv(&csv, Rows::Before(at(1.0, 0.0)), S, A).unwrap_err();
         assert!(format!("{e:#}").contains("sigma_t_r"), "{e:#}");
     }
 }
