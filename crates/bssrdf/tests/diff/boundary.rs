@@ -9,8 +9,9 @@
 //! boundary, directional incidence, the curvature correction): an isotropic one, whose walk
 //! tables at η 1.4 the planar test of this binary makes as well, and a forward-scattering one
 //! (g 0.3, the networks' g), whose exit, incidence and curvature tables are simulated for its g,
-//! so that the tables' ∂/∂α enter ∂I/∂α at g > 0 too. A new (g, η) costs its tables' walks, about
-//! 90 s on 2 cores, per test process without a kept copy ([`tables::disk`]).
+//! so that the tables' ∂/∂α enter ∂I/∂α at g > 0 too. A new (g, η) costs its tables' walks,
+//! about 100 s on 2 cores, per test process without a kept copy ([`tables::disk`];
+//! docs/notes/test-time.md).
 
 use super::*;
 
