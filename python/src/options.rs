@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use inverse::params::{LightScaleFit, OneOrRgb};
+use inverse::params::OneOrRgb;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -59,10 +59,6 @@ pub const OPTIONS: &[(&str, &str)] = &[
     ("lr_albedo", "learning rate of the albedo"),
     ("lr_g", "learning rate of g"),
     ("lr_light_scale", "learning rate of ln k"),
-    (
-        "light_scale_fit",
-        "how a free light scale moves: \"gradient\" or \"profile\"",
-    ),
     (
         "refine",
         "the last this many iterations refine with the tracer (None: the default share)",
@@ -226,14 +222,6 @@ pub fn apply(s: &mut RecoverySettings, key: &str, v: &Bound<'_, PyAny>) -> PyRes
         "lr_albedo" => s.schedule.lr_albedo = positive(key, v)? as f32,
         "lr_g" => s.schedule.lr_g = positive(key, v)? as f32,
         "lr_light_scale" => s.schedule.lr_light_scale = positive(key, v)? as f32,
-        "light_scale_fit" => {
-            let name: String = get(key, v, "give \"gradient\" or \"profile\"")?;
-            s.schedule.params.light_scale_fit = match name.as_str() {
-                "gradient" => LightScaleFit::Gradient,
-                "profile" => LightScaleFit::Profile,
-                _ => return Err(value_error(key, v, "give \"gradient\" or \"profile\"")),
-            };
-        }
         "refine" => s.tracer.refine = optional(v, |v| count0(key, v))?,
         "refine_spp" => s.tracer.refine_spp = optional(v, |v| count(key, v))?,
         "max_depth" => s.tracer.max_depth = optional(v, |v| count(key, v))?,
@@ -312,10 +300,6 @@ pub fn default_of<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>
         "lr_albedo" => py!(s.schedule.lr_albedo),
         "lr_g" => py!(s.schedule.lr_g),
         "lr_light_scale" => py!(s.schedule.lr_light_scale),
-        "light_scale_fit" => py!(match s.schedule.params.light_scale_fit {
-            LightScaleFit::Gradient => "gradient",
-            LightScaleFit::Profile => "profile",
-        }),
         "refine" => py!(s.tracer.refine),
         "refine_spp" => py!(s.tracer.refine_spp),
         "max_depth" => py!(s.tracer.max_depth),

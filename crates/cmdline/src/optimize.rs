@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use bssrdf::diff::{Loss, Primal};
 use clap::Args;
 use inverse::optimize::OptimizeConfig;
-use inverse::params::{LightScaleFit, OneOrRgb, ParamSpec, Parameterisation, Params};
+use inverse::params::{OneOrRgb, ParamSpec, Parameterisation, Params};
 use inverse::uncertainty::UncertaintySettings;
 use recovery::RecoveryConfig;
 use recovery::settings::{
@@ -120,12 +120,6 @@ pub struct OptimizeArgs {
     /// Learning rate on ln k with --free light-scale.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_light_scale)]
     pub lr_light_scale: f32,
-    /// How a free light scale moves: `gradient`, an Adam variable held at its start until the
-    /// refinement (or the run's second half) while σ_t and α fit the lights as stated;
-    /// `profile`, the least-squares match of the render's brightness to the images at every
-    /// iteration, so σ_t and α fit the images' shape with k at its optimum for them.
-    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, value_enum, default_value_t = ParamSpec::default().light_scale_fit)]
-    pub light_scale_fit: LightScaleFit,
     /// Learning rate on g with --free g.
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long, default_value_t = OptimizeConfig::default().lr_g)]
     pub lr_g: f32,
@@ -315,7 +309,6 @@ impl OptimizeArgs {
                     free_light_scale: self.free.contains(&FreeParam::LightScale)
                         || self.free.contains(&FreeParam::LightScaleRgb),
                     light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),
-                    light_scale_fit: self.light_scale_fit,
                 },
                 loss: self.loss,
                 single_render: self.single_render,

@@ -56,8 +56,6 @@ pub struct CaptureErrorsConfig {
     /// With a free light scale, one factor per channel (the remedy for an unknown white
     /// balance).
     pub light_scale_per_channel: bool,
-    /// How a free light scale moves.
-    pub light_scale_fit: inverse::params::LightScaleFit,
     /// The mesh's stated error that every run's intervals include (the remedy for a scanned
     /// mesh: `optimize --mesh-error`).
     pub mesh_error: Option<f64>,
@@ -84,7 +82,6 @@ impl Default for CaptureErrorsConfig {
             perturbations: None,
             free_light_scale: false,
             light_scale_per_channel: false,
-            light_scale_fit: Default::default(),
             mesh_error: None,
             mesh: PathBuf::from("data/meshes/spot.obj"),
             quick: false,
@@ -106,7 +103,6 @@ impl CaptureErrorsConfig {
             budget: self.budget,
             free_light_scale: self.free_light_scale,
             light_scale_per_channel: self.light_scale_per_channel,
-            light_scale_fit: self.light_scale_fit,
             mesh_error: self.mesh_error,
             mesh: self.mesh.clone(),
             quick: self.quick,

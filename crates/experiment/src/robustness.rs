@@ -93,8 +93,6 @@ pub struct RobustnessConfig {
     pub mesh_error: Option<f64>,
     /// The starting light scale of runs that free it (`None`: 1, the truth).
     pub init_light_scale: Option<f64>,
-    /// How a free light scale moves.
-    pub light_scale_fit: inverse::params::LightScaleFit,
     /// Independent repetitions of every case (renders and runs; at least 1).
     pub seeds: u64,
     /// Which cases.
@@ -142,7 +140,6 @@ impl Default for RobustnessConfig {
             light_scale_per_channel: false,
             init_g: None,
             init_light_scale: None,
-            light_scale_fit: Default::default(),
             seeds: 1,
             suite: Suite::default(),
             cases: None,
@@ -474,7 +471,6 @@ pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) 
     s.schedule.params.free_g = a.free_g;
     s.schedule.params.free_light_scale = a.free_light_scale;
     s.schedule.params.light_scale_per_channel = a.light_scale_per_channel;
-    s.schedule.params.light_scale_fit = a.light_scale_fit;
     s.start.init.g = a.init_g;
     s.checks.uncertainty.mesh_error = a.mesh_error;
     s.start.init.light_scale = a.init_light_scale.map(inverse::params::OneOrRgb::One);

@@ -27,8 +27,7 @@ use scene::{Camera, Image, Medium, PointLight};
 use serde::{Deserialize, Serialize};
 
 use crate::forward::{ForwardModel, ModelChoice};
-use crate::params::{LightScaleFit, OneOrRgb, Params};
-use brightness::BrightnessMatch;
+use crate::params::{OneOrRgb, Params};
 
 /// One target view.
 pub struct TargetView<'a> {
@@ -130,18 +129,7 @@ pub struct IterationGradient {
     pub crop_origins: Vec<[u32; 2]>,
     /// Mean (weighted) [`cross_misfit`] over the iteration's views, where the gradient has it.
     pub misfit: Option<f64>,
-    /// The renders' brightness match to the targets, weighted as the loss, where the gradient
-    /// came from two independent renders ([`brightness`]).
-    pub brightness: Option<BrightnessMatch>,
 }
-
-/// One view's loss gradient, noise-free misfit and brightness match
-/// ([`Optimizer::view_gradient`]).
-type ViewGradient = (
-    bssrdf::diff::LossGradient,
-    Option<[f64; 3]>,
-    Option<BrightnessMatch>,
-);
 
 /// A run in progress.
 pub struct Optimizer<'a> {
@@ -161,7 +149,6 @@ pub struct Optimizer<'a> {
     weights: Vec<[f64; 3]>,
 }
 
-pub mod brightness;
 mod checkpoint;
 mod config;
 pub(crate) mod gradient;
@@ -321,7 +308,6 @@ impl<'a> Optimizer<'a> {
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
         let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some(0.0), Some([0.0; 3]));
-        let mut brightness = Some(BrightnessMatch::default());
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
             // The light as the run has it (a recovered scale on its stated intensity).
@@ -337,7 +323,7 @@ impl<'a> Optimizer<'a> {
                     ..*full
                 },
             };
-            let (g, view_misfit, view_match) = self.view_gradient(&*at, &t, k, v)?;
+            let (g, view_misfit) = self.view_gradient(&*at, &t, k, v)?;
             if let Some(what) = non_finite_part(&g) {
                 return Err(InverseError::NonFinite {
                     iteration: k,
@@ -346,10 +332,6 @@ impl<'a> Optimizer<'a> {
                 });
             }
             let w = self.weights[v];
-            brightness = brightness.zip(view_match).map(|(mut sum, m)| {
-                sum.add_weighted(&m, w);
-                sum
-            });
             misfit = match (misfit, view_misfit) {
                 (Some(m), Some(x)) => Some(
                     m + (0..3)
@@ -389,20 +371,18 @@ impl<'a> Optimizer<'a> {
             d_ln_light_scale: d_k,
             views,
             crop_origins: crops.iter().flatten().map(|c| c.2).collect(),
-            brightness,
         })
     }
 
     /// The loss gradient of target view `t` (index `v`) in iteration `k` by the configured
-    /// estimator, and the view's noise-free misfit and brightness match where the estimator has
-    /// them (two independent renders).
+    /// estimator, and the view's noise-free misfit where the estimator has it.
     fn view_gradient(
         &self,
         at: &dyn crate::forward::MediumRenderer,
         t: &TargetView,
         k: u32,
         v: usize,
-    ) -> Result<ViewGradient, InverseError> {
+    ) -> Result<(bssrdf::diff::LossGradient, Option<[f64; 3]>), InverseError> {
         let c = &self.config;
         let spp = c.spp_at(k);
         let rs = RenderSettings {
@@ -410,7 +390,7 @@ impl<'a> Optimizer<'a> {
             seed: hash_key(&[c.seed, k as u64]),
             view: v as u64,
         };
-        let (mut view_misfit, mut view_match) = (None, None);
+        let mut view_misfit = None;
         let g = if c.two_renders && c.split_samples && spp >= 2 {
             // Two derivative renders with half the samples each and independent seeds:
             // ∂ℓ/∂θ = ½[∂ℓ/∂I(I_A)·∂I_B/∂θ + ∂ℓ/∂I(I_B)·∂I_A/∂θ], no covariance bias, the
@@ -428,7 +408,6 @@ impl<'a> Optimizer<'a> {
             if c.loss == Loss::L2 {
                 view_misfit = Some(cross_misfit(&da.value, &db.value, t.image));
             }
-            view_match = Some(BrightnessMatch::of_renders(&da.value, &db.value, t.image));
             split_sample_gradient(&da, &db, t.image, c.loss)
         } else if c.two_renders {
             // I₁ (seed A) gives ∂ℓ/∂I, the derivative images of a render with seed B give
@@ -441,13 +420,12 @@ impl<'a> Optimizer<'a> {
             let view = at.view(t.camera, t.light);
             let i1 = view.value(&rs, None)?;
             let d2 = view.derivatives(&rs_b, None)?;
-            view_match = Some(BrightnessMatch::of_renders(&i1, &d2.value, t.image));
             decorrelated_gradient(&i1, &d2, t.image, c.loss)
         } else {
             at.view(t.camera, t.light)
                 .loss_gradient(&rs, t.image, c.loss)?
         };
-        Ok((g, view_misfit, view_match))
+        Ok((g, view_misfit))
     }
 
     /// One iteration.
@@ -479,7 +457,6 @@ impl<'a> Optimizer<'a> {
             d_ln_light_scale: d_k,
             views,
             crop_origins,
-            brightness,
         } = self.gradient(k, &p)?;
         let c = &self.config;
         // A free g moves where the iteration's model differentiates it, after the α-first
@@ -492,10 +469,7 @@ impl<'a> Optimizer<'a> {
         // deficit and the flat α–k valley never gave it back. From the valley's floor k moves
         // along it. (An α at its clamp does not release k earlier: high-albedo media touch it
         // on the way, and k then took up the deficit again.)
-        // Profiled, it follows the brightness match instead, from the first iteration.
-        let profiled = c.params.light_scale_fit == LightScaleFit::Profile;
-        let moves_k = c.params.free_light_scale && !profiled && k >= c.light_scale_start();
-        let d_k_seen = d_k;
+        let moves_k = c.params.free_light_scale && k >= c.light_scale_start();
         let d_k = d_k.filter(|_| moves_k);
         let mut g = c
             .params
@@ -519,9 +493,6 @@ impl<'a> Optimizer<'a> {
             adam.restart_moments();
         }
         adam.step_scaled(&mut u, &mut g, scale);
-        if let (true, Some(m)) = (profiled, brightness) {
-            m.step(&mut u[c.params.light_scale_indices()], brightness::PROFILE_RATE);
-        }
         c.params.clamp(&mut u);
         if let Some(i) = u.iter().position(|x| !x.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -538,7 +509,7 @@ impl<'a> Optimizer<'a> {
             d_sigma_t: ds_t,
             d_albedo: da,
             d_g,
-            d_ln_light_scale: d_k.or(d_k_seen.filter(|_| profiled)).map(|d| {
+            d_ln_light_scale: d_k.map(|d| {
                 if c.params.light_scale_per_channel {
                     OneOrRgb::Rgb(d)
                 } else {

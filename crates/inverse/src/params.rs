@@ -72,34 +72,6 @@ pub struct ParamSpec {
     /// well as the light's strength): the last three variables. (Left out of the JSON when off.)
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub light_scale_per_channel: bool,
-    /// How a free light scale moves ([`LightScaleFit`]). (Left out of the JSON at the
-    /// default; files written before the option read as [`LightScaleFit::Gradient`].)
-    #[serde(default, skip_serializing_if = "LightScaleFit::is_gradient")]
-    pub light_scale_fit: LightScaleFit,
-}
-
-/// How a free light scale k moves.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "kebab-case")]
-pub enum LightScaleFit {
-    /// An Adam variable (ln k, learning rate `lr_light_scale`), held at its start until
-    /// [`crate::optimize::OptimizeConfig::light_scale_start`] while σ_t and α fit the images
-    /// under the lights as stated.
-    #[default]
-    Gradient,
-    /// Profiled out (variable projection, Golub and Pereyra 1973): from the first iteration k
-    /// follows the least-squares brightness match of the current render to its targets,
-    /// k* = k·Σ w T·I / Σ w I² over the iteration's views (I rendered with k), smoothed over
-    /// iterations ([`crate::optimize::brightness`]). σ_t and α then descend the loss with k
-    /// at its optimum for them, so they fit the images' shape, not a misstated light.
-    Profile,
-}
-
-impl LightScaleFit {
-    fn is_gradient(&self) -> bool {
-        *self == LightScaleFit::Gradient
-    }
 }
 
 /// One value for every channel, or one per channel: a recovered light scale, its gradient or
@@ -149,7 +121,6 @@ impl Default for ParamSpec {
             free_g: false,
             free_light_scale: false,
             light_scale_per_channel: false,
-            light_scale_fit: LightScaleFit::Gradient,
         }
     }
 }

@@ -12,7 +12,7 @@ use scene::{Dataset, Medium, Object};
 use super::{RecoveryConfig, RecoveryError, check_resume_settings, resume_budget, select_views};
 use inverse::forward::ModelKind;
 use inverse::optimize::{Checkpoint, Optimizer, TargetView};
-use inverse::params::{LightScaleFit, OneOrRgb, Params};
+use inverse::params::{OneOrRgb, Params};
 use inverse::views::build_accel;
 
 /// What a run works on, loaded and checked.
@@ -218,17 +218,11 @@ fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool
         } else {
             "the lights' strength is recovered: a factor k on every light's stated intensity"
         };
-        match c.params.light_scale_fit {
-            LightScaleFit::Gradient => tracing::info!(
-                "{what}, from k = {k}, held there until iteration {} while σ_t and α fit the \
-                 images under the lights as stated",
-                c.light_scale_start()
-            ),
-            LightScaleFit::Profile => tracing::info!(
-                "{what}, from k = {k}: at every iteration k follows the least-squares match \
-                 of the render's brightness to the images, and σ_t and α fit with k there"
-            ),
-        }
+        tracing::info!(
+            "{what}, from k = {k}, held there until iteration {} while σ_t and α fit the \
+             images under the lights as stated",
+            c.light_scale_start()
+        );
     }
     if c.params.free_g {
         let start = c.init.g.unwrap_or(object.g as f64);

@@ -51,9 +51,6 @@ pub struct CaptureErrorsArgs {
     /// light-scale-rgb`), the remedy for a white balance the capture does not know.
     #[arg(long)]
     pub free_light_scale_rgb: bool,
-    /// How a free light scale moves (`optimize --light-scale-fit`).
-    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_enum, default_value_t = inverse::params::ParamSpec::default().light_scale_fit)]
-    pub light_scale_fit: inverse::params::LightScaleFit,
     /// State the mesh's accuracy in every run (`optimize --mesh-error`): the intervals include
     /// what a mesh error of that size moves the estimate by, to first order (on a mesh with
     /// 0.2 % noise, a third to a half of its actual effect).
@@ -83,7 +80,6 @@ impl CaptureErrorsArgs {
             perturbations: self.perturbations.clone(),
             free_light_scale: self.free_light_scale || self.free_light_scale_rgb,
             light_scale_per_channel: self.free_light_scale_rgb,
-            light_scale_fit: self.light_scale_fit,
             mesh_error: self.mesh_error,
             mesh: self.mesh.clone(),
             quick: *self.quick,

@@ -60,9 +60,6 @@ pub struct RobustnessArgs {
     /// 1, the truth).
     #[arg(long, requires = "free")]
     pub init_light_scale: Option<f64>,
-    /// How a free light scale moves (`optimize --light-scale-fit`).
-    #[arg(help_heading = cmdline::RESEARCH_OPTIONS, long, value_enum, requires = "free", default_value_t = inverse::params::ParamSpec::default().light_scale_fit)]
-    pub light_scale_fit: inverse::params::LightScaleFit,
     /// Independent repetitions of every case (renders and runs).
     #[arg(long, default_value_t = RobustnessConfig::default().seeds)]
     pub seeds: u64,
@@ -124,7 +121,6 @@ impl RobustnessArgs {
             light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),
             init_g: self.init_g,
             init_light_scale: self.init_light_scale,
-            light_scale_fit: self.light_scale_fit,
             // The suite's meshes are exact.
             mesh_error: None,
             seeds: self.seeds,

@@ -314,16 +314,6 @@ impl OptimizeConfig {
                     .into(),
             );
         }
-        if self.params.free_light_scale
-            && self.params.light_scale_fit == crate::params::LightScaleFit::Profile
-            && !self.two_renders
-        {
-            return Err(
-                "a profiled light scale with the single-render gradient: the brightness match \
-                 needs two independent renders of each view; use the two-render gradient"
-                    .into(),
-            );
-        }
         if self.params.free_g
             && !self
                 .model_at(self.iterations.saturating_sub(1))
