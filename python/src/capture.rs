@@ -24,7 +24,7 @@ struct Stated {
     transfer: Option<String>,
     exposure: f32,
     intensity: Rgb,
-    object: (Option<f32>, Option<f32>, Option<f32>),
+    object: (Option<f32>, Option<f32>, Option<[f32; 3]>),
     units: Option<String>,
 }
 
@@ -64,7 +64,7 @@ impl Stated {
         let object = (eta.is_some() || roughness.is_some() || g.is_some()).then(|| scene::Object {
             eta: eta.unwrap_or(1.0),
             roughness: roughness.unwrap_or(0.0),
-            g: g.unwrap_or(0.0),
+            g: scene::Anisotropy(g.unwrap_or([0.0; 3])),
         });
         if let Some(o) = &object {
             o.validate("the object").map_err(errors::scene)?;
@@ -106,7 +106,7 @@ pub fn import_colmap(
     exposure: f32,
     eta: Option<f32>,
     roughness: Option<f32>,
-    g: Option<f32>,
+    g: Option<Rgb>,
     units: Option<String>,
 ) -> PyResult<PyDataset> {
     let light = stated_light(flash, light_positions)?.ok_or_else(|| {
@@ -118,7 +118,7 @@ pub fn import_colmap(
         transfer,
         exposure,
         intensity,
-        object: (eta, roughness, g),
+        object: (eta, roughness, g.map(|g| g.rgb())),
         units,
     };
     let capture = stated.capture(images, light)?;
@@ -151,7 +151,7 @@ pub fn import_nerf(
     exposure: f32,
     eta: Option<f32>,
     roughness: Option<f32>,
-    g: Option<f32>,
+    g: Option<Rgb>,
     units: Option<String>,
 ) -> PyResult<PyDataset> {
     let t = scene::nerf::NerfTransforms::read(&transforms).map_err(errors::scene)?;
@@ -173,7 +173,7 @@ pub fn import_nerf(
         transfer,
         exposure,
         intensity,
-        object: (eta, roughness, g),
+        object: (eta, roughness, g.map(|g| g.rgb())),
         units,
     };
     let capture = stated.capture(images.unwrap_or_else(|| t.dir()), light)?;

@@ -99,7 +99,7 @@ impl PyDataset {
         images: Option<Vec<Bound<'_, PyAny>>>,
         eta: f32,
         roughness: f32,
-        g: f32,
+        g: crate::medium::Rgb,
         truth: Option<PyMedium>,
         length_unit: Option<&str>,
     ) -> PyResult<PyDataset> {
@@ -174,6 +174,7 @@ impl PyDataset {
                 expected_mean: None,
             });
         }
+        let g = scene::Anisotropy(g.rgb());
         let object = scene::Object { eta, roughness, g };
         object.validate("object").map_err(errors::scene)?;
         let mut ds = scene::Dataset::from_scene(&scene::SceneDesc {
@@ -380,7 +381,7 @@ impl PyDataset {
                 let d = PyDict::new(py);
                 d.set_item("eta", short(o.eta))?;
                 d.set_item("roughness", short(o.roughness))?;
-                d.set_item("g", short(o.g))?;
+                d.set_item("g", crate::medium::g_value(py, o.g)?)?;
                 Ok(d)
             })
             .transpose()

@@ -37,6 +37,7 @@ fn keyword_of(setting: scene::setting::Setting) -> &'static str {
         Setting::Overwrite => "overwrite=True",
         Setting::Resume => "resume=True",
         Setting::FreeG => "free=[\"g\"]",
+        Setting::FreeGRgb => "free=[\"g-rgb\"]",
         Setting::FreeLightScale => "free=[\"light-scale\"]",
         s => s.key(),
     }

@@ -44,6 +44,18 @@ impl Rgb {
     }
 }
 
+/// A g as Python has it: a float, or a 3-tuple where the channels' g differ.
+pub fn g_value(py: Python<'_>, g: scene::Anisotropy) -> PyResult<Bound<'_, PyAny>> {
+    use pyo3::IntoPyObjectExt;
+    match g.as_uniform() {
+        Some(v) => short(v).into_bound_py_any(py),
+        None => {
+            let v = g.channels().map(short);
+            (v[0], v[1], v[2]).into_bound_py_any(py)
+        }
+    }
+}
+
 impl PyMedium {
     /// `m`, checked ([`scene::Medium::validate`]) with `context` naming where it came from.
     pub fn checked(m: scene::Medium, context: &str) -> PyResult<PyMedium> {
@@ -55,13 +67,13 @@ impl PyMedium {
 #[pymethods]
 impl PyMedium {
     #[new]
-    #[pyo3(signature = (sigma_t, albedo, g = 0.0, eta = 1.0, roughness = 0.0))]
-    fn new(sigma_t: Rgb, albedo: Rgb, g: f32, eta: f32, roughness: f32) -> PyResult<PyMedium> {
+    #[pyo3(signature = (sigma_t, albedo, g = Rgb::One(0.0), eta = 1.0, roughness = 0.0))]
+    fn new(sigma_t: Rgb, albedo: Rgb, g: Rgb, eta: f32, roughness: f32) -> PyResult<PyMedium> {
         PyMedium::checked(
             scene::Medium {
                 sigma_t: sigma_t.rgb(),
                 albedo: albedo.rgb(),
-                g,
+                g: scene::Anisotropy(g.rgb()),
                 eta,
                 roughness,
             },
@@ -83,10 +95,11 @@ impl PyMedium {
         (a[0], a[1], a[2])
     }
 
-    /// Henyey–Greenstein g (mean cosine of the scattering angle).
+    /// Henyey–Greenstein g (mean cosine of the scattering angle): a number, or a 3-tuple
+    /// where the channels' g differ.
     #[getter]
-    fn g(&self) -> f64 {
-        short(self.inner.g)
+    fn g<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        g_value(py, self.inner.g)
     }
 
     /// Relative index of refraction n_inside/n_outside (1: index-matched).
@@ -107,7 +120,7 @@ impl PyMedium {
         &self,
         sigma_t: Option<Rgb>,
         albedo: Option<Rgb>,
-        g: Option<f32>,
+        g: Option<Rgb>,
         eta: Option<f32>,
         roughness: Option<f32>,
     ) -> PyResult<PyMedium> {
@@ -116,7 +129,7 @@ impl PyMedium {
             scene::Medium {
                 sigma_t: sigma_t.map_or(m.sigma_t, |v| v.rgb()),
                 albedo: albedo.map_or(m.albedo, |v| v.rgb()),
-                g: g.unwrap_or(m.g),
+                g: g.map_or(m.g, |g| scene::Anisotropy(g.rgb())),
                 eta: eta.unwrap_or(m.eta),
                 roughness: roughness.unwrap_or(m.roughness),
             },
@@ -128,17 +141,24 @@ impl PyMedium {
     /// materials, Narasimhan et al. 2006's media) in the given length unit ("mm", "cm", "m"),
     /// at phase function g (the reduced coefficients are converted to σ_t at that g).
     #[staticmethod]
-    #[pyo3(signature = (name, unit = "mm", g = 0.0, eta = 1.0, roughness = 0.0))]
-    fn measured(name: &str, unit: &str, g: f64, eta: f32, roughness: f32) -> PyResult<PyMedium> {
+    #[pyo3(signature = (name, unit = "mm", g = Rgb::One(0.0), eta = 1.0, roughness = 0.0))]
+    fn measured(name: &str, unit: &str, g: Rgb, eta: f32, roughness: f32) -> PyResult<PyMedium> {
         use scene::measured::MeasuredMedium;
         let m = MeasuredMedium::find(name).map_err(errors::scene)?;
         let unit = parse_unit(unit)?;
-        let (sigma_t, albedo) = m.medium(g, unit);
+        let g = scene::Anisotropy(g.rgb());
+        if let Some((c, v)) = g.out_of_range() {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "Medium.measured({name:?}): {} = {v} must be in (−1, 1)",
+                g.field(c)
+            )));
+        }
+        let (sigma_t, albedo) = m.medium_rgb(g.channels().map(f64::from), unit);
         PyMedium::checked(
             scene::Medium {
                 sigma_t,
                 albedo,
-                g: g as f32,
+                g,
                 eta,
                 roughness,
             },
@@ -151,7 +171,7 @@ impl PyMedium {
         let d = PyDict::new(py);
         d.set_item("sigma_t", self.sigma_t())?;
         d.set_item("albedo", self.albedo())?;
-        d.set_item("g", self.g())?;
+        d.set_item("g", self.g(py)?)?;
         d.set_item("eta", self.eta())?;
         d.set_item("roughness", self.roughness())?;
         Ok(d)

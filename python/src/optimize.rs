@@ -41,8 +41,10 @@ fn params_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>>
     let d = PyDict::new(py);
     d.set_item("sigma_t", (p.sigma_t[0], p.sigma_t[1], p.sigma_t[2]))?;
     d.set_item("albedo", (p.albedo[0], p.albedo[1], p.albedo[2]))?;
-    if let Some(g) = p.g {
-        d.set_item("g", g)?;
+    match p.g {
+        Some(OneOrRgb::One(g)) => d.set_item("g", g)?,
+        Some(OneOrRgb::Rgb(g)) => d.set_item("g", (g[0], g[1], g[2]))?,
+        None => {}
     }
     match p.light_scale {
         Some(OneOrRgb::One(k)) => d.set_item("light_scale", k)?,

@@ -43,14 +43,17 @@ pub const OPTIONS: &[(&str, &str)] = &[
     ),
     ("init_sigma_t", "starting σ_t, one value or three"),
     ("init_albedo", "starting albedo, one value or three"),
-    ("init_g", "starting g of a recovery that frees it"),
+    (
+        "init_g",
+        "starting g of a recovery that frees it, one value or three",
+    ),
     (
         "init_light_scale",
         "starting light scale of a recovery that frees it",
     ),
     (
         "free",
-        "more unknowns: any of \"g\", \"light-scale\", \"light-scale-rgb\"",
+        "more unknowns: any of \"g\", \"g-rgb\", \"light-scale\", \"light-scale-rgb\"",
     ),
     ("fix_sigma_t", "hold σ_t at its start"),
     ("fix_albedo", "hold the albedo at its start"),
@@ -181,7 +184,15 @@ pub fn apply(s: &mut RecoverySettings, key: &str, v: &Bound<'_, PyAny>) -> PyRes
             s.start.sigma_t_from_units = false;
         }
         "init_albedo" => s.start.init.albedo = rgb(key, v)?,
-        "init_g" => s.start.init.g = optional(v, |v| get(key, v, "give a number in (−1, 1)"))?,
+        "init_g" => {
+            s.start.init.g = optional(v, |v| {
+                if let Ok(x) = v.extract::<f64>() {
+                    return Ok(OneOrRgb::One(x));
+                }
+                let g: [f64; 3] = get(key, v, "give a number in (−1, 1), or three (R, G, B)")?;
+                Ok(OneOrRgb::Rgb(g))
+            })?
+        }
         "init_light_scale" => {
             s.start.init.light_scale = optional(v, |v| positive(key, v))?.map(OneOrRgb::One)
         }
@@ -192,13 +203,17 @@ pub fn apply(s: &mut RecoverySettings, key: &str, v: &Bound<'_, PyAny>) -> PyRes
                 get(
                     key,
                     v,
-                    "give a list of \"g\", \"light-scale\", \"light-scale-rgb\"",
+                    "give a list of \"g\", \"g-rgb\", \"light-scale\", \"light-scale-rgb\"",
                 )?
             };
             let p = &mut s.schedule.params;
             for n in names {
                 match n.as_str() {
                     "g" => p.free_g = true,
+                    "g-rgb" | "g_rgb" => {
+                        p.free_g = true;
+                        p.g_per_channel = true;
+                    }
                     "light-scale" | "light_scale" => p.free_light_scale = true,
                     "light-scale-rgb" | "light_scale_rgb" => {
                         p.free_light_scale = true;
@@ -208,8 +223,8 @@ pub fn apply(s: &mut RecoverySettings, key: &str, v: &Bound<'_, PyAny>) -> PyRes
                         return Err(value_error(
                             key,
                             v,
-                            "the unknowns that can be freed are \"g\", \"light-scale\" and \
-                             \"light-scale-rgb\"",
+                            "the unknowns that can be freed are \"g\", \"g-rgb\", \
+                             \"light-scale\" and \"light-scale-rgb\"",
                         ));
                     }
                 }
@@ -268,7 +283,11 @@ pub fn default_of<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>
         };
     }
     let free: Vec<&str> = [
-        (s.schedule.params.free_g, "g"),
+        (
+            s.schedule.params.free_g && !s.schedule.params.g_per_channel,
+            "g",
+        ),
+        (s.schedule.params.g_per_channel, "g-rgb"),
         (
             s.schedule.params.free_light_scale && !s.schedule.params.light_scale_per_channel,
             "light-scale",
@@ -290,7 +309,7 @@ pub fn default_of<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>
         "model_file" => py!(s.model.file),
         "init_sigma_t" => rgb(s.start.init.sigma_t),
         "init_albedo" => rgb(s.start.init.albedo),
-        "init_g" => py!(s.start.init.g),
+        "init_g" => py!(None::<f64>),
         "init_light_scale" => py!(None::<f64>),
         "free" => py!(free),
         "fix_sigma_t" => py!(s.schedule.params.fix_sigma_t),

@@ -21,6 +21,21 @@ def test_medium_fields_defaults_and_replace():
     assert tl.Medium(**m.to_dict()) == m
 
 
+def test_a_g_per_channel_reads_back_and_is_refused_where_mitsuba_has_one():
+    m = tl.Medium(sigma_t=30, albedo=0.9, g=(0.3, 0.5, 0.7))
+    assert m.g == pytest.approx((0.3, 0.5, 0.7))
+    assert tl.Medium(**m.to_dict()) == m
+    assert m.replace(g=0.4).g == pytest.approx(0.4)
+    assert "g=(0.3, 0.5, 0.7)" in repr(m)
+    with pytest.raises(ValueError, match=r"g\[1\] = 1"):
+        tl.Medium(sigma_t=30, albedo=0.9, g=(0.3, 1.0, 0.7))
+    from translucent import mitsuba
+
+    with pytest.raises(ValueError, match="one g"):
+        mitsuba.medium_dict(m)
+    assert "g-rgb" in tl.default_options()["free"][1]
+
+
 @pytest.mark.parametrize(
     "kwargs, field",
     [

@@ -96,7 +96,7 @@ def make_dataset(
     images: Optional[Sequence[np.ndarray]] = None,
     eta: float = 1.0,
     roughness: float = 0.0,
-    g: float = 0.0,
+    g: Union[float, Sequence[float]] = 0.0,
     truth: Optional[Medium] = None,
     length_unit: Optional[str] = None,
 ) -> Dataset:
@@ -115,7 +115,8 @@ def make_dataset(
     images: N arrays (H, W, 3) float32 of linear radiance, or None (render them later and give
         them with ``Dataset.with_images``).
     eta, roughness, g: what is known about the object: the boundary's relative index of
-        refraction (1: index-matched), its GGX roughness (0: smooth) and the phase function's g.
+        refraction (1: index-matched), its GGX roughness (0: smooth) and the phase function's g
+        (one value, or three: R, G, B).
     truth: the medium a synthetic dataset was made with (a report only).
     length_unit: "mm", "cm" or "m" when the scene's unit is a real length.
     """

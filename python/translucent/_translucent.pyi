@@ -17,17 +17,18 @@ class Error(Exception):
 class Medium:
     """A homogeneous medium inside its boundary (σ_t per channel in 1/scene unit, albedo
     σ_s/σ_t per channel, Henyey–Greenstein g, relative index of refraction eta, the boundary's
-    GGX roughness). Out-of-range values raise ValueError naming the field and the fix."""
+    GGX roughness). g is one number, or three (R, G, B) for a medium whose forward scattering
+    depends on the wavelength. Out-of-range values raise ValueError naming the field and the fix."""
 
     def __init__(
-        self, sigma_t: _Rgb, albedo: _Rgb, g: float = 0.0, eta: float = 1.0, roughness: float = 0.0
+        self, sigma_t: _Rgb, albedo: _Rgb, g: _Rgb = 0.0, eta: float = 1.0, roughness: float = 0.0
     ) -> None: ...
     @property
     def sigma_t(self) -> Tuple[float, float, float]: ...
     @property
     def albedo(self) -> Tuple[float, float, float]: ...
     @property
-    def g(self) -> float: ...
+    def g(self) -> Union[float, Tuple[float, float, float]]: ...
     @property
     def eta(self) -> float: ...
     @property
@@ -37,13 +38,13 @@ class Medium:
         *,
         sigma_t: Optional[_Rgb] = None,
         albedo: Optional[_Rgb] = None,
-        g: Optional[float] = None,
+        g: Optional[_Rgb] = None,
         eta: Optional[float] = None,
         roughness: Optional[float] = None,
     ) -> "Medium": ...
     @staticmethod
     def measured(
-        name: str, unit: str = "mm", g: float = 0.0, eta: float = 1.0, roughness: float = 0.0
+        name: str, unit: str = "mm", g: _Rgb = 0.0, eta: float = 1.0, roughness: float = 0.0
     ) -> "Medium": ...
     def to_dict(self) -> Dict[str, Any]: ...
 
@@ -67,7 +68,7 @@ class Dataset:
         images: Optional[Sequence[npt.NDArray[np.float32]]],
         eta: float,
         roughness: float,
-        g: float,
+        g: _Rgb,
         truth: Optional[Medium],
         length_unit: Optional[str],
     ) -> "Dataset": ...
@@ -137,7 +138,7 @@ def import_colmap(
     exposure: float = 1.0,
     eta: Optional[float] = None,
     roughness: Optional[float] = None,
-    g: Optional[float] = None,
+    g: Optional[_Rgb] = None,
     units: Optional[str] = None,
 ) -> Dataset: ...
 def import_nerf(
@@ -153,6 +154,6 @@ def import_nerf(
     exposure: float = 1.0,
     eta: Optional[float] = None,
     roughness: Optional[float] = None,
-    g: Optional[float] = None,
+    g: Optional[_Rgb] = None,
     units: Optional[str] = None,
 ) -> Dataset: ...

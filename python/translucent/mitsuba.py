@@ -40,7 +40,14 @@ def bsdf_dict(medium: Medium) -> Dict[str, Any]:
 
 def medium_dict(medium: Medium) -> Dict[str, Any]:
     """The interior of ``medium`` as a Mitsuba 3 ``homogeneous`` medium dict (in the scene's
-    length unit: Mitsuba's σ_t is per scene unit, as ours)."""
+    length unit: Mitsuba's σ_t is per scene unit, as ours). Mitsuba 3's ``hg`` has one g for
+    every channel: a medium with a g per channel raises ValueError (render each channel's g as a
+    scene of its own)."""
+    if not isinstance(medium.g, (int, float)):
+        raise ValueError(
+            f"the medium's g is per channel {medium.g}; Mitsuba 3's hg phase function has one g "
+            "for every channel: render each channel's g as a scene of its own"
+        )
     scale = max(medium.sigma_t)
     return {
         "type": "homogeneous",

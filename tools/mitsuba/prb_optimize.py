@@ -81,6 +81,13 @@ def rgb3(v, what):
     sys.exit(f"error: {what} = {v!r}: expected one number or [r, g, b]")
 
 
+def g_of(v, what):
+    """A Henyey-Greenstein g as written (one number, or [r, g, b] for a g per channel) -> one
+    float where the channels share it, else the list of three."""
+    g = rgb3(v, what)
+    return g[0] if g[0] == g[1] == g[2] else g
+
+
 def parse_rgb_arg(s, what):
     parts = [p for p in s.split(",") if p.strip()]
     if len(parts) not in (1, 3):
@@ -288,7 +295,7 @@ def load_dataset(folder):
             truth = dict(
                 sigma_t=rgb3(truth["sigma_t"], "truth.sigma_t"),
                 albedo=rgb3(truth["albedo"], "truth.albedo"),
-                g=float(truth.get("g", 0.0)),
+                g=g_of(truth.get("g", 0.0), "truth.g"),
                 eta=float(truth.get("eta", 1.0)),
                 roughness=float(truth.get("roughness", 0.0)),
             )
@@ -302,7 +309,7 @@ def load_dataset(folder):
                     truth["roughness"] = float(b.get("roughness", 0.0))
                 elif b.get("type") == "null":
                     truth["eta"], truth["roughness"] = 1.0, 0.0
-                truth["g"] = float(ph["g"]) if ph.get("type") == "hg" else 0.0
+                truth["g"] = g_of(ph["g"], "object.phase.g") if ph.get("type") == "hg" else 0.0
         return dict(
             mesh=folder / d["mesh"] if "mesh" in d else None,
             shape=d.get("shape"),
@@ -491,6 +498,11 @@ def main():
 
     truth = ds["truth"]
     g = truth["g"] if truth else 0.0
+    if isinstance(g, list):
+        sys.exit(
+            f"error: the medium has a g per channel ({g}); Mitsuba 3's hg phase function has one "
+            "g for every channel, so prbvolpath cannot render it"
+        )
     eta = truth["eta"] if truth else 1.0
     max_depth = a.max_depth or ds["max_depth"] or 64
     # 'rgb' values must be in [0, 1] when loaded: sigma_t = rgb * scale; the optimiser later

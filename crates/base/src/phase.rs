@@ -8,6 +8,10 @@
 //! The derivative with respect to g that the tracer's ∂I/∂g needs is that of ln p:
 //!
 //!   ∂ ln p/∂g = −2g/(1 − g²) − 3(g − cos θ)/(1 + g² − 2g cos θ)   (3 cos θ at g = 0).
+//!
+//! A chromatic medium has one g per RGB channel ([`ChannelHg`]): channel c's radiance sees
+//! p_{g_c}. A path samples its directions with one channel's phase function (the tracer's hero
+//! channel) and weighs the others by the ratio of their densities, as it does its free flights.
 
 use geometry::Frame;
 use glam::Vec3;
@@ -67,9 +71,96 @@ impl HenyeyGreenstein {
     }
 }
 
+/// A Henyey–Greenstein phase function per RGB channel ([module docs](self)). With one g for
+/// all channels every method returns the same value in each channel, computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct ChannelHg {
+    hg: [HenyeyGreenstein; 3],
+    uniform: bool,
+}
+
+impl ChannelHg {
+    /// The phase functions of anisotropies `g` (R, G, B).
+    pub fn new(g: [f32; 3]) -> Self {
+        ChannelHg {
+            hg: g.map(|g| HenyeyGreenstein { g }),
+            uniform: g[0] == g[1] && g[1] == g[2],
+        }
+    }
+
+    /// Whether every channel has the same g.
+    #[inline]
+    pub fn is_uniform(&self) -> bool {
+        self.uniform
+    }
+
+    /// The phase function of channel `c`.
+    #[inline]
+    pub fn channel(&self, c: usize) -> &HenyeyGreenstein {
+        &self.hg[c]
+    }
+
+    /// Density per steradian of each channel for scattering from `d_in` into `d_out`.
+    #[inline]
+    pub fn eval(&self, d_in: Vec3, d_out: Vec3) -> [f32; 3] {
+        self.eval_cos(d_in.dot(d_out))
+    }
+
+    /// Density of each channel as a function of cos θ.
+    #[inline]
+    pub fn eval_cos(&self, cos_theta: f32) -> [f32; 3] {
+        if self.uniform {
+            [self.hg[0].eval_cos(cos_theta); 3]
+        } else {
+            self.hg.map(|p| p.eval_cos(cos_theta))
+        }
+    }
+
+    /// ∂ ln p_{g_c}/∂g_c at cos θ, per channel.
+    #[inline]
+    pub fn d_log_dg(&self, cos_theta: f32) -> [f32; 3] {
+        if self.uniform {
+            [self.hg[0].d_log_dg(cos_theta); 3]
+        } else {
+            self.hg.map(|p| p.d_log_dg(cos_theta))
+        }
+    }
+
+    /// A new propagation direction around `d_in` from channel `c`'s phase function.
+    #[inline]
+    pub fn sample(&self, c: usize, d_in: Vec3, u1: f32, u2: f32) -> Vec3 {
+        self.hg[c].sample(d_in, u1, u2)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each channel of a chromatic phase function is that channel's HG, and a uniform one
+    /// computes exactly what one HG does.
+    #[test]
+    fn channels_are_their_own_phase_functions() {
+        let chromatic = ChannelHg::new([0.2, 0.5, 0.9]);
+        let uniform = ChannelHg::new([0.5; 3]);
+        assert!(!chromatic.is_uniform() && uniform.is_uniform());
+        for cos in [-1.0f32, -0.2, 0.4, 0.95] {
+            let (p, s) = (chromatic.eval_cos(cos), chromatic.d_log_dg(cos));
+            for (c, g) in [0.2f32, 0.5, 0.9].into_iter().enumerate() {
+                let hg = HenyeyGreenstein { g };
+                assert_eq!(p[c], hg.eval_cos(cos));
+                assert_eq!(s[c], hg.d_log_dg(cos));
+            }
+            let one = HenyeyGreenstein { g: 0.5 };
+            assert_eq!(uniform.eval_cos(cos), [one.eval_cos(cos); 3]);
+            assert_eq!(uniform.d_log_dg(cos), [one.d_log_dg(cos); 3]);
+        }
+        let d = Vec3::new(0.0, 0.6, 0.8);
+        assert_eq!(
+            chromatic.sample(2, d, 0.3, 0.7),
+            HenyeyGreenstein { g: 0.9 }.sample(d, 0.3, 0.7)
+        );
+    }
 
     /// ∂ ln p/∂g against a central difference of ln p, forward and backward scattering.
     #[test]

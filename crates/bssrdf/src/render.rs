@@ -172,7 +172,8 @@ impl<'a> ViewRays<'a> {
 pub(crate) fn channel_sigma_n(m: &Medium) -> Result<[f32; 3], RenderError> {
     let mut out = [0.0; 3];
     for c in 0..3 {
-        let r = ReducedMedium::try_new(m.sigma_t[c] as f64, m.albedo[c] as f64, m.g as f64)
+        let g = m.g.channels()[c] as f64;
+        let r = ReducedMedium::try_new(m.sigma_t[c] as f64, m.albedo[c] as f64, g)
             .map_err(|e| RenderError::Medium(format!("channel {c}: {e}")))?;
         out[c] = r.sigma_n() as f32;
     }
@@ -224,7 +225,7 @@ impl<'a> LearnedScene<'a> {
             let r = ReducedMedium::new(
                 medium.sigma_t[c] as f64,
                 medium.albedo[c] as f64,
-                medium.g as f64,
+                medium.g.channels()[c] as f64,
             );
             eff_albedo[c] = effective_albedo(r.albedo_red) as f32;
         }
@@ -258,13 +259,15 @@ impl<'a> LearnedScene<'a> {
             escape: None,
         };
         if settings.exit == ExitLaw::HalfSpace {
-            let table = ExitTable::for_medium(medium.g, medium.eta, medium.roughness);
+            // The tables are built for one g: a chromatic medium's mean (a physics gap the
+            // model states).
+            let table = ExitTable::for_medium(medium.g.mean(), medium.eta, medium.roughness);
             scene.exit = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
             if medium.roughness > 0.0 {
                 // The networks' walks crossed a smooth boundary ([`surface`]).
-                let smooth = ExitTable::for_medium(medium.g, medium.eta, 0.0);
+                let smooth = ExitTable::for_medium(medium.g.mean(), medium.eta, 0.0);
                 scene.escape = Some(Box::new(std::array::from_fn(|c| {
                     (
                         table.escape(medium.albedo[c]),
@@ -274,7 +277,7 @@ impl<'a> LearnedScene<'a> {
             }
         }
         if settings.incidence == Incidence::Directional {
-            let table = IncidenceTable::for_medium(medium.g, medium.eta);
+            let table = IncidenceTable::for_medium(medium.g.mean(), medium.eta);
             scene.incidence = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
@@ -286,7 +289,7 @@ impl<'a> LearnedScene<'a> {
         if settings.light_curvature == LightCurvature::Ball
             && (medium.eta == 1.0 || medium.roughness > 0.0)
         {
-            let table = CurvatureTable::for_medium(medium.g);
+            let table = CurvatureTable::for_medium(medium.g.mean());
             scene.curvature = Some(Box::new(std::array::from_fn(|c| {
                 table.slice(medium.albedo[c])
             })));
@@ -333,7 +336,7 @@ impl<'a> LearnedScene<'a> {
         let m = &self.medium;
         let p = Self::descriptor_at(coeffs, dcoeffs, k);
         let norm = self.model.normalisation();
-        norm.inputs(&p.0, self.eff_albedo[c], m.g, m.eta)
+        norm.inputs(&p.0, self.eff_albedo[c], m.g.channels()[c], m.eta)
     }
 }
 

@@ -96,7 +96,7 @@ fn rgb_medium() -> Medium {
     Medium {
         sigma_t: [30.0, 40.0, 50.0],
         albedo: [0.8, 0.9, 0.95],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     }
@@ -617,7 +617,7 @@ fn value_equals_the_forward_render_and_thread_count_does_not_matter() {
             Medium {
                 sigma_t: [40.0; 3],
                 albedo: [0.9; 3],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta: 1.3,
                 roughness: 0.0,
             }

@@ -519,7 +519,7 @@ fn fit_derivative_predicts_a_refit() {
     let m = scene::Medium {
         sigma_t: [40.0; 3],
         albedo: [0.9; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

@@ -66,7 +66,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             Medium {
                 sigma_t: [60.0; 3],
                 albedo: [0.8; 3],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta,
                 roughness: 0.0,
             }
@@ -74,7 +74,7 @@ fn planar_estimator_matches_closed_form_on_a_lit_slab() {
             Medium {
                 sigma_t: [50.0, 60.0, 70.0],
                 albedo: [0.5, 0.8, 0.95],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta,
                 roughness: 0.0,
             }
@@ -157,7 +157,7 @@ fn images_do_not_depend_on_the_thread_count_with_either_entry_sampler() {
     let medium = Medium {
         sigma_t: [30.0; 3],
         albedo: [0.9; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };
@@ -215,7 +215,7 @@ fn rgb_render_matches_three_grey_renders() {
     let rgb = Medium {
         sigma_t: [30.0, 45.0, 70.0],
         albedo: [0.95, 0.85, 0.6],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

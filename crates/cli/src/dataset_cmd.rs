@@ -141,9 +141,10 @@ pub struct MediumArgs {
     /// Single-scattering albedo α in [0, 1) (one value or R,G,B).
     #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "0.95,0.9,0.85")]
     pub albedo: [f32; 3],
-    /// Henyey–Greenstein anisotropy g in (−1, 1).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub g: f32,
+    /// Henyey–Greenstein anisotropy g in (−1, 1): one value, or R,G,B for a medium whose
+    /// forward scattering differs by channel.
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true, default_value = "0")]
+    pub g: [f32; 3],
     /// Relative index of refraction (1 = index-matched boundary, the paper's data).
     #[arg(long, default_value_t = 1.0)]
     pub eta: f32,
@@ -174,18 +175,18 @@ impl MediumArgs {
             (r.sigma_t, r.albedo)
         } else if let (Some(name), Some(unit)) = (&self.measured, self.units) {
             anyhow::ensure!(
-                self.g < 1.0,
+                self.g.iter().all(|g| *g < 1.0),
                 "--g {} must be below 1 for a measured medium",
-                self.g
+                scene::Anisotropy(self.g)
             );
-            MeasuredMedium::find(name)?.medium(self.g as f64, unit)
+            MeasuredMedium::find(name)?.medium_rgb(self.g.map(f64::from), unit)
         } else {
             (self.sigma_t, self.albedo)
         };
         let m = Medium {
             sigma_t,
             albedo,
-            g: self.g,
+            g: scene::Anisotropy(self.g),
             eta: self.eta,
             roughness: self.roughness,
         };

@@ -96,9 +96,9 @@ pub struct CaptureArgs {
     /// The boundary's roughness as GGX α (0: smooth), where it is known.
     #[arg(long)]
     pub roughness: Option<f32>,
-    /// The medium's Henyey–Greenstein g, where it is known.
-    #[arg(long, allow_negative_numbers = true)]
-    pub g: Option<f32>,
+    /// The medium's Henyey–Greenstein g, where it is known: one value, or R,G,B.
+    #[arg(long, value_parser = parse_rgb, allow_negative_numbers = true)]
+    pub g: Option<[f32; 3]>,
     /// What one unit of the cameras' lengths is (scale the reconstruction to a known size
     /// first): a recovery then reports σ_t in mm⁻¹ and the nearest measured media.
     #[arg(long, value_enum)]
@@ -169,7 +169,7 @@ impl CaptureArgs {
             (self.eta.is_some() || self.roughness.is_some() || self.g.is_some()).then(|| Object {
                 eta: self.eta.unwrap_or(1.0),
                 roughness: self.roughness.unwrap_or(0.0),
-                g: self.g.unwrap_or(0.0),
+                g: scene::Anisotropy(self.g.unwrap_or([0.0; 3])),
             });
         if let Some(o) = &object {
             o.validate("command line: the object")?;

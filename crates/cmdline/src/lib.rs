@@ -412,6 +412,7 @@ pub fn flag_of(setting: scene::setting::Setting) -> &'static str {
         Setting::InitSigmaT => "--init-sigma-t",
         Setting::InitAlbedo => "--init-albedo",
         Setting::FreeG => "--free g",
+        Setting::FreeGRgb => "--free g-rgb",
         Setting::InitG => "--init-g",
         Setting::FreeLightScale => "--free light-scale",
         Setting::InitLightScale => "--init-light-scale",

@@ -25,8 +25,10 @@ pub use bias_correction::BiasCorrectionArgs;
 /// A parameter that `optimize` can recover besides σ_t and α.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum FreeParam {
-    /// The phase function's Henyey–Greenstein g.
+    /// The phase function's Henyey–Greenstein g (one for all channels).
     G,
+    /// One Henyey–Greenstein g per channel (a chromatic medium; it includes `g`).
+    GRgb,
     /// A factor on every light's stated intensity (one for all lights and channels).
     LightScale,
     /// A factor per channel on every light's stated intensity (the light's strength and the
@@ -104,15 +106,16 @@ pub struct OptimizeArgs {
     /// Henyey–Greenstein anisotropy (one value for all channels; it starts at the dataset's
     /// stated g or --init-g and moves where the volumetric path tracer renders: the refinement
     /// of the default recovery, the learned model holding it during its fit, or --model
-    /// volpath); `light-scale`, a factor k on every light's stated intensity, for a light of
+    /// volpath); `g-rgb`, one g per channel, for a medium whose forward scattering depends on
+    /// the wavelength (as milks' does); `light-scale`, a factor k on every light's stated intensity, for a light of
     /// unknown strength (one for all lights and channels, from 1 or --init-light-scale);
     /// `light-scale-rgb`, one such factor per channel, for a camera whose white balance is
     /// unknown too (it includes `light-scale`).
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
     pub free: Vec<FreeParam>,
-    /// Initial g with --free g (default: the dataset's stated g).
-    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, allow_negative_numbers = true)]
-    pub init_g: Option<f64>,
+    /// Initial g with --free g or g-rgb, one value or R,G,B (default: the dataset's stated g).
+    #[arg(help_heading = crate::RESEARCH_OPTIONS, long, value_parser = parse_rgb, allow_negative_numbers = true)]
+    pub init_g: Option<[f32; 3]>,
     /// Initial light scale with --free light-scale or light-scale-rgb, every channel's (default
     /// 1: the lights as stated).
     #[arg(help_heading = crate::RESEARCH_OPTIONS, long)]
@@ -282,7 +285,10 @@ impl OptimizeArgs {
                         .init_sigma_t
                         .map_or(RecoverySettings::default().start.init.sigma_t, rgb),
                     albedo: rgb(self.init_albedo),
-                    g: self.init_g,
+                    g: self.init_g.map(|g| match g {
+                        [r, g, b] if r == g && g == b => OneOrRgb::One(f64::from(r)),
+                        g => OneOrRgb::Rgb(rgb(g)),
+                    }),
                     light_scale: self.init_light_scale.map(OneOrRgb::One),
                 },
                 sigma_t_from_units: self.init_sigma_t.is_none(),
@@ -307,7 +313,9 @@ impl OptimizeArgs {
                     monochrome: self.monochrome,
                     fix_sigma_t: self.fix_sigma_t,
                     fix_albedo: self.fix_albedo,
-                    free_g: self.free.contains(&FreeParam::G),
+                    free_g: self.free.contains(&FreeParam::G)
+                        || self.free.contains(&FreeParam::GRgb),
+                    g_per_channel: self.free.contains(&FreeParam::GRgb),
                     free_light_scale: self.free.contains(&FreeParam::LightScale)
                         || self.free.contains(&FreeParam::LightScaleRgb),
                     light_scale_per_channel: self.free.contains(&FreeParam::LightScaleRgb),

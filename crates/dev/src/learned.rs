@@ -214,7 +214,7 @@ pub fn run(a: &LearnedBenchArgs) -> Result<()> {
                 let medium = Medium {
                     sigma_t: [st; 3],
                     albedo: [al; 3],
-                    g,
+                    g: g.into(),
                     eta,
                     roughness,
                 };

@@ -109,7 +109,7 @@ fn cases(a: &NoiseBenchArgs) -> Vec<Case> {
     let coloured = Medium {
         sigma_t: a.sigma_t,
         albedo: a.albedo,
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

@@ -101,7 +101,7 @@ fn bench_scene(
             let medium = Medium {
                 sigma_t: [50.0, 60.0, 70.0],
                 albedo: [0.95, 0.9, 0.85],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta: 1.0,
                 roughness: 0.0,
             };

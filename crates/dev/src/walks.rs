@@ -205,7 +205,7 @@ pub fn run(a: &WalksBenchArgs) -> Result<()> {
                     let medium = Medium {
                         sigma_t: [size; 3],
                         albedo: [albedo; 3],
-                        g: a.g,
+                        g: a.g.into(),
                         eta,
                         roughness,
                     };

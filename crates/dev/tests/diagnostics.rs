@@ -62,7 +62,7 @@ fn sphere_dataset(dir: &Path, name: &str) -> (SceneDesc, PathBuf) {
         medium: Medium {
             sigma_t: [60.0; 3],
             albedo: [0.9; 3],
-            g: 0.0,
+            g: scene::Anisotropy::uniform(0.0),
             eta: 1.0,
             roughness: 0.0,
         },

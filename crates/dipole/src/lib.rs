@@ -73,7 +73,7 @@ impl<'a> DipoleScene<'a> {
             DipoleProfile::new(
                 medium.sigma_t[c] as f64,
                 medium.albedo[c] as f64,
-                medium.g as f64,
+                medium.g.channels()[c] as f64,
                 medium.eta as f64,
             )
         });

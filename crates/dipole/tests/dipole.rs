@@ -23,7 +23,7 @@ fn half_space_estimate_is_the_total_diffuse_reflectance() {
     let m = Medium {
         sigma_t: [50.0, 80.0, 30.0],
         albedo: [0.9, 0.6, 0.99],
-        g: 0.2,
+        g: scene::Anisotropy::uniform(0.2),
         eta: 1.3,
         roughness: 0.0,
     };
@@ -94,7 +94,7 @@ fn probe_sampler_passes_chi2_on_a_sphere() {
     let m = Medium {
         sigma_t: [30.0, 60.0, 120.0],
         albedo: [0.95, 0.9, 0.8],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };
@@ -252,7 +252,7 @@ fn derivative_images_match_central_differences() {
     let m = Medium {
         sigma_t: [6.0, 10.0, 16.0],
         albedo: [0.95, 0.85, 0.7],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.3,
         roughness: 0.0,
     };
@@ -361,7 +361,7 @@ fn renders_are_reproducible() {
     let m = Medium {
         sigma_t: [40.0, 70.0, 110.0],
         albedo: [0.95, 0.85, 0.7],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };
@@ -391,7 +391,7 @@ fn invalid_media_are_errors() {
     let m = Medium {
         sigma_t: [40.0, -1.0, 110.0],
         albedo: [0.95, 0.85, 0.7],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

@@ -66,7 +66,7 @@ fn scenes(quick: bool) -> Result<[(&'static str, Shape, Medium); 2]> {
     let medium = Medium {
         sigma_t: [60.0, 80.0, 100.0],
         albedo: [0.95, 0.9, 0.85],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

@@ -471,7 +471,7 @@ pub fn run_args(a: &RobustnessConfig, dataset: &Path, run_dir: &Path, rep: u64) 
     s.schedule.params.free_g = a.free_g;
     s.schedule.params.free_light_scale = a.free_light_scale;
     s.schedule.params.light_scale_per_channel = a.light_scale_per_channel;
-    s.start.init.g = a.init_g;
+    s.start.init.g = a.init_g.map(inverse::params::OneOrRgb::One);
     s.checks.uncertainty.mesh_error = a.mesh_error;
     s.start.init.light_scale = a.init_light_scale.map(inverse::params::OneOrRgb::One);
     if a.quick {

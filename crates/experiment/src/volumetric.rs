@@ -52,7 +52,7 @@ impl Default for VolumetricConfig {
 const TRUTH: Medium = Medium {
     sigma_t: [80.0; 3],
     albedo: [0.9; 3],
-    g: 0.0,
+    g: scene::Anisotropy::uniform(0.0),
     eta: 1.0,
     roughness: 0.0,
 };

@@ -167,7 +167,7 @@ pub fn assess(
     final_from: usize,
     estimate: &Params,
     spec: &ParamSpec,
-    g: f64,
+    g: scene::Anisotropy,
     consistency: Option<&Consistency>,
 ) -> Vec<Problem> {
     let mut out = Vec::new();
@@ -175,7 +175,7 @@ pub fn assess(
         .sigma_t
         .iter()
         .chain(&estimate.albedo)
-        .chain(&estimate.g)
+        .chain(estimate.g.as_ref().map_or(&[][..], |g| g.values()))
         .chain(
             estimate
                 .light_scale
@@ -188,9 +188,9 @@ pub fn assess(
         });
         return out;
     }
-    let g = estimate.g.unwrap_or(g);
-    if spec.free_g && g.abs() >= G_MAX - 1e-7 {
-        out.push(Problem::GAtBound { value: g });
+    let g = estimate.g_or(g).channels().map(f64::from);
+    if let Some(&value) = g.iter().find(|g| spec.free_g && g.abs() >= G_MAX - 1e-6) {
+        out.push(Problem::GAtBound { value });
     }
     let at_bound =
         |k: &f64| *k <= LIGHT_SCALE_MIN * (1.0 + 1e-6) || *k >= LIGHT_SCALE_MAX * (1.0 - 1e-6);
@@ -218,7 +218,7 @@ pub fn assess(
                 value: s,
             });
         }
-        let red = a * (1.0 - g) / (1.0 - a * g);
+        let red = a * (1.0 - g[c]) / (1.0 - a * g[c]);
         if red < TRAINED_ALBEDO_RED_MIN {
             out.push(Problem::OutsideTrainingRange {
                 channel: c,

@@ -88,10 +88,10 @@ pub struct IterationRecord {
     pub d_sigma_t: [f64; 3],
     /// ∂ℓ/∂α per channel.
     pub d_albedo: [f64; 3],
-    /// ∂ℓ/∂g where the run recovers g and the iteration's model differentiates it (left out
-    /// of the JSON otherwise).
+    /// ∂ℓ/∂g where the run recovers g and the iteration's model differentiates it, one or one
+    /// per channel as g (left out of the JSON otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d_g: Option<f64>,
+    pub d_g: Option<OneOrRgb<f64>>,
     /// ∂ℓ/∂ln k where the run recovers the light scale, one or one per channel as the scale
     /// (left out of the JSON otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -118,8 +118,9 @@ pub struct IterationGradient {
     pub d_sigma_t: [f64; 3],
     /// ∂ℓ/∂α per channel.
     pub d_albedo: [f64; 3],
-    /// ∂ℓ/∂g, where every view's derivative images had ∂I/∂g.
-    pub d_g: Option<f64>,
+    /// ∂ℓ/∂g_c per channel (channel c's term; a g shared by the channels has their sum), where
+    /// every view's derivative images had ∂I/∂g.
+    pub d_g: Option<[f64; 3]>,
     /// ∂ℓ/∂ln k_c per channel of a factor k_c on the lights' channel c, where every view's
     /// gradient had it (a factor shared by the channels has their sum).
     pub d_ln_light_scale: Option<[f64; 3]>,
@@ -193,8 +194,14 @@ impl<'a> Optimizer<'a> {
         config.check().map_err(InverseError::Invalid)?;
         let mut config = config;
         if config.params.free_g && config.init.g.is_none() {
-            // A free g starts at the object's stated value.
-            config.init.g = Some(base.g as f64);
+            // A free g starts at the object's stated value: its channels' own where each
+            // channel has a g, their mean where they share one.
+            let g = base.g.channels().map(f64::from);
+            config.init.g = Some(if config.params.g_per_channel {
+                OneOrRgb::Rgb(g)
+            } else {
+                OneOrRgb::One(base.g.mean() as f64)
+            });
         }
         let init_medium = config.init.medium(&base);
         init_medium
@@ -307,7 +314,7 @@ impl<'a> Optimizer<'a> {
             })
             .collect::<Result<_, InverseError>>()?;
         let (mut loss, mut ds_t, mut da) = (0.0, [0.0; 3], [0.0; 3]);
-        let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some(0.0), Some([0.0; 3]));
+        let (mut misfit, mut d_g, mut d_k) = (Some(0.0), Some([0.0; 3]), Some([0.0; 3]));
         for (&v, crop) in views.iter().zip(&crops) {
             let full = &self.targets[v];
             // The light as the run has it (a recovered scale on its stated intensity).
@@ -345,15 +352,13 @@ impl<'a> Optimizer<'a> {
                 ds_t[ch] += w[ch] * g.d_sigma_t[ch] / views.len() as f64;
                 da[ch] += w[ch] * g.d_albedo[ch] / views.len() as f64;
             }
-            let shared = |sum: f64, d: [f64; 3]| {
-                sum + (0..3)
-                    .map(|ch| w[ch] * d[ch] / views.len() as f64)
-                    .sum::<f64>()
-            };
-            d_g = d_g.zip(g.d_g).map(|(sum, d)| shared(sum, d));
-            d_k = d_k.zip(g.d_ln_light_scale).map(|(sum, d)| {
+            let per_channel = |sum: [f64; 3], d: [f64; 3]| {
                 std::array::from_fn(|ch| sum[ch] + w[ch] * d[ch] / views.len() as f64)
-            });
+            };
+            d_g = d_g.zip(g.d_g).map(|(sum, d)| per_channel(sum, d));
+            d_k = d_k
+                .zip(g.d_ln_light_scale)
+                .map(|(sum, d)| per_channel(sum, d));
         }
         if !loss.is_finite() || ds_t.iter().chain(&da).any(|g| !g.is_finite()) {
             return Err(InverseError::NonFinite {
@@ -471,9 +476,13 @@ impl<'a> Optimizer<'a> {
         // on the way, and k then took up the deficit again.)
         let moves_k = c.params.free_light_scale && k >= c.light_scale_start();
         let d_k = d_k.filter(|_| moves_k);
-        let mut g = c
-            .params
-            .chain(&p, ds_t, da, d_g.unwrap_or(0.0), d_k.unwrap_or([0.0; 3]));
+        let mut g = c.params.chain(
+            &p,
+            ds_t,
+            da,
+            d_g.unwrap_or([0.0; 3]),
+            d_k.unwrap_or([0.0; 3]),
+        );
         let lr_t = if k < c.effective_albedo_warmup() {
             g[..3].fill(0.0);
             0.0
@@ -483,7 +492,7 @@ impl<'a> Optimizer<'a> {
         let lr_g = if d_g.is_some() { c.lr_g } else { 0.0 };
         let lr_k = if d_k.is_some() { c.lr_light_scale } else { 0.0 };
         let mut scale = vec![lr_t, lr_t, lr_t, c.lr_albedo, c.lr_albedo, c.lr_albedo];
-        scale.extend(c.params.g_index().map(|_| lr_g));
+        scale.extend(c.params.g_indices().map(|_| lr_g));
         scale.extend(c.params.light_scale_indices().map(|_| lr_k));
         let scale = &scale[..];
         // The step is taken on copies and kept only when it is finite, so that a failure
@@ -508,14 +517,8 @@ impl<'a> Optimizer<'a> {
             params: p,
             d_sigma_t: ds_t,
             d_albedo: da,
-            d_g,
-            d_ln_light_scale: d_k.map(|d| {
-                if c.params.light_scale_per_channel {
-                    OneOrRgb::Rgb(d)
-                } else {
-                    OneOrRgb::One(d.iter().sum())
-                }
-            }),
+            d_g: d_g.map(|d| one_or_rgb(c.params.g_per_channel, d)),
+            d_ln_light_scale: d_k.map(|d| one_or_rgb(c.params.light_scale_per_channel, d)),
             views,
             crop_origins,
             seconds: t0.elapsed().as_secs_f64(),
@@ -597,4 +600,14 @@ fn adam_config(c: &OptimizeConfig) -> AdamConfig {
 /// Adam state accessors for the checkpoint module.
 fn adam_parts(o: &Optimizer) -> AdamState {
     o.adam.state()
+}
+
+/// A per-channel gradient as the variable has it: each channel's (`per_channel`), or their sum
+/// for one value shared by the channels.
+fn one_or_rgb(per_channel: bool, d: [f64; 3]) -> OneOrRgb<f64> {
+    if per_channel {
+        OneOrRgb::Rgb(d)
+    } else {
+        OneOrRgb::One(d.iter().sum())
+    }
 }

@@ -9,7 +9,9 @@
 //! * α = u_α;
 //!
 //! * g = u_g, a seventh variable when the run recovers the phase function's g
-//!   ([`ParamSpec::free_g`]; one g for all channels, as the Henyey–Greenstein medium has);
+//!   ([`ParamSpec::free_g`]; one g for all channels), or three, g_R, g_G, g_B, with
+//!   [`ParamSpec::g_per_channel`] (a chromatic medium). Channel c's image depends on g_c alone,
+//!   so ∂ℓ/∂g_c is channel c's term of ∂ℓ/∂g, and a shared g's derivative their sum;
 //! * k = exp(u_k), the factor on every light's stated intensity, the next variable when the run
 //!   recovers the light's strength ([`ParamSpec::free_light_scale`]): one factor for all lights
 //!   and channels, or one per channel with [`ParamSpec::light_scale_per_channel`] (an unknown
@@ -64,6 +66,10 @@ pub struct ParamSpec {
     /// (Left out of the JSON when off, so runs written before the option compare equal.)
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub free_g: bool,
+    /// With a free g, one g per channel (a chromatic medium): three variables, g_R, g_G, g_B.
+    /// (Left out of the JSON when off.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub g_per_channel: bool,
     /// Recover a factor on every light's stated intensity (one for all lights and channels) as
     /// the last variable. (Left out of the JSON when off.)
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -109,6 +115,16 @@ impl<T: Copy> OneOrRgb<T> {
             OneOrRgb::Rgb(v) => OneOrRgb::Rgb(v.map(f)),
         }
     }
+
+    /// `f` of this and `other` value by value: one where both are one, per channel otherwise.
+    pub fn zip_with<U: Copy, V>(self, other: OneOrRgb<U>, f: impl Fn(T, U) -> V) -> OneOrRgb<V> {
+        match (self, other) {
+            (OneOrRgb::One(a), OneOrRgb::One(b)) => OneOrRgb::One(f(a, b)),
+            _ => OneOrRgb::Rgb(std::array::from_fn(|c| {
+                f(self.channel(c), other.channel(c))
+            })),
+        }
+    }
 }
 
 impl Default for ParamSpec {
@@ -119,6 +135,7 @@ impl Default for ParamSpec {
             fix_sigma_t: false,
             fix_albedo: false,
             free_g: false,
+            g_per_channel: false,
             free_light_scale: false,
             light_scale_per_channel: false,
         }
@@ -132,10 +149,10 @@ pub struct Params {
     pub sigma_t: [f64; 3],
     /// Single-scattering albedo per channel.
     pub albedo: [f64; 3],
-    /// The Henyey–Greenstein g, where the run recovers it ([`ParamSpec::free_g`]); `None`:
-    /// the object's own. (Left out of the JSON when `None`.)
+    /// The Henyey–Greenstein g, one or one per channel, where the run recovers it
+    /// ([`ParamSpec::free_g`]); `None`: the object's own. (Left out of the JSON when `None`.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub g: Option<f64>,
+    pub g: Option<OneOrRgb<f64>>,
     /// The factor on every light's stated intensity, one or one per channel, where the run
     /// recovers it ([`ParamSpec::free_light_scale`]); `None`: the lights as stated. (Left out of
     /// the JSON when `None`.)
@@ -168,6 +185,15 @@ impl Params {
         self.light_scale.map_or(1.0, |k| k.channel(c))
     }
 
+    /// The g of every channel: the recovered one where the run recovers it, `stated` (the
+    /// object's) otherwise.
+    pub fn g_or(&self, stated: scene::Anisotropy) -> scene::Anisotropy {
+        match self.g {
+            Some(g) => scene::Anisotropy(std::array::from_fn(|c| g.channel(c) as f32)),
+            None => stated,
+        }
+    }
+
     /// The parameters of a medium (its g is the object's, not a parameter).
     pub fn of(m: &Medium) -> Self {
         Self::new(m.sigma_t.map(|v| v as f64), m.albedo.map(|v| v as f64))
@@ -179,7 +205,7 @@ impl Params {
         Medium {
             sigma_t: self.sigma_t.map(|v| v as f32),
             albedo: self.albedo.map(|v| v as f32),
-            g: self.g.map_or(base.g, |g| g as f32),
+            g: self.g_or(base.g),
             eta: base.eta,
             roughness: base.roughness,
         }
@@ -205,10 +231,24 @@ impl<T: std::fmt::Display> std::fmt::Display for OneOrRgb<T> {
 }
 
 impl ParamSpec {
-    /// The number of the optimiser's variables: six, one for a free g, and one or three for a
-    /// free light scale.
+    /// The number of the optimiser's variables: six, one or three for a free g, and one or
+    /// three for a free light scale.
     pub fn len(&self) -> usize {
-        6 + self.free_g as usize + self.light_scale_count()
+        6 + self.g_count() + self.light_scale_count()
+    }
+
+    /// The number of g variables: 0 (the object's g), 1, or 3 (per channel).
+    pub fn g_count(&self) -> usize {
+        match (self.free_g, self.g_per_channel) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => 3,
+        }
+    }
+
+    /// The indices of the g variables (empty where g is the object's).
+    pub fn g_indices(&self) -> std::ops::Range<usize> {
+        6..6 + self.g_count()
     }
 
     /// The number of light-scale variables: 0 (the lights as stated), 1, or 3 (per channel).
@@ -220,7 +260,8 @@ impl ParamSpec {
         }
     }
 
-    /// The index of g among the variables, where it is free.
+    /// The index of the (first) g among the variables, where it is free (the others, per
+    /// channel, follow it).
     pub fn g_index(&self) -> Option<usize> {
         self.free_g.then_some(6)
     }
@@ -228,12 +269,12 @@ impl ParamSpec {
     /// The index of the first ln k among the variables, where the light scale is free (the
     /// others, per channel, follow it).
     pub fn light_scale_index(&self) -> Option<usize> {
-        self.free_light_scale.then_some(6 + self.free_g as usize)
+        self.free_light_scale.then_some(6 + self.g_count())
     }
 
     /// The indices of the ln k variables (empty where the light scale is fixed).
     pub fn light_scale_indices(&self) -> std::ops::Range<usize> {
-        let i = 6 + self.free_g as usize;
+        let i = 6 + self.g_count();
         i..i + self.light_scale_count()
     }
 
@@ -243,7 +284,7 @@ impl ParamSpec {
     }
 
     /// The optimiser's vector for `p` (a free g that `p` lacks starts at 0, a free light scale
-    /// at 1).
+    /// at 1; one g from per-channel ones is their mean).
     pub fn encode(&self, p: &Params) -> Vec<f32> {
         let mut u = Vec::with_capacity(self.len());
         for &s in &p.sigma_t {
@@ -253,8 +294,11 @@ impl ParamSpec {
             });
         }
         u.extend(p.albedo.iter().map(|&a| a as f32));
-        if self.free_g {
-            u.push(p.g.unwrap_or(0.0) as f32);
+        let g_of = |c: usize| p.g.map_or(0.0, |g| g.channel(c));
+        match self.g_count() {
+            0 => {}
+            1 => u.push(((0..3).map(g_of).sum::<f64>() / 3.0) as f32),
+            _ => u.extend((0..3).map(|c| g_of(c) as f32)),
         }
         match self.light_scale_count() {
             0 => {}
@@ -274,7 +318,14 @@ impl ParamSpec {
         Params {
             sigma_t: std::array::from_fn(|c| sigma(u[c]).max(SIGMA_T_MIN)),
             albedo: std::array::from_fn(|c| (u[3 + c] as f64).clamp(ALBEDO_MIN, ALBEDO_MAX)),
-            g: self.g_index().map(|i| (u[i] as f64).clamp(-G_MAX, G_MAX)),
+            g: {
+                let g = |i: usize| (u[i] as f64).clamp(-G_MAX, G_MAX);
+                match self.g_count() {
+                    0 => None,
+                    1 => Some(OneOrRgb::One(g(6))),
+                    _ => Some(OneOrRgb::Rgb(std::array::from_fn(|c| g(6 + c)))),
+                }
+            },
             light_scale: {
                 let k = |i: usize| (u[i] as f64).exp().clamp(LIGHT_SCALE_MIN, LIGHT_SCALE_MAX);
                 let i = self.light_scale_indices().start;
@@ -295,14 +346,14 @@ impl ParamSpec {
     }
 
     /// ∂ℓ/∂u from ∂ℓ/∂σ_t and ∂ℓ/∂α (monochrome averaging and fixed parameters applied),
-    /// ∂ℓ/∂g as the entry of a free g, and ∂ℓ/∂ln k_c per channel as the entries of a free light
-    /// scale: their sum for one factor, each for one per channel.
+    /// channel c's term ∂ℓ/∂g_c of a free g and ∂ℓ/∂ln k_c of a free light scale: for one g
+    /// (one factor) their sum, for one per channel each.
     pub fn chain(
         &self,
         p: &Params,
         d_sigma_t: [f64; 3],
         d_albedo: [f64; 3],
-        d_g: f64,
+        d_g: [f64; 3],
         d_ln_k: [f64; 3],
     ) -> Vec<f32> {
         let mut gs: [f64; 3] = std::array::from_fn(|c| {
@@ -325,7 +376,11 @@ impl ParamSpec {
         if self.fix_albedo {
             ga = [0.0; 3];
         }
-        let dg = self.free_g.then_some(d_g);
+        let dg: Vec<f64> = match self.g_count() {
+            0 => Vec::new(),
+            1 => vec![d_g.iter().sum()],
+            _ => d_g.to_vec(),
+        };
         let dk: Vec<f64> = match self.light_scale_count() {
             0 => Vec::new(),
             1 => vec![d_ln_k.iter().sum()],
@@ -384,7 +439,7 @@ mod tests {
                 parameterisation,
                 ..Default::default()
             };
-            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], 0.0, [0.0; 3]);
+            let g = spec.chain(&p, p.sigma_t.map(|s| 2.0 * s), [0.0; 3], [0.0; 3], [0.0; 3]);
             let u = spec.encode(&p);
             for c in 0..3 {
                 let h = 1e-3f32;
@@ -402,7 +457,7 @@ mod tests {
             fix_albedo: true,
             ..Default::default()
         };
-        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], 5.0, [6.0; 3]);
+        let g = mono.chain(&p, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0], [5.0; 3], [6.0; 3]);
         assert_eq!(g, vec![200.0, 200.0, 200.0, 0.0, 0.0, 0.0]);
     }
 
@@ -415,31 +470,82 @@ mod tests {
             ..Default::default()
         };
         let p = Params {
-            g: Some(0.7),
+            g: Some(OneOrRgb::One(0.7)),
             ..Params::new([40.0; 3], [0.9; 3])
         };
         let u = spec.encode(&p);
         assert_eq!((u.len(), spec.len()), (7, 7));
-        assert!((spec.decode(&u).g.unwrap() - 0.7).abs() < 1e-6);
+        assert!((spec.decode(&u).g.unwrap().channel(1) - 0.7).abs() < 1e-6);
         let mut v = u.clone();
         v[6] = 1.5;
         spec.clamp(&mut v);
         assert!((v[6] as f64 - G_MAX).abs() < 1e-6);
-        let g = spec.chain(&p, [0.0; 3], [0.0; 3], -2.5, [1.0; 3]);
+        let g = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.0, -1.0, 0.5], [1.0; 3]);
         assert_eq!(g.len(), 7);
         assert_eq!(g[6], -2.5);
         let base = Medium {
             sigma_t: [1.0; 3],
             albedo: [0.5; 3],
-            g: 0.3,
+            g: scene::Anisotropy::uniform(0.3),
             eta: 1.4,
             roughness: 0.1,
         };
-        assert_eq!(p.medium(&base).g, 0.7);
-        assert_eq!(Params::new([40.0; 3], [0.9; 3]).medium(&base).g, 0.3);
+        assert_eq!(p.medium(&base).g, scene::Anisotropy::uniform(0.7));
+        assert_eq!(
+            Params::new([40.0; 3], [0.9; 3]).medium(&base).g,
+            scene::Anisotropy::uniform(0.3)
+        );
         let fixed = ParamSpec::default();
         assert_eq!(fixed.encode(&p).len(), 6);
         assert_eq!(fixed.decode(&fixed.encode(&p)).g, None);
+    }
+
+    /// A g per channel is three variables before the light scale: each encoded as itself and
+    /// clamped, each channel's gradient its own; the medium takes them per channel, and one g
+    /// from three starts at their mean.
+    #[test]
+    fn a_g_per_channel_is_three_variables() {
+        let spec = ParamSpec {
+            free_g: true,
+            g_per_channel: true,
+            free_light_scale: true,
+            ..Default::default()
+        };
+        assert_eq!(
+            (spec.len(), spec.g_indices(), spec.light_scale_index()),
+            (10, 6..9, Some(9))
+        );
+        let p = Params {
+            g: Some(OneOrRgb::Rgb([0.6, 0.7, 0.8])),
+            light_scale: Some(OneOrRgb::One(2.0)),
+            ..Params::new([40.0; 3], [0.9; 3])
+        };
+        let mut u = spec.encode(&p);
+        assert_eq!(u.len(), 10);
+        u[8] = -3.0;
+        spec.clamp(&mut u);
+        let q = spec.decode(&u);
+        let g = q.g.unwrap();
+        assert!((g.channel(0) - 0.6).abs() < 1e-6 && (g.channel(1) - 0.7).abs() < 1e-6);
+        assert!((g.channel(2) + G_MAX).abs() < 1e-6);
+        assert!((q.light_scale_of(1) - 2.0).abs() < 1e-5);
+        let d = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.0, -1.0, 0.5], [1.0; 3]);
+        assert_eq!(d[6..], [-2.0, -1.0, 0.5, 3.0]);
+        let base = Medium {
+            sigma_t: [1.0; 3],
+            albedo: [0.5; 3],
+            g: scene::Anisotropy::uniform(0.3),
+            eta: 1.0,
+            roughness: 0.0,
+        };
+        assert_eq!(p.medium(&base).g, scene::Anisotropy([0.6, 0.7, 0.8]));
+        let one = ParamSpec {
+            free_g: true,
+            ..Default::default()
+        };
+        assert!((one.encode(&p)[6] - 0.7).abs() < 1e-6);
+        let back: Params = serde_json::from_str(&serde_json::to_string(&p).unwrap()).unwrap();
+        assert_eq!(back, p);
     }
 
     /// A free light scale follows g as ln k; the lights scale by it.
@@ -455,16 +561,17 @@ mod tests {
             (8, Some(6), Some(7))
         );
         let p = Params {
-            g: Some(0.3),
+            g: Some(OneOrRgb::One(0.3)),
             light_scale: Some(OneOrRgb::One(2.5)),
             ..Params::new([40.0; 3], [0.9; 3])
         };
         let u = spec.encode(&p);
         assert!((u[7] as f64 - 2.5f64.ln()).abs() < 1e-6);
         let q = spec.decode(&u);
-        assert!((q.light_scale_of(2) - 2.5).abs() < 1e-5 && (q.g.unwrap() - 0.3).abs() < 1e-6);
+        let g = q.g.unwrap().channel(0);
+        assert!((q.light_scale_of(2) - 2.5).abs() < 1e-5 && (g - 0.3).abs() < 1e-6);
         assert_eq!(
-            spec.chain(&p, [0.0; 3], [0.0; 3], 1.0, [-1.0, -0.5, -1.5])[6..],
+            spec.chain(&p, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], [-1.0, -0.5, -1.5])[6..],
             [1.0, -3.0]
         );
         let only_k = ParamSpec {
@@ -506,7 +613,7 @@ mod tests {
             assert!((q.light_scale_of(c) / p.light_scale_of(c) - 1.0).abs() < 1e-6);
         }
         assert_eq!(
-            spec.chain(&p, [0.0; 3], [0.0; 3], 9.0, [1.0, -2.0, 3.0])[6..],
+            spec.chain(&p, [0.0; 3], [0.0; 3], [9.0, 0.0, 0.0], [1.0, -2.0, 3.0])[6..],
             [1.0, -2.0, 3.0]
         );
         let light = scene::PointLight {

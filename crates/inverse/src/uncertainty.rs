@@ -48,8 +48,9 @@
 //! widens the intervals by the volumetric path tracer's measured curvature along that valley
 //! ([`crate::sensitivity`]); *determined* is decided after that widening.
 //!
-//! A run that also recovers g takes the sandwich over all seven variables at once ([`joint`]);
-//! g's interval is g ± 1.96·sd clamped to (−1, 1), and g is *determined* where its half-width
+//! A run that also recovers g takes the sandwich over all its variables at once ([`joint`]):
+//! seven with one g, nine with one per channel (channel c's images depend on g_c alone). Each
+//! g's interval is g ± 1.96·sd clamped to (−1, 1), and it is *determined* where its half-width
 //! from the images alone is at most [`DETERMINED_G_HALF_WIDTH`].
 
 use crate::params::OneOrRgb;
@@ -342,9 +343,9 @@ pub struct Uncertainty {
     /// "undetermined".
     #[serde(skip)]
     pub fixed: [bool; 2],
-    /// g's interval where the run recovers g.
+    /// g's interval where the run recovers g (one, or one per channel).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub g: Option<SharedUncertainty>,
+    pub g: Option<OneOrRgb<SharedUncertainty>>,
     /// The light scale's interval where the run recovers it (one, or one per channel).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_scale: Option<OneOrRgb<SharedUncertainty>>,
@@ -554,9 +555,9 @@ impl Uncertainty {
             },
         });
         if let Some(g) = &self.g {
-            j["interval95"]["g"] = serde_json::json!(g.interval);
-            j["determined"]["g"] = serde_json::json!(g.determined);
-            j["uncertainty"]["sd_g"] = serde_json::json!(g.sd);
+            j["interval95"]["g"] = serde_json::json!(g.map(|g| g.interval));
+            j["determined"]["g"] = serde_json::json!(g.map(|g| g.determined));
+            j["uncertainty"]["sd_g"] = serde_json::json!(g.map(|g| g.sd));
         }
         if let Some(f) = self.mesh_error {
             j["uncertainty"]["mesh_error"] =

@@ -221,7 +221,7 @@ pub fn random_medium(seed: u64) -> Medium {
     Medium {
         sigma_t,
         albedo,
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     }

@@ -81,7 +81,7 @@ fn setup(model: ModelKind) -> Setup {
     let truth = Medium {
         sigma_t: [3.0, 4.0, 6.0],
         albedo: [0.9, 0.85, 0.8],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };
@@ -378,7 +378,7 @@ fn the_learned_model_reflects_a_rough_boundary_as_the_tracer_does() {
     let black = Medium {
         sigma_t: [10.0; 3],
         albedo: [0.0; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.5,
         roughness: 0.3,
     };

@@ -32,7 +32,7 @@ fn setup() -> Setup {
     let truth = Medium {
         sigma_t: [60.0; 3],
         albedo: [0.9, 0.85, 0.8],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

@@ -35,7 +35,7 @@ fn medium(albedo: f32) -> Medium {
     Medium {
         sigma_t: [30.0; 3],
         albedo: [albedo; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     }

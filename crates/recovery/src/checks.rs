@@ -99,7 +99,7 @@ pub(super) fn check(
         final_from,
         &shown,
         &opt.config().params,
-        p.base.g as f64,
+        p.base.g,
         consistency.as_ref(),
     );
     if !learned_model {
@@ -111,7 +111,7 @@ pub(super) fn check(
         result["consistency"] = serde_json::to_value(c)?;
     }
     let units = p.ds.metadata.length_unit.map(|unit| {
-        let (lines, block) = report::real_units(&shown, shown_u.as_ref(), p.base.g as f64, unit);
+        let (lines, block) = report::real_units(&shown, shown_u.as_ref(), p.base.g, unit);
         result["real_units"] = block;
         lines
     });

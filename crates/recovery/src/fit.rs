@@ -120,6 +120,11 @@ pub(super) fn intervals(
     let (object, stated) = p.object;
     // The values as the dataset states them (1.33, not f32's 1.3300000429153442).
     let short = |x: f32| format!("{x}").parse::<f64>().unwrap_or(x as f64);
+    // One number, or three where the channels' g differ.
+    let short_g = |g: scene::Anisotropy| match g.as_uniform() {
+        Some(g) => json!(short(g)),
+        None => json!(g.channels().map(short)),
+    };
     result["object"] = json!({
         "boundary": if object.eta == 1.0 {
             json!({ "type": "null" })
@@ -131,9 +136,9 @@ pub(super) fn intervals(
             })
         },
         "phase": if opt.config().params.free_g {
-            json!({ "type": "hg", "g": "recovered", "stated_g": short(object.g) })
+            json!({ "type": "hg", "g": "recovered", "stated_g": short_g(object.g) })
         } else {
-            json!({ "type": "hg", "g": short(object.g) })
+            json!({ "type": "hg", "g": short_g(object.g) })
         },
         "source": if stated { "dataset" } else { "assumed: the dataset states none" },
         "not_modelled": p.gaps,

@@ -321,7 +321,7 @@ fn run_starts(cfg: &RecoveryConfig, obs: &dyn Observer) -> Result<(), RecoveryEr
     b.optimize.init = Params {
         sigma_t: starts[best].estimate.sigma_t.map(|v| v as f32 as f64),
         albedo: starts[best].estimate.albedo.map(|v| v as f32 as f64),
-        g: starts[best].estimate.g.map(|v| v as f32 as f64),
+        g: starts[best].estimate.g.map(|g| g.map(|v| v as f32 as f64)),
         light_scale: starts[best]
             .estimate
             .light_scale
@@ -372,7 +372,7 @@ pub fn estimate_lines(est: &Params, truth: Option<&Params>) -> Vec<String> {
         let rel: [f64; 3] = std::array::from_fn(|c| 100.0 * (est.sigma_t[c] / t.sigma_t[c] - 1.0));
         let abs: [f64; 3] = std::array::from_fn(|c| est.albedo[c] - t.albedo[c]);
         let g_err = match (est.g, t.g) {
-            (Some(e), Some(t)) => format!("  g {:+.3}", e - t),
+            (Some(e), Some(t)) => format!("  g {:+.3}", e.zip_with(t, |e, t| e - t)),
             _ => String::new(),
         };
         out.push(format!(

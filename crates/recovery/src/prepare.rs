@@ -126,7 +126,13 @@ pub(super) fn prepare(
     let base = object.medium([50.0; 3], [0.5; 3]);
     // A recovered g is reported against the truth's g (the truth stays report-only).
     let truth = ds.truth.as_ref().map(|m| Params {
-        g: cfg.optimize.params.free_g.then_some(m.g as f64),
+        g: cfg.optimize.params.free_g.then(|| {
+            let g = m.g.channels().map(f64::from);
+            match m.g.as_uniform() {
+                Some(g) => OneOrRgb::One(g as f64),
+                None => OneOrRgb::Rgb(g),
+            }
+        }),
         ..Params::of(m)
     });
     say_free(&cfg.optimize, &object, stated);
@@ -225,7 +231,17 @@ fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool
         );
     }
     if c.params.free_g {
-        let start = c.init.g.unwrap_or(object.g as f64);
+        // As the optimiser starts it: the stated g per channel, or their mean for one g.
+        let start = match c.init.g {
+            Some(g) => g.to_string(),
+            None if c.params.g_per_channel => object
+                .g
+                .channels()
+                .map(f64::from)
+                .map(|g| g.to_string())
+                .join(", "),
+            None => object.g.mean().to_string(),
+        };
         let from = if c.init.g.is_some() {
             "as asked"
         } else if stated {
@@ -236,9 +252,14 @@ fn say_free(c: &inverse::optimize::OptimizeConfig, object: &Object, stated: bool
         let moves = (c.effective_albedo_warmup()..c.iterations)
             .filter(|&k| c.model_at(k).differentiates_g())
             .count();
+        let what = if c.params.g_per_channel {
+            "g is recovered per channel (g_R, g_G, g_B)"
+        } else {
+            "g is recovered (one for every channel)"
+        };
         tracing::info!(
-            "g is recovered: it starts at {start} ({from}) and moves in the iterations the \
-             volumetric path tracer renders ({moves} of {})",
+            "{what}: it starts at {start} ({from}) and moves in the iterations the volumetric \
+             path tracer renders ({moves} of {})",
             c.iterations
         );
     }

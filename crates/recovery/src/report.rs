@@ -23,17 +23,23 @@ pub use units::real_units;
 
 /// `iterations.csv`: one row per iteration (parameters before the step, loss, gradient).
 /// A run that recovers g has two more columns at the end: g and ∂ℓ/∂g (empty in the
-/// iterations whose model holds g); one that recovers the light scale two more: k and ∂ℓ/∂ln k,
-/// or six with one scale per channel (k_r, k_g, k_b, then ∂ℓ/∂ln k_c).
+/// iterations whose model holds g), or six with one g per channel (g_r, g_g, g_b, then
+/// ∂ℓ/∂g_c); one that recovers the light scale two more: k and ∂ℓ/∂ln k, or six with one scale
+/// per channel (k_r, k_g, k_b, then ∂ℓ/∂ln k_c).
 pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), InverseError> {
     let free_g = history.iter().any(|r| r.params.g.is_some());
+    let g_rgb = (history.iter()).any(|r| matches!(r.params.g, Some(OneOrRgb::Rgb(_))));
     let free_k = history.iter().any(|r| r.params.light_scale.is_some());
     let k_rgb = (history.iter()).any(|r| matches!(r.params.light_scale, Some(OneOrRgb::Rgb(_))));
     let mut s = String::from(
         "iteration,loss,sigma_t_r,sigma_t_g,sigma_t_b,albedo_r,albedo_g,albedo_b,\
          d_sigma_t_r,d_sigma_t_g,d_sigma_t_b,d_albedo_r,d_albedo_g,d_albedo_b,views,seconds,crops,misfit",
     );
-    s.push_str(if free_g { ",g,d_g" } else { "" });
+    s.push_str(match (free_g, g_rgb) {
+        (false, _) => "",
+        (true, false) => ",g,d_g",
+        (true, true) => ",g_r,g_g,g_b,d_g_r,d_g_g,d_g_b",
+    });
     s.push_str(match (free_k, k_rgb) {
         (false, _) => "\n",
         (true, false) => ",light_scale,d_ln_light_scale\n",
@@ -66,21 +72,25 @@ pub fn write_csv(history: &[IterationRecord], path: &Path) -> Result<(), Inverse
             r.seconds,
             crops.join(" ")
         );
+        // One column per variable; empty where the iteration has none.
+        let column = |v: Option<OneOrRgb<f64>>, c: usize, e: bool| {
+            v.map(|v| match e {
+                true => format!("{:.6e}", v.values()[c.min(v.values().len() - 1)]),
+                false => format!("{:.6}", v.values()[c.min(v.values().len() - 1)]),
+            })
+            .unwrap_or_default()
+        };
         if free_g {
-            let g = r.params.g.map(|g| format!("{g:.6}")).unwrap_or_default();
-            let d_g = r.d_g.map(|d| format!("{d:.6e}")).unwrap_or_default();
-            let _ = write!(s, ",{g},{d_g}");
+            let cols = if g_rgb { 3 } else { 1 };
+            for c in 0..cols {
+                let _ = write!(s, ",{}", column(r.params.g, c, false));
+            }
+            for c in 0..cols {
+                let _ = write!(s, ",{}", column(r.d_g, c, true));
+            }
         }
         if free_k {
-            // One column per light-scale variable; empty where the iteration has none.
             let cols = if k_rgb { 3 } else { 1 };
-            let column = |v: Option<OneOrRgb<f64>>, c: usize, e: bool| {
-                v.map(|v| match e {
-                    true => format!("{:.6e}", v.values()[c.min(v.values().len() - 1)]),
-                    false => format!("{:.6}", v.values()[c.min(v.values().len() - 1)]),
-                })
-                .unwrap_or_default()
-            };
             for c in 0..cols {
                 let _ = write!(s, ",{}", column(r.params.light_scale, c, false));
             }
@@ -113,7 +123,7 @@ pub fn errors(est: &Params, truth: &Params) -> serde_json::Value {
         "albedo_rmse": rmse(&abs),
     });
     if let (Some(e), Some(t)) = (est.g, truth.g) {
-        out["g_absolute"] = json!(e - t);
+        out["g_absolute"] = json!(e.zip_with(t, |e, t| e - t));
     }
     out
 }
@@ -241,8 +251,21 @@ pub fn interval_lines(est: &Params, u: &Uncertainty) -> Vec<String> {
             fmt(est.albedo[c], u.albedo[c], u.fixed[1], 4)
         ));
     }
-    if let (Some(gu), Some(g)) = (&u.g, est.g) {
-        out.push(format!("  g = {}", fmt(g, gu.interval, false, 3)));
+    match (&u.g, est.g) {
+        (Some(OneOrRgb::One(gu)), Some(g)) => {
+            out.push(format!(
+                "  g = {}",
+                fmt(g.channel(0), gu.interval, false, 3)
+            ));
+        }
+        (Some(OneOrRgb::Rgb(gu)), Some(g)) => {
+            out.push("  phase function g per channel:".into());
+            for c in 0..3 {
+                let v = fmt(g.channel(c), gu[c].interval, false, 3);
+                out.push(format!("    {}: g = {v}", CHANNELS[c]));
+            }
+        }
+        _ => {}
     }
     light_scale_lines(u, est, &mut out);
     let open_t: Vec<&str> = (0..3)
@@ -299,9 +322,17 @@ pub fn interval_lines(est: &Params, u: &Uncertainty) -> Vec<String> {
             50.0 * (inverse::uncertainty::DETERMINED_SIGMA_T_RATIO - 1.0)
         ));
     }
-    if u.g.is_some_and(|g| !g.determined) {
+    let g_open: Vec<&str> = (0..3)
+        .filter(|&c| u.g.is_some_and(|g| !g.channel(c).determined))
+        .map(|c| CH[c])
+        .collect();
+    if !g_open.is_empty() {
+        let which = match u.g {
+            Some(OneOrRgb::Rgb(_)) => format!(" in {}", g_open.join(", ")),
+            _ => String::new(),
+        };
         out.push(format!(
-            "g is NOT determined by these images (its interval is wider than ±{}): where light \
+            "g is NOT determined by these images{which} (its interval is wider than ±{}): where light \
              scatters many times only the reduced scattering σ_t·α·(1 − g) shows, so g trades \
              against σ_t and α. Views whose light crossed little of the object (thin parts, \
              grazing or back light) carry the single scattering that sets g.",

@@ -159,7 +159,7 @@ pub fn params_of(v: &serde_json::Value) -> Option<Params> {
     Some(Params {
         sigma_t: rgb("sigma_t")?,
         albedo: rgb("albedo")?,
-        g: v["g"].as_f64(),
+        g: serde_json::from_value(v["g"].clone()).ok(),
         light_scale: serde_json::from_value(v["light_scale"].clone()).ok(),
     })
 }

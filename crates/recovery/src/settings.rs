@@ -20,7 +20,7 @@ use scene::setting::Setting;
 use super::{BiasCorrection, RecoveryConfig, RecoveryError};
 use inverse::forward::{ModelChoice, ModelKind};
 use inverse::optimize::OptimizeConfig;
-use inverse::params::ParamSpec;
+use inverse::params::{OneOrRgb, ParamSpec};
 use inverse::uncertainty::UncertaintySettings;
 
 mod start;
@@ -489,7 +489,15 @@ impl RecoverySettings {
                     Setting::InitG
                 )));
             }
-            if !(g.is_finite() && g.abs() < 1.0) {
+            if matches!(g, OneOrRgb::Rgb(_)) && !c.params.g_per_channel {
+                return Err(invalid(format!(
+                    "{} {g} gives a g per channel, but one g is recovered; fix: recover one per \
+                     channel ({}), or give one value",
+                    Setting::InitG,
+                    Setting::FreeGRgb
+                )));
+            }
+            if !g.values().iter().all(|g| g.is_finite() && g.abs() < 1.0) {
                 return Err(invalid(format!(
                     "{} {g}: the phase function's g must be in (-1, 1)",
                     Setting::InitG

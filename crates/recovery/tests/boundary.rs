@@ -22,7 +22,7 @@ use scene::{Camera, Medium, MeshSource, PointLight};
 const TRUTH: Medium = Medium {
     sigma_t: [4.0, 6.0, 9.0],
     albedo: [0.9, 0.8, 0.7],
-    g: 0.3,
+    g: scene::Anisotropy::uniform(0.3),
     eta: 1.4,
     roughness: 0.0,
 };
@@ -118,7 +118,7 @@ fn recover(truth: Medium) -> Params {
     let num = |v: &serde_json::Value| v.as_f64().unwrap();
     assert!((num(&object["boundary"]["eta"]) - truth.eta as f64).abs() < 1e-6);
     assert!((num(&object["boundary"]["roughness"]) - truth.roughness as f64).abs() < 1e-6);
-    assert!((num(&object["phase"]["g"]) - truth.g as f64).abs() < 1e-6);
+    assert!((num(&object["phase"]["g"]) - truth.g.mean() as f64).abs() < 1e-6);
     assert_eq!(object["not_modelled"], serde_json::json!([]));
     run.estimate
 }
@@ -194,7 +194,10 @@ fn each_model_names_the_physics_it_lacks() {
     let learned = ModelKind::Learned.physics_gaps(&object);
     assert_eq!(learned.len(), 1, "{learned:?}");
     assert!(learned[0].contains("g 0.3"), "{learned:?}");
-    let isotropic = scene::Object::of(&Medium { g: 0.0, ..ROUGH });
+    let isotropic = scene::Object::of(&Medium {
+        g: scene::Anisotropy::uniform(0.0),
+        ..ROUGH
+    });
     assert!(ModelKind::Learned.physics_gaps(&isotropic).is_empty());
     let dipole = ModelKind::Dipole.physics_gaps(&object);
     assert_eq!(dipole.len(), 1);
@@ -215,7 +218,7 @@ fn each_model_names_the_physics_it_lacks() {
 #[test]
 fn a_free_g_is_recovered_by_the_tracer() {
     let truth = Medium {
-        g: 0.6,
+        g: scene::Anisotropy::uniform(0.6),
         eta: 1.0,
         ..TRUTH
     };
@@ -226,11 +229,11 @@ fn a_free_g_is_recovered_by_the_tracer() {
     cfg.optimize = cfg.optimize.with_iterations(200);
     cfg.optimize.spp = 8;
     cfg.optimize.params.free_g = true;
-    cfg.optimize.init.g = Some(0.0);
+    cfg.optimize.init.g = Some(inverse::params::OneOrRgb::One(0.0));
     cfg.uncertainty.views = 3;
     cfg.uncertainty.spp = 64;
     let run = recovery::run_or_reuse(&cfg, &Silent, "free g").unwrap();
-    let g = run.estimate.g.expect("g is recovered");
+    let g = run.estimate.g.expect("g is recovered").channel(0);
     assert!((g - 0.6).abs() < 0.1, "g {g}");
     let result = recovery::reuse::read_json(&cfg.out.join("result.json")).unwrap();
     let num = |v: &serde_json::Value| v.as_f64().unwrap();
@@ -267,7 +270,7 @@ fn a_free_g_is_recovered_by_the_tracer() {
 /// figure.
 fn recovers_the_light_scale(factor: [f64; 3], per_channel: bool, name: &str) {
     let truth = Medium {
-        g: 0.3,
+        g: scene::Anisotropy::uniform(0.3),
         eta: 1.0,
         ..TRUTH
     };

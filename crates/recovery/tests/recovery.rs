@@ -30,7 +30,7 @@ fn tiny_dataset(dir: &std::path::Path) {
         medium: Medium {
             sigma_t: [60.0; 3],
             albedo: [0.9, 0.85, 0.8],
-            g: 0.0,
+            g: scene::Anisotropy::uniform(0.0),
             eta: 1.0,
             roughness: 0.0,
         },

@@ -6,6 +6,7 @@
 //! * [`light`]: point lights of radiant intensity I (irradiance I/r², no 1/4π), and a constant
 //!   environment emitter (used by energy tests).
 //! * [`medium`]: the homogeneous medium (σ_t, α per RGB channel, HG g, relative IOR η).
+//! * [`anisotropy`]: the Henyey–Greenstein g, one for all channels or one per channel.
 //! * [`measured`]: lengths in real units and published measurements of real media.
 //! * [`object`]: what a capture states about the object besides σ_t and α: the boundary (η,
 //!   roughness) and the phase function (g).
@@ -18,6 +19,7 @@
 //! * [`dataset`]: dataset folders (`dataset.json` + EXRs, DATASET.md) and the Mitsuba
 //!   reference-render folder format (`scene.json` + mesh + `view_XXX.exr`).
 
+pub mod anisotropy;
 pub mod camera;
 pub mod capture;
 pub mod colmap;
@@ -36,6 +38,7 @@ pub mod rig;
 pub mod scene_file;
 pub mod setting;
 
+pub use anisotropy::Anisotropy;
 pub use camera::{Camera, Crop, Intrinsics, Pinhole, RayGen};
 pub use dataset::{Dataset, DatasetKind, DatasetMetadata, View, load_reference_folder};
 pub use error::SceneError;

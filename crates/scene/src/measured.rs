@@ -93,10 +93,15 @@ impl MeasuredMedium {
     /// The medium of HG anisotropy `g` with these reduced coefficients, as (σ_t in 1/`unit`, α)
     /// per channel: σ_s = σ_s'/(1 − g), σ_t = σ_s + σ_a, α = σ_s/σ_t.
     pub fn medium(&self, g: f64, unit: LengthUnit) -> ([f32; 3], [f32; 3]) {
+        self.medium_rgb([g; 3], unit)
+    }
+
+    /// [`MeasuredMedium::medium`] with a g per channel (σ_s = σ_s'/(1 − g_c) in channel c).
+    pub fn medium_rgb(&self, g: [f64; 3], unit: LengthUnit) -> ([f32; 3], [f32; 3]) {
         let mut sigma_t = [0.0; 3];
         let mut albedo = [0.0; 3];
         for c in 0..3 {
-            let s = self.reduced_scattering[c] / (1.0 - g);
+            let s = self.reduced_scattering[c] / (1.0 - g[c]);
             let t = s + self.absorption[c];
             sigma_t[c] = (t * unit.mm()) as f32;
             albedo[c] = if t > 0.0 { (s / t) as f32 } else { 0.0 };
@@ -144,16 +149,16 @@ pub fn typical_sigma_t(g: f64, unit: LengthUnit) -> f64 {
     (sigma_t.iter().map(|s| s.ln()).sum::<f64>() / sigma_t.len() as f64).exp()
 }
 
-/// The reduced coefficients (σ_s', σ_a) in mm⁻¹ of a medium of σ_t in 1/`unit`, α and g.
+/// The reduced coefficients (σ_s', σ_a) in mm⁻¹ of a medium of σ_t in 1/`unit`, α and g per channel.
 pub fn reduced_per_mm(
     sigma_t: [f64; 3],
     albedo: [f64; 3],
-    g: f64,
+    g: [f64; 3],
     unit: LengthUnit,
 ) -> ([f64; 3], [f64; 3]) {
     let t = sigma_t.map(|s| s / unit.mm());
     (
-        std::array::from_fn(|c| t[c] * albedo[c] * (1.0 - g)),
+        std::array::from_fn(|c| t[c] * albedo[c] * (1.0 - g[c])),
         std::array::from_fn(|c| t[c] * (1.0 - albedo[c])),
     )
 }
@@ -205,7 +210,7 @@ mod tests {
         for g in [0.0, 0.3, 0.8] {
             for unit in [LengthUnit::Mm, LengthUnit::Cm, LengthUnit::M] {
                 let (t, a) = marble.medium(g, unit);
-                let (s, ab) = reduced_per_mm(t.map(f64::from), a.map(f64::from), g, unit);
+                let (s, ab) = reduced_per_mm(t.map(f64::from), a.map(f64::from), [g; 3], unit);
                 for c in 0..3 {
                     let rel = |x: f64, y: f64| ((x - y) / y).abs();
                     assert!(

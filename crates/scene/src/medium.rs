@@ -5,16 +5,17 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::SceneError;
+use crate::{Anisotropy, SceneError};
 
 /// Homogeneous medium parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Medium {
     pub sigma_t: [f32; 3],
     pub albedo: [f32; 3],
-    /// Henyey–Greenstein anisotropy, (−1, 1); 0 = isotropic (the paper's setting).
+    /// Henyey–Greenstein anisotropy per channel, (−1, 1); 0 = isotropic (the paper's setting).
+    /// One number in files when the channels share it ([`Anisotropy`]).
     #[serde(default)]
-    pub g: f32,
+    pub g: Anisotropy,
     /// Relative index of refraction η ≥ 1; 1 = index-matched (null) boundary (the paper's data).
     #[serde(default = "one")]
     pub eta: f32,
@@ -66,10 +67,10 @@ impl Medium {
                 ));
             }
         }
-        if !(self.g.is_finite() && self.g > -1.0 && self.g < 1.0) {
+        if let Some((c, g)) = self.g.out_of_range() {
             return Err(bad(
-                "g".into(),
-                self.g,
+                self.g.field(c),
+                g,
                 "Henyey–Greenstein anisotropy must be in (−1, 1); fix: use 0 for isotropic \
                  scattering (the paper's setting)",
             ));
@@ -115,7 +116,7 @@ mod tests {
         Medium {
             sigma_t: [50.0, 60.0, 70.0],
             albedo: [0.95, 0.9, 0.85],
-            g: 0.0,
+            g: Anisotropy::ISOTROPIC,
             eta: 1.0,
             roughness: 0.0,
         }
@@ -126,7 +127,7 @@ mod tests {
         ok().validate("scene.toml: medium").unwrap();
         Medium {
             albedo: [0.0; 3],
-            g: -0.9,
+            g: Anisotropy::uniform(-0.9),
             eta: 1.5,
             ..ok()
         }
@@ -172,8 +173,27 @@ mod tests {
                 },
                 "medium.albedo[0] = -0.1",
             ),
-            (Medium { g: 1.0, ..ok() }, "medium.g = 1"),
-            (Medium { g: -1.5, ..ok() }, "medium.g = -1.5"),
+            (
+                Medium {
+                    g: Anisotropy::uniform(1.0),
+                    ..ok()
+                },
+                "medium.g = 1",
+            ),
+            (
+                Medium {
+                    g: Anisotropy::uniform(-1.5),
+                    ..ok()
+                },
+                "medium.g = -1.5",
+            ),
+            (
+                Medium {
+                    g: Anisotropy([0.5, 0.7, 1.2]),
+                    ..ok()
+                },
+                "medium.g[2] = 1.2",
+            ),
             (Medium { eta: 0.9, ..ok() }, "medium.eta = 0.9"),
             (
                 Medium {

@@ -23,7 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Medium, SceneError};
+use crate::{Anisotropy, Medium, SceneError};
 
 /// The known part of the object: boundary and phase function.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,8 +32,8 @@ pub struct Object {
     pub eta: f32,
     /// GGX α of the boundary's microfacets; 0 = smooth.
     pub roughness: f32,
-    /// Henyey–Greenstein g; 0 = isotropic.
-    pub g: f32,
+    /// Henyey–Greenstein g per channel; 0 = isotropic.
+    pub g: Anisotropy,
 }
 
 impl Object {
@@ -42,7 +42,7 @@ impl Object {
     pub const INDEX_MATCHED_ISOTROPIC: Object = Object {
         eta: 1.0,
         roughness: 0.0,
-        g: 0.0,
+        g: Anisotropy::ISOTROPIC,
     };
 
     /// The boundary and phase function of `m`.
@@ -88,10 +88,10 @@ impl Object {
                  a smooth surface, 0.05–0.3 for polished to matte objects",
             ));
         }
-        if !(self.g.is_finite() && self.g > -1.0 && self.g < 1.0) {
+        if let Some((c, g)) = self.g.out_of_range() {
             return Err(bad(
-                "phase.g",
-                self.g,
+                &format!("phase.{}", self.g.field(c)),
+                g,
                 "the Henyey–Greenstein g must be in (−1, 1); fix: 0 for isotropic scattering, \
                  0.7–0.9 for milk or skin",
             ));
@@ -111,10 +111,12 @@ impl Object {
                 self.eta, self.roughness
             )
         };
-        let phase = if self.g == 0.0 {
+        let phase = if self.g.is_isotropic() {
             "isotropic medium (g 0)".to_string()
-        } else {
+        } else if self.g.is_uniform() {
             format!("Henyey–Greenstein medium (g {})", self.g)
+        } else {
+            format!("Henyey–Greenstein medium (g {} in R, G, B)", self.g)
         };
         format!("{boundary}; {phase}")
     }
@@ -147,9 +149,9 @@ pub enum BoundarySpec {
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum PhaseSpec {
     Isotropic {},
-    /// Henyey–Greenstein.
+    /// Henyey–Greenstein: one g, or one per channel ([`Anisotropy`]).
     Hg {
-        g: f32,
+        g: Anisotropy,
     },
 }
 
@@ -172,7 +174,7 @@ impl ObjectSpec {
             }
         };
         let g = match self.phase {
-            PhaseSpec::Isotropic {} => 0.0,
+            PhaseSpec::Isotropic {} => Anisotropy::ISOTROPIC,
             PhaseSpec::Hg { g } => g,
         };
         let object = Object { eta, roughness, g };
@@ -192,7 +194,7 @@ impl From<&Object> for ObjectSpec {
                     roughness: o.roughness,
                 }
             },
-            phase: if o.g == 0.0 {
+            phase: if o.g.is_isotropic() {
                 PhaseSpec::Isotropic {}
             } else {
                 PhaseSpec::Hg { g: o.g }
@@ -223,7 +225,7 @@ mod tests {
                 Object {
                     eta: 1.5,
                     roughness: 0.0,
-                    g: 0.3,
+                    g: Anisotropy::uniform(0.3),
                 },
             ),
             (
@@ -231,7 +233,15 @@ mod tests {
                 Object {
                     eta: 1.33,
                     roughness: 0.1,
-                    g: 0.9,
+                    g: Anisotropy::uniform(0.9),
+                },
+            ),
+            (
+                r#"{"boundary": {"type": "null"}, "phase": {"type": "hg", "g": [0.7, 0.8, 0.9]}}"#,
+                Object {
+                    eta: 1.0,
+                    roughness: 0.0,
+                    g: Anisotropy([0.7, 0.8, 0.9]),
                 },
             ),
         ] {
@@ -262,6 +272,10 @@ mod tests {
                 r#"{"boundary": {"type": "null"}, "phase": {"type": "hg", "g": 1.0}}"#,
                 "object.phase.g = 1",
             ),
+            (
+                r#"{"boundary": {"type": "null"}, "phase": {"type": "hg", "g": [0.7, -1.0, 0.9]}}"#,
+                "object.phase.g[1] = -1",
+            ),
         ] {
             let msg = parse(json).unwrap_err();
             assert!(msg.contains(want), "{msg:?} should contain {want:?}");
@@ -272,6 +286,7 @@ mod tests {
             r#"{"boundary": {"type": "null"}, "phase": {"type": "hg"}}"#,
             r#"{"boundary": {"type": "null", "eta": 1.5}, "phase": {"type": "isotropic"}}"#,
             r#"{"boundary": {"type": "null"}}"#,
+            r#"{"boundary": {"type": "null"}, "phase": {"type": "hg", "g": [0.7, 0.8]}}"#,
         ] {
             assert!(parse(json).is_err(), "{json} should be refused");
         }

@@ -55,6 +55,8 @@ pub enum Setting {
     InitAlbedo,
     /// Recovering the phase function's g besides σ_t and α.
     FreeG,
+    /// Recovering one g per channel.
+    FreeGRgb,
     /// The starting g of a recovery that frees it.
     InitG,
     /// Recovering a factor on the lights' stated intensity.
@@ -129,6 +131,7 @@ impl Setting {
             Setting::InitSigmaT => "init_sigma_t",
             Setting::InitAlbedo => "init_albedo",
             Setting::FreeG => "free_g",
+            Setting::FreeGRgb => "free_g_rgb",
             Setting::InitG => "init_g",
             Setting::FreeLightScale => "free_light_scale",
             Setting::InitLightScale => "init_light_scale",

@@ -43,7 +43,10 @@ fn medium() -> impl Strategy<Value = Medium> {
     (
         prop::array::uniform3(0.01f32..1000.0),
         prop::array::uniform3(0.0f32..0.999),
-        -0.9f32..0.9,
+        prop_oneof![
+            (-0.9f32..0.9).prop_map(scene::Anisotropy::uniform),
+            prop::array::uniform3(-0.9f32..0.9).prop_map(scene::Anisotropy),
+        ],
         1.0f32..2.0,
     )
         .prop_map(|(sigma_t, albedo, g, eta)| Medium {
@@ -192,10 +195,15 @@ proptest! {
         let rgb = |v: [f32; 3]| {
             if grey { format!("{:?}", v[0]) } else { format!("[{:?}, {:?}, {:?}]", v[0], v[1], v[2]) }
         };
+        // One g is written as one number, a g per channel as three.
+        let g = match med.g.as_uniform() {
+            Some(g) => format!("{g:?}"),
+            None => format!("[{:?}, {:?}, {:?}]", med.g.0[0], med.g.0[1], med.g.0[2]),
+        };
         let sigma_t = if grey { [med.sigma_t[0]; 3] } else { med.sigma_t };
         let mut toml = format!(
-            "shape = {{ name = \"{shape}\", scale = {scale:?} }}\n\n[medium]\nsigma_t = {}\nalbedo = {}\ng = {:?}\neta = {:?}\n",
-            rgb(sigma_t), rgb(med.albedo), med.g, med.eta
+            "shape = {{ name = \"{shape}\", scale = {scale:?} }}\n\n[medium]\nsigma_t = {}\nalbedo = {}\ng = {g}\neta = {:?}\n",
+            rgb(sigma_t), rgb(med.albedo), med.eta
         );
         if listed {
             for k in 0..views {

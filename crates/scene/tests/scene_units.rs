@@ -47,7 +47,7 @@ roughness = 0.1"#,
     assert_eq!(mm.medium.albedo, albedo);
     assert_eq!(
         (mm.medium.g, mm.medium.eta, mm.medium.roughness),
-        (0.3, 1.5, 0.1)
+        (scene::Anisotropy::uniform(0.3), 1.5, 0.1)
     );
     let cm = parse(&scene(
         r#"length_unit = "cm""#,

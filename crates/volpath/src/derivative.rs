@@ -1,5 +1,6 @@
 //! Derivatives of the tracer's images with respect to the medium: ∂I/∂σ_t and ∂I/∂α per
-//! channel, and ∂I/∂g (one g for every channel), from the same paths as the image itself.
+//! channel, and ∂I/∂g per channel (channel c with respect to its own g_c; with one g for every
+//! channel, ∂I_c/∂g), from the same paths as the image itself.
 //!
 //! A contribution of a path (a next-event estimate at a scattering vertex, or the environment
 //! where the path escapes) after k real scatterings, with total length ℓ inside the medium (the
@@ -9,12 +10,13 @@
 //!   f_c = σ_s,c^k · e^{−σ_t,c ℓ} · G = α_c^k σ_t,c^k e^{−σ_t,c ℓ} · G
 //!
 //! in channel c, where G (phase functions, 1/r², the light, Fresnel factors) does not depend on
-//! σ_t or α. Of G, only the phase-function factors p_g(cos θ_i) depend on g: one per sampled
-//! direction at a scattering vertex, and one for a connection's direction at the last. The image is I_c = ∫ f_c dμ over path space; neither the space (vertex positions
-//! inside a fixed mesh) nor its measure depends on the medium, so
+//! σ_t or α. Of G, only the phase-function factors p_{g_c}(cos θ_i) depend on g: one per
+//! sampled direction at a scattering vertex, and one for a connection's direction at the last.
+//! The image is I_c = ∫ f_c dμ over path space; neither the space (vertex positions inside a
+//! fixed mesh) nor its measure depends on the medium, so
 //!
 //!   ∂I_c/∂σ_t,c = ∫ f_c (k/σ_t,c − ℓ) dμ,    ∂I_c/∂α_c = ∫ f_c (k/α_c) dμ,
-//!   ∂I_c/∂g = ∫ f_c Σ_i ∂ ln p_g(cos θ_i)/∂g dμ,
+//!   ∂I_c/∂g_c = ∫ f_c Σ_i ∂ ln p_{g_c}(cos θ_i)/∂g_c dμ,
 //!
 //! and the tracer's own estimator f_c/p of each path, multiplied by the score in brackets, is an
 //! unbiased estimate of them. The sampling density p (hero-channel free flights with spectral
@@ -51,7 +53,7 @@ pub struct PathDerivatives {
     pub d_sigma_t: [f32; 3],
     /// ∂/∂α_c of the radiance of channel c.
     pub d_albedo: [f32; 3],
-    /// ∂/∂g of the radiance of each channel.
+    /// ∂/∂g_c of the radiance of channel c (∂/∂g with one g for every channel).
     pub d_g: [f32; 3],
 }
 
@@ -74,7 +76,7 @@ impl Tally for PathDerivatives {
     fn record(&mut self, c: [f32; 3], score: PathScore, sigma_t: &[f32; 3], albedo: &[f32; 3]) {
         let (k, len) = (score.k as f32, score.len);
         for ch in 0..3 {
-            self.d_g[ch] += c[ch] * score.phase;
+            self.d_g[ch] += c[ch] * score.phase[ch];
             self.value[ch] += c[ch];
             self.d_sigma_t[ch] += c[ch] * (k / sigma_t[ch] - len);
             if albedo[ch] > 0.0 {
@@ -108,6 +110,6 @@ pub struct DerivativeImages {
     pub d_sigma_t: Image,
     /// ∂I/∂α per pixel and channel.
     pub d_albedo: Image,
-    /// ∂I/∂g per pixel and channel.
+    /// ∂I/∂g per pixel and channel (channel c with respect to g_c).
     pub d_g: Image,
 }

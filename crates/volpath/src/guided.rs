@@ -191,7 +191,7 @@ impl Dwivedi {
         w: &mut SpectralWeight,
         u: [f32; 2],
         classical: impl FnOnce(f32, f32) -> Vec3,
-        phase_pdf: impl FnOnce(Vec3) -> f32,
+        phase_pdf: impl FnOnce(Vec3) -> [f32; 3],
     ) -> (Vec3, f32) {
         let dir = if w.guided() {
             let mu = self.sample_mu(w.hero, u[0]);
@@ -206,26 +206,26 @@ impl Dwivedi {
         let fp = phase_pdf(dir);
         let p = self.direction_densities(fp, dir.dot(n));
         let mixed = w.mixture(p);
-        w.segment([fp; 3], p);
+        w.segment(fp, p);
         (dir, mixed)
     }
 
     /// The two techniques' densities per channel of a direction with μ = ω·n whose
-    /// phase-function density is `fp`: `[classical, guided]`.
+    /// phase-function density in channel c is `fp[c]`: `[classical, guided]`.
     #[inline]
-    pub fn direction_densities(&self, fp: f32, mu: f32) -> [[f32; 3]; 2] {
-        [[fp; 3], std::array::from_fn(|c| self.direction_pdf(c, mu))]
+    pub fn direction_densities(&self, fp: [f32; 3], mu: f32) -> [[f32; 3]; 2] {
+        [fp, std::array::from_fn(|c| self.direction_pdf(c, mu))]
     }
 
     /// The density of reaching, from a scattering vertex, the boundary point at distance `t`
-    /// along ω (μ = ω·n, phase-function density `fp`) by a direction and a flight that passes it,
-    /// mixed over the channels and techniques as `w` mixes them.
+    /// along ω (μ = ω·n, phase-function density `fp` per channel) by a direction and a flight
+    /// that passes it, mixed over the channels and techniques as `w` mixes them.
     #[inline]
     pub fn flight_density(
         &self,
         w: &SpectralWeight,
         sigma_t: &[f32; 3],
-        fp: f32,
+        fp: [f32; 3],
         mu: f32,
         t: f32,
     ) -> f32 {
@@ -403,17 +403,18 @@ mod tests {
     /// A direction about n, then a flight along it, in an infinite medium, each path drawn with
     /// a uniform hero and the guided technique with probability P: the path-level balance
     /// heuristic's weight has E[β_k] = α_k after a scattering and E[β_k 1{t > L}] = e^{−σ_t,k L}
-    /// for a flight that passes L (the phase function and the flight densities are normalised),
+    /// for a flight that passes L (each channel's phase function and the flight densities are
+    /// normalised; the phase function is chromatic, so the directions weigh the channels too),
     /// and β_k ≤ 3 α_k/(1 − P).
     #[test]
     fn path_weights_have_the_integrands_expectation() {
-        use crate::phase::HenyeyGreenstein;
+        use crate::phase::ChannelHg;
         use crate::rng::Sampler;
         let sigma_t = [30.0f32, 60.0, 90.0];
         let albedo = [0.8f32, 0.95, 0.99];
         let (p, len) = (0.5f32, 0.03f32);
         let dw = Dwivedi::new(&albedo, p);
-        let hg = HenyeyGreenstein { g: 0.6 };
+        let hg = ChannelHg::new([0.3, 0.6, 0.85]);
         let normal = Vec3::new(0.3, -0.2, 0.93).normalize();
         let d_in = Vec3::new(0.1, 0.5, -0.86).normalize();
         let n = 200_000;
@@ -425,7 +426,7 @@ mod tests {
             let start = SpectralWeight::new(hero).with_techniques(p, s.next_f32() < p);
             let mut w = start;
             let u = [s.next_f32(), s.next_f32()];
-            let classical = |u1, u2| hg.sample(d_in, u1, u2);
+            let classical = |u1, u2| hg.sample(hero, d_in, u1, u2);
             let (dir, _) = dw.sample_direction(normal, &mut w, u, classical, |o| hg.eval(d_in, o));
             let f = dw.flight(dir.dot(normal));
             let t = dw.sample_distance(&f, &sigma_t, &w, s.next_f32());

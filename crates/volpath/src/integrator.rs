@@ -4,14 +4,15 @@
 //! | parameter | meaning |
 //! |---|---|
 //! | σ_t, α (RGB) | extinction [1/unit], single-scattering albedo; σ_s = α σ_t |
-//! | g | Henyey–Greenstein anisotropy |
+//! | g (RGB) | Henyey–Greenstein anisotropy, one per channel or one for all |
 //! | η | boundary: 1 = index-matched `null` interface (the paper's data); > 1 = dielectric |
 //! | roughness | the dielectric's GGX α; 0 = smooth, > 0 = rough ([`crate::rough`]) |
 //! | max_depth | Mitsuba 3 `volpath` semantics: depth counts real scatterings; NEE at scattering vertex k only if k < max_depth |
 //! | rr_depth | Russian roulette once depth > rr_depth, survival q = min(max_k β_k, 1) |
 //!
 //! Radiance along a camera ray is estimated by free-flight sampling (hero channel with spectral
-//! MIS, [`crate::spectral`]), phase-function sampling, and NEE at every scattering vertex with
+//! MIS, [`crate::spectral`]), phase-function sampling (the hero channel's g; a chromatic medium's
+//! other channels enter the same MIS by their phase functions' densities), and NEE at every scattering vertex with
 //! an unbiased estimate of the transmittance exp(−σ_t · ℓ) of the total length ℓ of the shadow
 //! segment inside the mesh (re-entries included; [`crate::shadow`]). Boundary crossings do not
 //! count as depth, except at a rough boundary, where each interaction does (Mitsuba 3's `volpath`
@@ -36,7 +37,7 @@
 use geometry::{Accel, FilmCursor, Hit, PixelBins};
 use glam::Vec3;
 
-use crate::phase::HenyeyGreenstein;
+use crate::phase::ChannelHg;
 use crate::rng::Sampler;
 use crate::rough;
 use crate::steps::{Memory, Steps};
@@ -142,14 +143,14 @@ pub fn trace<T: Tally>(
     s: &mut Sampler,
 ) -> T {
     let m = &scene.medium;
-    let phase = HenyeyGreenstein { g: m.g };
+    let phase = ChannelHg::new(m.g.channels());
     let w = settings.channel_sampling.start(s.next_below(3) as usize);
     let (steps, mut w) = Steps::start(settings.walks, &m.albedo, w, s);
     let mut mem = Memory::default();
     let mut l = T::default();
-    // The path's length inside the medium so far (its free flights), and Σ ∂ ln p/∂g over the
-    // phase-function directions sampled so far (with T::SCORES_PHASE).
-    let (mut len, mut phase_score) = (0.0f32, 0.0f32);
+    // The path's length inside the medium so far (its free flights), and per channel
+    // Σ ∂ ln p/∂g over the phase-function directions sampled so far (with T::SCORES_PHASE).
+    let (mut len, mut phase_score) = (0.0f32, [0.0f32; 3]);
     let (mut o, mut d, mut inside) = (origin, dir, false);
     // Real scatterings (what the path's throughput depends on the medium by) and the depth
     // (the scatterings, and the rough boundary's interactions, as Mitsuba 3's `volpath`
@@ -187,7 +188,9 @@ pub fn trace<T: Tally>(
             let t = steps.distance(flight.as_ref(), &m.sigma_t, &w, s);
             if let Some(hit) = closest(&mut line, on_line, o, d, t) {
                 if let Some(g) = guide.take() {
-                    let phase_density = || phase.eval(g.d_in(), d);
+                    // A uniform phase function's density (a chromatic one's direction keeps its
+                    // mixed density in `mem`).
+                    let phase_density = || phase.channel(0).eval(g.d_in(), d);
                     let f = flight.as_ref();
                     let pa = steps.pass_density(f, &mem, &w, &m.sigma_t, hit.t, phase_density);
                     flight_weight = g.flight_weight(pa, d);
@@ -212,7 +215,10 @@ pub fn trace<T: Tally>(
                 }
                 let d_new = steps.direction(&phase, d, &mut mem, &mut w, s);
                 if T::SCORES_PHASE {
-                    phase_score += phase.d_log_dg(d.dot(d_new));
+                    let ds = phase.d_log_dg(d.dot(d_new));
+                    for c in 0..3 {
+                        phase_score[c] += ds[c];
+                    }
                 }
                 d = d_new;
                 continue;

@@ -35,7 +35,7 @@ use glam::Vec3;
 use scene::PointLight;
 
 use crate::guided::Dwivedi;
-use crate::phase::HenyeyGreenstein;
+use crate::phase::ChannelHg;
 use crate::rng::Sampler;
 use crate::settings::{SpawnOffset, VolpathScene};
 use crate::spectral::SpectralWeight;
@@ -184,7 +184,7 @@ impl Guide {
         scene: &VolpathScene,
         bsdf: &RoughDielectric,
         spawn: SpawnOffset,
-        phase: &HenyeyGreenstein,
+        phase: &ChannelHg,
         walk: Option<(&Dwivedi, Vec3)>,
         light: &PointLight,
         x: Vec3,
@@ -205,9 +205,8 @@ impl Guide {
         }
         let unit = SpectralWeight::new(w.hero);
         let fs = next_event(scene, bsdf, spawn, light, &hit, dir, &unit)?;
-        let g = fp / denom;
         Some((
-            std::array::from_fn(|c| w.beta[c] * g * (-st[c] * hit.t).exp() * fs[c]),
+            std::array::from_fn(|c| w.beta[c] * (fp[c] / denom) * (-st[c] * hit.t).exp() * fs[c]),
             hit.t,
             self.d_in.dot(dir),
         ))
@@ -215,21 +214,22 @@ impl Guide {
 }
 
 /// The density of the walk's own way to the boundary point at distance `t` along `dir` from a
-/// scattering vertex: the direction (phase-function density `fp`) and a flight that passes `t`,
-/// mixed over the channels as `w` mixes them; with guided walks (`walk`: their constants and the
-/// path's entry normal) both are [`crate::guided`]'s mixtures.
+/// scattering vertex: the direction (phase-function density `fp` per channel) and a flight that
+/// passes `t`, mixed over the channels as `w` mixes them; with guided walks (`walk`: their
+/// constants and the path's entry normal) both are [`crate::guided`]'s mixtures.
 #[inline]
 pub(crate) fn free_flight_density(
     walk: Option<(&Dwivedi, Vec3)>,
     w: &SpectralWeight,
     sigma_t: &[f32; 3],
-    fp: f32,
+    fp: [f32; 3],
     dir: Vec3,
     t: f32,
 ) -> f32 {
     match walk {
         Some((dw, n)) => dw.flight_density(w, sigma_t, fp, dir.dot(n), t),
-        None => fp * w.pass_probability(sigma_t, t),
+        None if fp[0] == fp[1] && fp[1] == fp[2] => fp[0] * w.pass_probability(sigma_t, t),
+        None => w.mixture([std::array::from_fn(|j| fp[j] * (-sigma_t[j] * t).exp()); 2]),
     }
 }
 

@@ -16,9 +16,11 @@ use crate::spectral::SpectralWeight;
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Steps(pub Option<Dwivedi>);
 
-/// What a guided walk remembers along its path: the outward normal where it last entered the
-/// medium, and the mixed density of the direction its last scattering drew (`None`: the
-/// direction came from the boundary or the camera).
+/// What a walk remembers along its path: the outward normal where it last entered the medium
+/// (guided walks), and the mixed density of the direction its last scattering drew, over the
+/// channels and techniques as the path mixed them (guided walks and chromatic phase functions;
+/// `None`: the direction came from the boundary or the camera, or has one density in every
+/// channel).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Memory {
     pub normal: Vec3,
@@ -132,27 +134,38 @@ impl Steps {
         }
     }
 
-    /// A new direction at a scattering vertex reached along `d` (two uniforms); with guided
-    /// walks `mem` keeps its mixed density ([`Dwivedi::sample_direction`]).
+    /// A new direction at a scattering vertex reached along `d` (two uniforms), from the hero
+    /// channel's phase function (or the guide). With guided walks `mem` keeps its mixed density
+    /// ([`Dwivedi::sample_direction`]). With a chromatic phase function the classical walk does
+    /// too, and weighs the channels by their densities p_{g_j}(ω) as it does a flight
+    /// ([`SpectralWeight::segment`]: f_j = p_j = p_{g_j}(ω)); with one g that weight is 1.
     #[inline(always)]
     pub fn direction(
         &self,
-        phase: &crate::phase::HenyeyGreenstein,
+        phase: &crate::phase::ChannelHg,
         d: Vec3,
         mem: &mut Memory,
         w: &mut SpectralWeight,
         s: &mut crate::rng::Sampler,
     ) -> Vec3 {
         let (u1, u2) = (s.next_f32(), s.next_f32());
+        let hero = w.hero;
         match &self.0 {
             Some(dw) => {
-                let classical = |u1, u2| phase.sample(d, u1, u2);
+                let classical = |u1, u2| phase.sample(hero, d, u1, u2);
                 let (dir, density) =
                     dw.sample_direction(mem.normal, w, [u1, u2], classical, |o| phase.eval(d, o));
                 mem.drawn = Some(density);
                 dir
             }
-            None => phase.sample(d, u1, u2),
+            None if phase.is_uniform() => phase.sample(hero, d, u1, u2),
+            None => {
+                let dir = phase.sample(hero, d, u1, u2);
+                let fp = phase.eval(d, dir);
+                mem.drawn = Some(w.mixture([fp, fp]));
+                w.segment(fp, [fp, fp]);
+                dir
+            }
         }
     }
 }

@@ -3,15 +3,15 @@
 
 /// What a contribution's weight depends on the medium by: the real scatterings `k` before it,
 /// its length `len` inside the medium up to the light (its free flights, plus the shadow
-/// segment's inside length for a next-event estimate), and `phase`, the sum of ∂ ln p/∂g over
-/// its phase-function factors ([`crate::phase::HenyeyGreenstein::d_log_dg`]; 0 unless the
-/// tally asks for it, [`Tally::SCORES_PHASE`]). The path's throughput depends on σ_t and α only
-/// through (α σ_t)^k e^{−σ_t ℓ}, and on g only through its phase-function factors.
+/// segment's inside length for a next-event estimate), and `phase`, per channel c the sum of
+/// ∂ ln p_{g_c}/∂g_c over its phase-function factors ([`crate::phase::ChannelHg::d_log_dg`]; 0
+/// unless the tally asks for it, [`Tally::SCORES_PHASE`]). The path's throughput depends on σ_t
+/// and α only through (α σ_t)^k e^{−σ_t ℓ}, and on g only through its phase-function factors.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathScore {
     pub k: u32,
     pub len: f32,
-    pub phase: f32,
+    pub phase: [f32; 3],
 }
 
 /// What a traced path adds up: the radiance alone (`[f32; 3]`) or the radiance with its

@@ -10,7 +10,7 @@ use scene::PointLight;
 use crate::fresnel::{fresnel_dielectric, reflect, refract};
 use crate::guided::Dwivedi;
 use crate::manifold;
-use crate::phase::HenyeyGreenstein;
+use crate::phase::ChannelHg;
 use crate::rng::Sampler;
 use crate::rough;
 use crate::settings::{SpawnOffset, VolpathScene, VolpathSettings};
@@ -19,21 +19,24 @@ use crate::spectral::SpectralWeight;
 use crate::tally::{PathScore, Tally};
 
 /// The score of a contribution after `k` scatterings and `len` inside the medium, with
-/// `phase_score` the path's Σ ∂ ln p/∂g so far and `cos` the angle of a connection's own
-/// phase-function factor at the last vertex (`None`: none) ([`PathScore`]).
+/// `phase_score` the path's Σ ∂ ln p_{g_c}/∂g_c so far per channel and `cos` the angle of a
+/// connection's own phase-function factor at the last vertex (`None`: none) ([`PathScore`]).
 #[inline(always)]
 pub(crate) fn score<T: Tally>(
-    phase: &HenyeyGreenstein,
+    phase: &ChannelHg,
     k: u32,
     len: f32,
-    phase_score: f32,
+    phase_score: [f32; 3],
     cos: Option<f32>,
 ) -> PathScore {
     PathScore {
         k,
         len,
         phase: match cos {
-            Some(cos) if T::SCORES_PHASE => phase_score + phase.d_log_dg(cos),
+            Some(cos) if T::SCORES_PHASE => {
+                let d = phase.d_log_dg(cos);
+                std::array::from_fn(|c| phase_score[c] + d[c])
+            }
             _ => phase_score,
         },
     }
@@ -44,7 +47,7 @@ pub(crate) fn score<T: Tally>(
 pub(crate) struct Estimates<'a, 'b> {
     pub scene: &'a VolpathScene<'b>,
     pub settings: &'a VolpathSettings,
-    pub phase: &'a HenyeyGreenstein,
+    pub phase: &'a ChannelHg,
     pub rough: Option<&'a base::microfacet::RoughDielectric>,
     /// The guided walks' constants (`None`: classical walks, [`crate::guided`]).
     pub dwivedi: Option<&'a Dwivedi>,
@@ -175,14 +178,14 @@ impl Estimates<'_, '_> {
 }
 
 /// NEE to a point light from the scattering vertex `p` (inside, index-matched boundary):
-/// β · f_p(d, ω_l) · T · I / r², T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]),
+/// β_c · f_{p,c}(d, ω_l) · T_c · I_c / r² per channel c, T an estimate of exp(−σ_t ℓ_inside) ([`crate::shadow`]),
 /// ℓ_inside and the phase function's cos θ = d·ω_l (`None`: no contribution).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn next_event(
     scene: &VolpathScene,
     shadow: ShadowTransmittance,
-    phase: &HenyeyGreenstein,
+    phase: &ChannelHg,
     light: &PointLight,
     p: Vec3,
     d: Vec3,
@@ -195,7 +198,7 @@ pub(crate) fn next_event(
         return None;
     }
     let dir_l = to_l / r2.sqrt();
-    let f = phase.eval(d, dir_l) / r2;
+    let f = phase.eval(d, dir_l).map(|f| f / r2);
     let (tr, len) = shadow.estimate_with_length(
         scene.accel,
         scene.light_bins,
@@ -205,30 +208,32 @@ pub(crate) fn next_event(
         s,
     );
     Some((
-        std::array::from_fn(|c| w.beta[c] * f * tr[c] * light.intensity[c]),
+        std::array::from_fn(|c| w.beta[c] * f[c] * tr[c] * light.intensity[c]),
         len,
         d.dot(dir_l),
     ))
 }
 
 /// NEE to a point light through the dielectric boundary (η ≠ 1) by manifold NEE
-/// ([`crate::manifold`]): β · f_p(d, ω) · exp(−σ_t ℓ) · I · (1 − F) · dω_L/dA⊥, ℓ and the
-/// phase function's cos θ = d·ω.
+/// ([`crate::manifold`]): β_c · f_{p,c}(d, ω) · exp(−σ_t,c ℓ) · I_c · (1 − F) · dω_L/dA⊥ per
+/// channel c, ℓ and the phase function's cos θ = d·ω.
 #[inline]
 pub(crate) fn next_event_refracted(
     scene: &VolpathScene,
-    phase: &HenyeyGreenstein,
+    phase: &ChannelHg,
     light: &PointLight,
     p: Vec3,
     d: Vec3,
     w: &SpectralWeight,
 ) -> Option<([f32; 3], f32, f32)> {
     let c = manifold::connect(scene.accel, p, light.position, scene.medium.eta)?;
-    let f = phase.eval(d, c.dir) * c.transmittance * c.flux_factor;
+    let f = phase
+        .eval(d, c.dir)
+        .map(|f| f * c.transmittance * c.flux_factor);
     let st = &scene.medium.sigma_t;
     Some((
         std::array::from_fn(|k| {
-            w.beta[k] * f * (-st[k] * c.inside_length).exp() * light.intensity[k]
+            w.beta[k] * f[k] * (-st[k] * c.inside_length).exp() * light.intensity[k]
         }),
         c.inside_length,
         d.dot(c.dir),

@@ -109,7 +109,7 @@ fn white_furnace_environment_any_eta() {
         let medium = Medium {
             sigma_t: [3.0, 8.0, 15.0],
             albedo: [1.0; 3],
-            g,
+            g: g.into(),
             eta,
             roughness: 0.0,
         };
@@ -158,7 +158,7 @@ fn white_furnace_through_a_rough_boundary() {
             medium: Medium {
                 sigma_t: [3.0, 8.0, 15.0],
                 albedo: [1.0; 3],
-                g: 0.3,
+                g: scene::Anisotropy::uniform(0.3),
                 eta: 1.5,
                 roughness,
             },
@@ -197,7 +197,7 @@ fn point_light_in_sphere_conserves_energy() {
     let medium = Medium {
         sigma_t: [2.0, 4.0, 8.0],
         albedo: [1.0; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };
@@ -272,7 +272,7 @@ fn dielectric_absorber_shows_fresnel_reflectance() {
     let medium = Medium {
         sigma_t: [1e5; 3],
         albedo: [0.0; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.5,
         roughness: 0.0,
     };
@@ -313,7 +313,7 @@ fn clear_glass_ball_transmits_everything() {
     let medium = Medium {
         sigma_t: [1e-6; 3],
         albedo: [0.5; 3],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.5,
         roughness: 0.0,
     };
@@ -354,7 +354,7 @@ fn refracted_nee_reduces_to_shadow_rays_as_eta_tends_to_one() {
         let medium = Medium {
             sigma_t: [8.0, 15.0, 25.0],
             albedo: [0.9, 0.8, 0.95],
-            g: 0.3,
+            g: scene::Anisotropy::uniform(0.3),
             eta,
             roughness: 0.0,
         };

@@ -116,7 +116,7 @@ fn medium(albedo: [f32; 3], g: f32, eta: f32, roughness: f32) -> Medium {
     Medium {
         sigma_t: [10.0, 15.0, 20.0],
         albedo,
-        g,
+        g: g.into(),
         eta,
         roughness,
     }

@@ -2,6 +2,7 @@
 //! instead of one per file): `cargo test -p translucent-volpath --test integration NAME`
 //! runs the tests whose path contains NAME (a file's module, e.g. `derivatives::`).
 
+mod chromatic;
 mod derivatives;
 mod energy;
 mod guided;

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use testkit::chi2_test;
 use volpath::guided::Dwivedi;
-use volpath::phase::HenyeyGreenstein;
+use volpath::phase::{ChannelHg, HenyeyGreenstein};
 use volpath::render::pixel_jitter;
 use volpath::rng::Sampler;
 use volpath::spectral::SpectralWeight;
@@ -118,7 +118,7 @@ fn guided_directions_match_their_density() {
     let frame = geometry::Frame::from_normal(normal);
     let albedo = [0.6f32, 0.95, 0.995];
     let dw = Dwivedi::new(&albedo, 0.5);
-    let hg = HenyeyGreenstein { g: 0.5 };
+    let hg = ChannelHg::new([0.5; 3]);
     let d_in = Vec3::new(0.2, 0.3, -0.93).normalize();
     for hero in 0..3 {
         let mut s = Sampler::new(14, hero as u64, 0, 0);
@@ -126,7 +126,7 @@ fn guided_directions_match_their_density() {
         for _ in 0..n {
             let mut w = SpectralWeight::new(hero).with_techniques(0.5, true);
             let u = [s.next_f32(), s.next_f32()];
-            let classical = |u1, u2| hg.sample(d_in, u1, u2);
+            let classical = |u1, u2| hg.sample(hero, d_in, u1, u2);
             let (dir, _) = dw.sample_direction(normal, &mut w, u, classical, |o| hg.eval(d_in, o));
             let l = frame.to_local(dir);
             let mu = l.z.clamp(-1.0, 1.0) as f64;

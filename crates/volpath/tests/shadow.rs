@@ -47,7 +47,7 @@ fn lit_scene(
         medium: scene::Medium {
             sigma_t,
             albedo,
-            g,
+            g: g.into(),
             eta: 1.0,
             roughness: 0.0,
         },

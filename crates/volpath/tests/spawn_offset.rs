@@ -59,7 +59,7 @@ fn mitsuba_offset_darkens_single_scattering_by_the_skipped_sliver() {
         medium: Medium {
             sigma_t,
             albedo: [0.9, 0.8, 0.7],
-            g: 0.0,
+            g: scene::Anisotropy::uniform(0.0),
             eta: 1.0,
             roughness: 0.0,
         },

@@ -48,7 +48,6 @@ impl<'a> Consts<'a> {
                 Setting::Estimator
             )));
         }
-        let g = m.g as f64;
         let norm = scene.model.normalisation();
         let mut c = Consts {
             sn_t: [[0.0; 2]; 3],
@@ -68,6 +67,7 @@ impl<'a> Consts<'a> {
         let mut steps_a = [0.0f64; 3];
         for ch in 0..3 {
             let (st, al) = (m.sigma_t[ch] as f64, m.albedo[ch] as f64);
+            let g = m.g.channels()[ch] as f64;
             let dt = ds.delta_rel as f64 * st;
             if !(dt > 0.0 && dt < st) {
                 return Err(RenderError::Medium(format!(

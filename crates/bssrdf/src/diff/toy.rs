@@ -46,7 +46,7 @@ fn a_new_estimator_is_one_file_over_the_shared_row() {
     let medium = Medium {
         sigma_t: [20.0, 30.0, 40.0],
         albedo: [0.9, 0.8, 0.95],
-        g: 0.0,
+        g: scene::Anisotropy::uniform(0.0),
         eta: 1.0,
         roughness: 0.0,
     };

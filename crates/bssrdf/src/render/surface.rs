@@ -152,7 +152,7 @@ mod tests {
         Medium {
             sigma_t: [10.0; 3],
             albedo: [0.9; 3],
-            g: 0.0,
+            g: scene::Anisotropy::uniform(0.0),
             eta,
             roughness,
         }

@@ -83,7 +83,7 @@ pub(crate) fn walk_medium(m: &scene::Medium, c: usize, sigma_t: f32, sigma_n: f3
     WalkMedium {
         sigma_t: sigma_t as f64 * sigma_n as f64,
         albedo: m.albedo[c] as f64,
-        g: m.g as f64,
+        g: m.g.channels()[c] as f64,
         eta: m.eta as f64,
     }
 }

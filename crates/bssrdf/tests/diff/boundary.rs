@@ -23,7 +23,13 @@ fn estimators_match_finite_differences_behind_a_rough_boundary() {
         ..rgb_medium()
     };
     check(&sphere_setup(rough), "rough");
-    check(&sphere_setup(Medium { g: 0.3, ..rough }), "rough g 0.3");
+    check(
+        &sphere_setup(Medium {
+            g: scene::Anisotropy::uniform(0.3),
+            ..rough
+        }),
+        "rough g 0.3",
+    );
 }
 
 /// The comparisons of the module docs on `s`.

@@ -83,10 +83,16 @@ pub fn write(a: &DatasetArgs, ds: &Dataset, rig: &Rig, medium: Medium) -> Result
         .medium
         .units
         .map_or(String::new(), |u| format!(" --units {}", u.name()));
-    let object = if medium.eta != 1.0 || medium.g != 0.0 {
+    let object = if medium.eta != 1.0 || !medium.g.is_isotropic() {
+        let g = medium.g.channels().map(|g| g.to_string());
+        let g = if medium.g.is_uniform() {
+            g[0].clone()
+        } else {
+            g.join(",")
+        };
         format!(
-            " --eta {} --roughness {} --g {}",
-            medium.eta, medium.roughness, medium.g
+            " --eta {} --roughness {} --g {g}",
+            medium.eta, medium.roughness
         )
     } else {
         String::new()

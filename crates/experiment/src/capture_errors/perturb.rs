@@ -334,7 +334,7 @@ mod tests {
             medium: scene::Medium {
                 sigma_t: [50.0; 3],
                 albedo: [0.9; 3],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta: 1.0,
                 roughness: 0.0,
             },

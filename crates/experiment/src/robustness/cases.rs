@@ -149,7 +149,7 @@ fn draw_medium(seed: u64, key: u64, i: usize, lo: f32, hi: f32, object: (f32, f3
     Medium {
         sigma_t,
         albedo,
-        g,
+        g: g.into(),
         eta,
         roughness,
     }
@@ -328,7 +328,7 @@ mod tests {
                     b.name
                 );
             }
-            assert!(a.medium.eta > 1.0 && a.medium.g > 0.0, "{}", a.name);
+            assert!(a.medium.eta > 1.0 && a.medium.g.mean() > 0.0, "{}", a.name);
             let mean = a.medium.sigma_t.iter().sum::<f32>() / 3.0;
             assert!(
                 (0.5 * a.scale * mean - a.mfp).abs() < 1e-3 * a.mfp,
@@ -351,7 +351,7 @@ mod tests {
         for c in &all[..12] {
             assert_eq!(
                 (c.medium.g, c.medium.eta, c.medium.roughness),
-                (0.0, 1.0, 0.0)
+                (scene::Anisotropy::ISOTROPIC, 1.0, 0.0)
             );
         }
         assert_eq!(all[0].name, "flash-5-blob");

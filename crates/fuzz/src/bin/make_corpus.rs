@@ -224,6 +224,11 @@ seed = 0
         "roughness": 0.2 }, "phase": { "type": "hg", "g": 0.7 } });
     let text = serde_json::to_string_pretty(&doc)?;
     std::fs::write(corpus(Reader::Dataset, "object-rough.json"), text)?;
+    // A medium whose forward scattering depends on the wavelength: a g per channel.
+    doc["object"]["phase"] = serde_json::json!({ "type": "hg", "g": [0.6, 0.7, 0.8] });
+    let text = serde_json::to_string_pretty(&doc)?;
+    std::fs::write(corpus(Reader::Dataset, "object-chromatic.json"), text)?;
+    doc["object"]["phase"] = serde_json::json!({ "type": "hg", "g": 0.7 });
     // A calibrated camera (COLMAP's PINHOLE): the principal point off the centre, f_y ≠ f_x.
     doc["views"][1]["camera"] = serde_json::json!({
         "origin": [2.0, 0.0, 0.0], "target": [0.0, 0.0, 0.0],

@@ -128,7 +128,7 @@ mod tests {
         let m = Medium {
             sigma_t: [10.0, 20.0, 40.0],
             albedo: [0.5, 0.9, 0.995],
-            g: 0.0,
+            g: scene::Anisotropy::uniform(0.0),
             eta: 1.0,
             roughness: 0.0,
         };

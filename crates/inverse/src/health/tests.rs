@@ -1,5 +1,7 @@
 use super::*;
 
+const ISO: scene::Anisotropy = scene::Anisotropy::ISOTROPIC;
+
 fn record(k: u32, loss: f64) -> IterationRecord {
     record_view(k, loss, 0)
 }
@@ -45,7 +47,7 @@ fn a_healthy_run_has_no_problem() {
             )
         })
         .collect();
-    assert!(assess(&h, 0, &params(60.0, 0.9), &ParamSpec::default(), 0.0, None).is_empty());
+    assert!(assess(&h, 0, &params(60.0, 0.9), &ParamSpec::default(), ISO, None).is_empty());
 }
 
 #[test]
@@ -64,24 +66,24 @@ fn each_failure_is_detected() {
             })
             .collect()
     };
-    let nan = assess(&flat, 0, &params(f64::NAN, 0.9), &spec, 0.0, None);
+    let nan = assess(&flat, 0, &params(f64::NAN, 0.9), &spec, ISO, None);
     assert_eq!(kinds(&nan), ["non-finite"]);
-    let pinned = assess(&flat, 0, &params(60.0, ALBEDO_MAX), &spec, 0.0, None);
+    let pinned = assess(&flat, 0, &params(60.0, ALBEDO_MAX), &spec, ISO, None);
     assert_eq!(kinds(&pinned), ["at-clamp"; 3]);
-    let tiny = assess(&flat, 0, &params(SIGMA_T_MIN, 0.5), &spec, 0.0, None);
+    let tiny = assess(&flat, 0, &params(SIGMA_T_MIN, 0.5), &spec, ISO, None);
     assert_eq!(kinds(&tiny), ["at-clamp"; 3]);
     // A fixed parameter at its bound is the user's choice, not a failure.
     let fixed = ParamSpec {
         fix_albedo: true,
         ..ParamSpec::default()
     };
-    assert!(assess(&flat, 0, &params(60.0, ALBEDO_MAX), &fixed, 0.0, None).is_empty());
-    let dark = assess(&flat, 0, &params(60.0, 0.03), &spec, 0.0, None);
+    assert!(assess(&flat, 0, &params(60.0, ALBEDO_MAX), &fixed, ISO, None).is_empty());
+    let dark = assess(&flat, 0, &params(60.0, 0.03), &spec, ISO, None);
     assert_eq!(kinds(&dark), ["outside-training-range"; 3]);
     let rising: Vec<_> = (0..100)
         .map(|k| record(k, 0.2 + 0.01 * (k % 3) as f64 + 0.004 * k as f64))
         .collect();
-    let r = assess(&rising, 0, &params(60.0, 0.9), &spec, 0.0, None);
+    let r = assess(&rising, 0, &params(60.0, 0.9), &spec, ISO, None);
     assert_eq!(kinds(&r), ["loss-rising"]);
     assert!(r[0].message().contains("diverged"));
     let off = Consistency {
@@ -92,7 +94,7 @@ fn each_failure_is_detected() {
         views: vec![0],
         spp: 16,
     };
-    let r = assess(&flat, 0, &params(60.0, 0.9), &spec, 0.0, Some(&off));
+    let r = assess(&flat, 0, &params(60.0, 0.9), &spec, ISO, Some(&off));
     assert_eq!(kinds(&r), ["inconsistent"]);
     assert!(r[0].message().contains(" G "));
     // A recovered g at its bound; the object's g is not a parameter.
@@ -101,13 +103,40 @@ fn each_failure_is_detected() {
         ..ParamSpec::default()
     };
     let edge = Params {
-        g: Some(crate::params::G_MAX),
+        g: Some(crate::params::OneOrRgb::One(crate::params::G_MAX)),
         ..params(60.0, 0.9)
     };
-    let r = assess(&flat, 0, &edge, &free_g, 0.0, None);
+    let r = assess(&flat, 0, &edge, &free_g, ISO, None);
     assert_eq!(kinds(&r), ["g-at-bound"]);
     assert!(r[0].message().contains("init_g"), "{}", r[0].message());
-    assert!(assess(&flat, 0, &params(60.0, 0.9), &spec, 0.95, None).is_empty());
+    // One g per channel: any channel at its bound.
+    let per_channel = ParamSpec {
+        g_per_channel: true,
+        ..free_g.clone()
+    };
+    let one_edge = Params {
+        g: Some(crate::params::OneOrRgb::Rgb([
+            0.5,
+            -crate::params::G_MAX,
+            0.7,
+        ])),
+        ..params(60.0, 0.9)
+    };
+    assert_eq!(
+        kinds(&assess(&flat, 0, &one_edge, &per_channel, ISO, None)),
+        ["g-at-bound"]
+    );
+    assert!(
+        assess(
+            &flat,
+            0,
+            &params(60.0, 0.9),
+            &spec,
+            scene::Anisotropy::uniform(0.95),
+            None
+        )
+        .is_empty()
+    );
     let free_k = ParamSpec {
         free_light_scale: true,
         ..ParamSpec::default()
@@ -116,7 +145,7 @@ fn each_failure_is_detected() {
         light_scale: Some(crate::params::OneOrRgb::One(crate::params::LIGHT_SCALE_MAX)),
         ..params(60.0, 0.9)
     };
-    let r = assess(&flat, 0, &bright, &free_k, 0.0, None);
+    let r = assess(&flat, 0, &bright, &free_k, ISO, None);
     assert_eq!(kinds(&r), ["light-scale-at-bound"]);
     assert!(
         r[0].message().contains("init_light_scale"),
@@ -172,7 +201,7 @@ fn view_levels_are_not_a_rise() {
     );
     let t = loss_trend(&h[90..]).unwrap();
     assert!(t.z().abs() < 3.0, "{t:?}");
-    assert!(assess(&h, 0, &params(60.0, 0.9), &ParamSpec::default(), 0.0, None).is_empty());
+    assert!(assess(&h, 0, &params(60.0, 0.9), &ParamSpec::default(), ISO, None).is_empty());
 }
 
 /// A significant rise below the floor passes; one above it fails.
@@ -197,7 +226,7 @@ fn the_floor_separates_drift_from_divergence() {
             150,
             &params(60.0, 0.9),
             &ParamSpec::default(),
-            0.0,
+            ISO,
             None
         )
         .is_empty()
@@ -208,7 +237,7 @@ fn the_floor_separates_drift_from_divergence() {
         150,
         &params(60.0, 0.9),
         &ParamSpec::default(),
-        0.0,
+        ISO,
         None,
     );
     assert!(
@@ -225,8 +254,8 @@ fn the_switch_of_models_is_not_a_rise() {
         .map(|k| record(k, if k < 70 { 0.1 } else { 0.3 } + 0.001 * (k % 2) as f64))
         .collect();
     let spec = ParamSpec::default();
-    assert_eq!(assess(&h, 0, &params(60.0, 0.9), &spec, 0.0, None).len(), 1);
-    assert!(assess(&h, 70, &params(60.0, 0.9), &spec, 0.0, None).is_empty());
+    assert_eq!(assess(&h, 0, &params(60.0, 0.9), &spec, ISO, None).len(), 1);
+    assert!(assess(&h, 70, &params(60.0, 0.9), &spec, ISO, None).is_empty());
 }
 
 /// With no trend, |z| > 1.96 in 5 % of 400 independent runs of 120 iterations over 8 views
@@ -282,13 +311,13 @@ fn the_misfit_decides_where_the_run_has_it() {
         .collect();
     // What rose, when the run's only problem is a rising loss.
     let rose = |h: &[IterationRecord]| -> Option<TrendOf> {
-        match assess(h, 150, &params(60.0, 0.9), &spec, 0.0, None)[..] {
+        match assess(h, 150, &params(60.0, 0.9), &spec, ISO, None)[..] {
             [Problem::LossRising { of, .. }] => Some(of),
             _ => None,
         }
     };
     assert_eq!(rose(&by_loss), Some(TrendOf::LnLoss));
-    assert!(assess(&flat, 150, &params(60.0, 0.9), &spec, 0.0, None).is_empty());
+    assert!(assess(&flat, 150, &params(60.0, 0.9), &spec, ISO, None).is_empty());
     assert_eq!(rose(&run(0.1)), Some(TrendOf::Misfit));
 }
 

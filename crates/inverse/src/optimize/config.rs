@@ -292,9 +292,14 @@ impl OptimizeConfig {
         if let Some(a) = p.albedo.iter().find(|a| !(0.0..=1.0).contains(*a)) {
             return Err(format!("init.albedo holds {a}, α must be in [0, 1]"));
         }
-        if let Some(g) = p.g.filter(|g| !(g.is_finite() && g.abs() < 1.0)) {
+        if let Some(g) = p.g.and_then(|g| {
+            g.values()
+                .iter()
+                .copied()
+                .find(|g| !(g.is_finite() && g.abs() < 1.0))
+        }) {
             return Err(format!(
-                "init.g = {g}, the phase function's g must be in (-1, 1)"
+                "init.g holds {g}, the phase function's g must be in (-1, 1)"
             ));
         }
         let positive = |k: &f64| k.is_finite() && *k > 0.0;

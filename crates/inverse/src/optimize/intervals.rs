@@ -100,12 +100,12 @@ impl Optimizer<'_> {
             }
         };
         let mut u = Uncertainty::new(p.sigma_t, p.albedo, cov, images, k);
-        let mut scales = Vec::new();
+        let (mut gs, mut scales) = (Vec::new(), Vec::new());
         for (s, var, images_var) in shared_var.into_iter().flatten() {
             match s {
-                Shared::G => {
-                    let g = p.g.unwrap_or(self.base.g as f64);
-                    u.g = Some(SharedUncertainty::g(g, var, images_var));
+                Shared::G(ch) => {
+                    let g = p.g_or(self.base.g).channels()[ch.unwrap_or(0)] as f64;
+                    gs.push(SharedUncertainty::g(g, var, images_var));
                 }
                 Shared::LnLightScale(ch) => {
                     let k = p.light_scale_of(ch.unwrap_or(0));
@@ -113,11 +113,13 @@ impl Optimizer<'_> {
                 }
             }
         }
-        u.light_scale = match scales[..] {
+        let one_or_rgb = |v: Vec<SharedUncertainty>| match v[..] {
             [one] => Some(OneOrRgb::One(one)),
             [r, g, b] => Some(OneOrRgb::Rgb([r, g, b])),
             _ => None,
         };
+        u.g = one_or_rgb(gs);
+        u.light_scale = one_or_rgb(scales);
         u.view_bread = (0..k)
             .map(|i| i * n / k)
             .zip(acc.view_breads().iter().copied())
@@ -138,18 +140,20 @@ impl Optimizer<'_> {
         Ok(u)
     }
 
-    /// The parameters besides σ_t and α that the run frees and every channel's images depend
-    /// on (g; ln k, one or per channel), in the joint sandwich's order.
+    /// The parameters besides σ_t and α that the run frees (g and ln k, each one or per
+    /// channel), in the joint sandwich's order.
     fn shared_params(&self) -> Vec<Shared> {
-        let light_scales: Vec<Shared> = match self.config.params.light_scale_count() {
-            0 => vec![],
-            1 => vec![Shared::LnLightScale(None)],
-            _ => (0..3).map(|c| Shared::LnLightScale(Some(c))).collect(),
+        let per = |n: usize, of: fn(Option<usize>) -> Shared| -> Vec<Shared> {
+            match n {
+                0 => vec![],
+                1 => vec![of(None)],
+                _ => (0..3).map(|c| of(Some(c))).collect(),
+            }
         };
-        (self.config.params.free_g.then_some(Shared::G))
-            .into_iter()
-            .chain(light_scales)
-            .collect()
+        let spec = &self.config.params;
+        let mut shared = per(spec.g_count(), Shared::G);
+        shared.extend(per(spec.light_scale_count(), Shared::LnLightScale));
+        shared
     }
 
     /// The targets whose renders the intervals take ([`Optimizer::uncertainty`]): `s.views`
@@ -261,7 +265,8 @@ fn shared_derivatives<'r>(
     shared
         .iter()
         .map(|s| match s {
-            Shared::G => match (&a.d_g, &b.d_g) {
+            // Channel c's ∂I_c/∂g_c: of the one g, or of g_c alone (`JointAccumulator::add_view`).
+            Shared::G(_) => match (&a.d_g, &b.d_g) {
                 (Some(ga), Some(gb)) => Ok([ga, gb]),
                 _ => Err(InverseError::Invalid(
                     "the intervals of a free g need ∂I/∂g, which the run's final model does \

@@ -149,7 +149,7 @@ mod tests {
         let sigma_t = [40.0; 3];
         let eps = 0.8f64;
         let mut acc = Accumulator::default();
-        let mut joint = JointAccumulator::new(vec![Shared::G]);
+        let mut joint = JointAccumulator::new(vec![Shared::G(None)]);
         let views: Vec<_> = (0..3).map(|v| renders(16, v)).collect();
         for v in &views {
             acc.add_view(&view(v), sigma_t);

@@ -31,8 +31,9 @@ pub type Joint = DMatrix<f64>;
 /// A shared parameter of θ ([`theta`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shared {
-    /// The phase function's g.
-    G,
+    /// The phase function's g: every channel's (`None`), or channel c's alone (`Some(c)`, one
+    /// g per channel).
+    G(Option<usize>),
     /// ln k of the factor k on the lights: every channel's (`None`), or channel c's alone
     /// (`Some(c)`, one factor per channel).
     LnLightScale(Option<usize>),
@@ -42,7 +43,7 @@ impl Shared {
     /// Whether channel `c`'s images depend on it.
     pub fn acts_on(self, c: usize) -> bool {
         match self {
-            Shared::LnLightScale(Some(k)) => k == c,
+            Shared::G(Some(k)) | Shared::LnLightScale(Some(k)) => k == c,
             _ => true,
         }
     }
@@ -190,7 +191,7 @@ pub fn theta(p: &Params, shared: &[Shared]) -> DVector<f64> {
     }
     for (j, s) in shared.iter().enumerate() {
         x[6 + j] = match s {
-            Shared::G => p.g.unwrap_or(0.0),
+            Shared::G(c) => p.g.map_or(0.0, |g| g.channel(c.unwrap_or(0))),
             Shared::LnLightScale(c) => p.light_scale_of(c.unwrap_or(0)).ln(),
         };
     }
@@ -321,7 +322,7 @@ mod tests {
     fn with_g_decoupled_the_blocks_are_the_per_channel_sandwich() {
         let (w, h) = (8u32, 8u32);
         let mut rng = base::rng::Sampler::new(5, 0, 0, 0);
-        let mut joint = JointAccumulator::new(vec![Shared::G]);
+        let mut joint = JointAccumulator::new(vec![Shared::G(None)]);
         let mut per_channel = Accumulator::default();
         let sigma_t = [40.0, 60.0, 80.0];
         for view in 0..12 {
@@ -461,12 +462,12 @@ mod tests {
     fn the_iterates_spread_includes_g() {
         let it: Vec<Params> = (0..10)
             .map(|k| Params {
-                g: Some(0.5 + 0.01 * k as f64),
+                g: Some(crate::params::OneOrRgb::One(0.5 + 0.01 * k as f64)),
                 ..Params::new([50.0; 3], [0.9; 3])
             })
             .collect();
-        let c = iterate_covariance(&it, &[Shared::G]);
-        let d = iterate_drift(&it, &[Shared::G]);
+        let c = iterate_covariance(&it, &[Shared::G(None)]);
+        let d = iterate_drift(&it, &[Shared::G(None)]);
         assert!(
             (c[(6, 6)] - 0.01f64.powi(2) * 55.0 / 6.0).abs() < 1e-12,
             "{}",

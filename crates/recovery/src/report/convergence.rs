@@ -178,12 +178,24 @@ fn shared_panels(
 ) -> Vec<Panel> {
     type Of = Box<dyn Fn(&Params) -> Option<f64>>;
     let n = history.len();
-    let mut shared: Vec<(String, String, Of, Option<SharedUncertainty>)> = vec![(
-        "phase function g".into(),
-        "g".into(),
-        Box::new(|p| p.g),
-        uncertainty.and_then(|u| u.g),
-    )];
+    let mut shared: Vec<(String, String, Of, Option<SharedUncertainty>)> = Vec::new();
+    let g_u = uncertainty.and_then(|u| u.g);
+    match final_params.g {
+        Some(OneOrRgb::Rgb(_)) => shared.extend((0..3).map(|c| -> (_, _, Of, _) {
+            (
+                format!("phase function g_{}", CHANNELS[c]),
+                format!("g_{}", CHANNELS[c]),
+                Box::new(move |p| p.g.map(|g| g.channel(c))),
+                g_u.map(|g| g.channel(c)),
+            )
+        })),
+        _ => shared.push((
+            "phase function g".into(),
+            "g".into(),
+            Box::new(|p| p.g.map(|g| g.channel(0))),
+            g_u.map(|g| g.channel(0)),
+        )),
+    }
     let k_u = uncertainty.and_then(|u| u.light_scale);
     match final_params.light_scale {
         Some(OneOrRgb::Rgb(_)) => shared.extend((0..3).map(|c| -> (_, _, Of, _) {

@@ -17,12 +17,12 @@ const NEAREST: usize = 3;
 pub fn real_units(
     est: &Params,
     u: Option<&Uncertainty>,
-    g: f64,
+    g: scene::Anisotropy,
     unit: LengthUnit,
 ) -> (Vec<String>, serde_json::Value) {
-    let g = est.g.unwrap_or(g);
+    let g = est.g_or(g);
     let per_mm = est.sigma_t.map(|s| s / unit.mm());
-    let (s, a) = reduced_per_mm(est.sigma_t, est.albedo, g, unit);
+    let (s, a) = reduced_per_mm(est.sigma_t, est.albedo, g.channels().map(f64::from), unit);
     let near = nearest(s, a, NEAREST);
     let fmt3 = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
     let intervals: Vec<Option<[f64; 2]>> = (0..3)
@@ -92,7 +92,7 @@ mod tests {
             g: None,
             light_scale: None,
         };
-        let (lines, json) = real_units(&est, None, 0.3, LengthUnit::Cm);
+        let (lines, json) = real_units(&est, None, scene::Anisotropy::uniform(0.3), LengthUnit::Cm);
         assert!(
             lines[0].contains("lengths in cm") && lines[0].contains("(2.1900, 2.6200, 3.0000)"),
             "{}",

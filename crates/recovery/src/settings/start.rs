@@ -59,7 +59,7 @@ pub struct DatasetFacts {
     pub depth: Option<u32>,
     /// What one of its units is, when it says (`None`: unitless; σ_t starts at 50 per unit).
     pub length_unit: Option<LengthUnit>,
-    /// The object's stated Henyey–Greenstein g (0 when it states none).
+    /// The object's stated Henyey–Greenstein g, the channels' mean (0 when it states none).
     pub g: f64,
 }
 
@@ -78,7 +78,7 @@ impl DatasetFacts {
         Ok(DatasetFacts {
             depth: ds.render.max_depth,
             length_unit: ds.metadata.length_unit,
-            g: ds.object.map_or(0.0, |o| f64::from(o.g)),
+            g: ds.object.map_or(0.0, |o| f64::from(o.g.mean())),
         })
     }
 }

@@ -109,12 +109,30 @@ fn a_free_g_needs_the_tracer_at_the_end() {
     assert!(e.contains("the dipole does not differentiate g"), "{e}");
 
     let mut s = RecoverySettings::default();
-    s.start.init.g = Some(0.5);
+    s.start.init.g = Some(OneOrRgb::One(0.5));
     let e = s.optimize_config(no_depth).unwrap_err().to_string();
     assert!(e.contains("init_g 0.5 without free_g"), "{e}");
     s.schedule.params.free_g = true;
-    assert_eq!(s.optimize_config(no_depth).unwrap().init.g, Some(0.5));
-    s.start.init.g = Some(1.5);
+    assert_eq!(
+        s.optimize_config(no_depth).unwrap().init.g,
+        Some(OneOrRgb::One(0.5))
+    );
+    s.start.init.g = Some(OneOrRgb::One(1.5));
+    let e = s.optimize_config(no_depth).unwrap_err().to_string();
+    assert!(e.contains("must be in (-1, 1)"), "{e}");
+    // A g per channel starts from three values; one g from one.
+    s.start.init.g = Some(OneOrRgb::Rgb([0.5, 0.6, 0.7]));
+    let e = s.optimize_config(no_depth).unwrap_err().to_string();
+    assert!(
+        e.contains("init_g [0.5, 0.6, 0.7] gives a g per channel") && e.contains("free_g_rgb"),
+        "{e}"
+    );
+    s.schedule.params.g_per_channel = true;
+    assert_eq!(
+        s.optimize_config(no_depth).unwrap().init.g,
+        Some(OneOrRgb::Rgb([0.5, 0.6, 0.7]))
+    );
+    s.start.init.g = Some(OneOrRgb::Rgb([0.5, -1.0, 0.7]));
     let e = s.optimize_config(no_depth).unwrap_err().to_string();
     assert!(e.contains("must be in (-1, 1)"), "{e}");
 }

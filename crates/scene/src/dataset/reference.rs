@@ -178,7 +178,7 @@ fn medium_of(d: &Doc, doc: &Value, name: &str) -> Result<Medium, SceneError> {
     let truth = Medium {
         sigma_t,
         albedo,
-        g,
+        g: g.into(),
         eta,
         roughness,
     };

@@ -76,7 +76,7 @@ fn mitsuba_reference_folder_loads() {
         Some(Medium {
             sigma_t: [50.0, 60.0, 70.0],
             albedo: [0.95, 0.9, 0.85],
-            g: 0.0,
+            g: crate::Anisotropy::uniform(0.0),
             eta: 1.0,
             roughness: 0.0,
         })
@@ -136,7 +136,7 @@ fn mitsuba_reference_rough_boundary_and_phase_are_read() {
     let want = crate::Object {
         eta: 1.4,
         roughness: 0.3,
-        g: 0.6,
+        g: crate::Anisotropy::uniform(0.6),
     };
     assert_eq!(ds.object, Some(want));
     assert_eq!(ds.truth.map(|t| crate::Object::of(&t)), Some(want));

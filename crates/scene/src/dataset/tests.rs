@@ -392,7 +392,7 @@ fn dataset_object_block_round_trips_and_must_agree_with_truth() {
     let object = crate::Object {
         eta: 1.33,
         roughness: 0.1,
-        g: 0.7,
+        g: crate::Anisotropy::uniform(0.7),
     };
     ds.truth = ds.truth.map(|t| object.medium(t.sigma_t, t.albedo));
     ds.object = Some(object);

@@ -188,7 +188,7 @@ fn medium(doc: &Doc, n: Node) -> Result<Medium, SceneError> {
     Ok(Medium {
         sigma_t: sigma_t.map(|s| (s * scale) as f32),
         albedo: albedo.map(|a| a as f32),
-        g: g as f32,
+        g: (g as f32).into(),
         eta: 1.0,
         roughness: 0.0,
     })

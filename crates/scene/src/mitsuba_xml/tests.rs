@@ -70,7 +70,7 @@ fn a_mitsuba_scene_reads_as_written() {
     let m = s.medium;
     assert_eq!(m.sigma_t, [50.0, 60.0, 70.0]);
     assert_eq!(m.albedo, [0.9, 0.8, 0.7]);
-    assert_eq!((m.g, m.roughness), (0.7, 0.2));
+    assert_eq!((m.g, m.roughness), (crate::Anisotropy::uniform(0.7), 0.2));
     // water (1.3330) in air (Mitsuba's default ext_ior, 1.000277).
     assert!((m.eta as f64 - 1.3330 / 1.000277).abs() < 1e-6, "{}", m.eta);
     assert_eq!((s.render.spp, s.render.max_depth), (Some(128), Some(48)));
@@ -223,7 +223,7 @@ fn the_snippet_states_the_boundary_and_the_medium() {
     let m = Medium {
         sigma_t: [50.0, 100.0, 25.0],
         albedo: [0.9, 0.95, 0.99],
-        g: 0.5,
+        g: crate::Anisotropy::uniform(0.5),
         eta: 1.4,
         roughness: 0.3,
     };
@@ -271,7 +271,7 @@ fn a_scene_folder_with_an_image_per_sensor_is_a_dataset() {
     // The boundary and the phase function are stated; σ_t and α are what the images are for.
     assert!(ds.truth.is_none());
     let o = ds.object.unwrap();
-    assert_eq!((o.g, o.roughness), (0.7, 0.2));
+    assert_eq!((o.g, o.roughness), (crate::Anisotropy::uniform(0.7), 0.2));
     assert!((o.eta - 1.3330 / 1.000277).abs() < 1e-6);
     // A folder's scene.xml named directly reads the same.
     let again = crate::Dataset::load(&d.path().join("scene.xml")).unwrap();

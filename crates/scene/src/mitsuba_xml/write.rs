@@ -14,7 +14,9 @@ use crate::fsutil::atomic_write;
 use crate::scene_file::{SceneDesc, ViewDesc};
 use crate::{Medium, PointLight, SceneError};
 
-/// The object's `<bsdf>` and interior `<medium>` for `m`, to place inside a `<shape>`.
+/// The object's `<bsdf>` and interior `<medium>` for `m`, to place inside a `<shape>`. Mitsuba
+/// 3's `hg` has one g for every channel: a chromatic g is written as the channels' mean, with
+/// a comment that says so (the scene export refuses it, [`MitsubaExport::of`]).
 pub fn medium_snippet(m: &Medium) -> String {
     let mut s = String::new();
     let f = |v: f32| format!("{v}");
@@ -37,6 +39,14 @@ pub fn medium_snippet(m: &Medium) -> String {
             f(m.eta)
         );
     }
+    if !m.g.is_uniform() {
+        let _ = writeln!(
+            s,
+            "<!-- The medium's g per channel is {}; Mitsuba 3's hg phase function has one g, \
+             so the channels' mean is written. -->",
+            m.g
+        );
+    }
     let scale = m.sigma_t.iter().fold(0.0f32, |a, &b| a.max(b));
     let rgb = |v: [f32; 3]| format!("{}, {}, {}", f(v[0]), f(v[1]), f(v[2]));
     let _ = writeln!(
@@ -48,7 +58,7 @@ pub fn medium_snippet(m: &Medium) -> String {
         rgb(m.sigma_t.map(|v| v / scale)),
         f(scale),
         rgb(m.albedo),
-        f(m.g)
+        f(m.g.mean())
     );
     s
 }
@@ -83,6 +93,15 @@ impl MitsubaExport {
                 reason: "a camera whose focal lengths differ along x and y (non-square pixels) \
                          has no Mitsuba perspective sensor; fix: resample the images to square \
                          pixels"
+                    .into(),
+            });
+        }
+        if !desc.medium.g.is_uniform() {
+            return Err(SceneError::Invalid {
+                location: format!("{}: medium.g = {}", desc.path.display(), desc.medium.g),
+                reason: "Mitsuba 3's hg phase function has one g for every channel, so a \
+                         medium with a g per channel has no Mitsuba scene; fix: render each \
+                         channel's g as a scene of its own, or give one g"
                     .into(),
             });
         }

@@ -157,7 +157,7 @@ struct RawMedium {
     sigma_t: Option<Rgb>,
     albedo: Option<Rgb>,
     #[serde(default)]
-    g: f32,
+    g: crate::Anisotropy,
     #[serde(default = "crate::medium::one")]
     eta: f32,
     #[serde(default)]
@@ -200,13 +200,13 @@ impl RawMedium {
                         ),
                     });
                 };
-                if !(self.g.is_finite() && self.g.abs() < 1.0) {
+                if let Some((c, g)) = self.g.out_of_range() {
                     return Err(inv(
-                        "g",
-                        format!("= {} must be in (−1, 1); fix: e.g. g = 0", self.g),
+                        &self.g.field(c),
+                        format!("= {g} must be in (−1, 1); fix: e.g. g = 0"),
                     ));
                 }
-                let (sigma_t, albedo) = m.medium(self.g as f64, unit);
+                let (sigma_t, albedo) = m.medium_rgb(self.g.channels().map(f64::from), unit);
                 (Rgb(sigma_t), Rgb(albedo))
             }
             (None, Some(sigma_t), Some(albedo)) => (sigma_t, albedo),

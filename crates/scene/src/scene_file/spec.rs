@@ -53,15 +53,15 @@ impl<'de> Deserialize<'de> for Rgb {
     }
 }
 
-/// The medium as written in files: `sigma_t` and `albedo` per channel or one number; `g`
-/// (default 0), `eta` (default 1) and the boundary's `roughness` (GGX α, default 0: smooth).
+/// The medium as written in files: `sigma_t`, `albedo` and `g` (default 0) per channel or one
+/// number, `eta` (default 1) and the boundary's `roughness` (GGX α, default 0: smooth).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MediumSpec {
     pub sigma_t: Rgb,
     pub albedo: Rgb,
     #[serde(default)]
-    pub g: f32,
+    pub g: crate::Anisotropy,
     #[serde(default = "crate::medium::one")]
     pub eta: f32,
     #[serde(default, skip_serializing_if = "crate::medium::is_zero")]

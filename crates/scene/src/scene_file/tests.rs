@@ -79,7 +79,7 @@ fn full_example_parses_the_same_in_toml_and_json() {
         Medium {
             sigma_t: [50.0, 60.5, 70.0],
             albedo: [0.9; 3],
-            g: 0.2,
+            g: crate::Anisotropy::uniform(0.2),
             eta: 1.3,
             roughness: 0.0,
         }
@@ -163,7 +163,7 @@ fn shape_parameters_override_defaults_then_scale() {
             subdivisions: 3
         })
     );
-    assert_eq!(s.medium.g, 0.0);
+    assert_eq!(s.medium.g, crate::Anisotropy::ISOTROPIC);
     assert_eq!(s.medium.eta, 1.0);
     // Attached light without an offset sits at the camera.
     assert_eq!(s.views[1].light.position, s.views[1].camera.origin);

@@ -59,7 +59,7 @@ impl OptimizeSetup {
             base: Medium {
                 sigma_t: [60.0; 3],
                 albedo: [0.9; 3],
-                g: 0.0,
+                g: scene::Anisotropy::uniform(0.0),
                 eta: 1.0,
                 roughness: 0.0,
             },
@@ -105,7 +105,7 @@ pub(super) fn optimize_checkpoints(work: &Path) -> Res {
     free.model = inverse::forward::ModelChoice::Volpath(inverse::forward::TracerEstimator::Ad);
     free.params.free_g = true;
     free.params.free_light_scale = true;
-    free.init.g = Some(0.2);
+    free.init.g = Some(inverse::params::OneOrRgb::One(0.2));
     for (name, config) in [
         ("plain.json", plain),
         ("varied.json", varied),
