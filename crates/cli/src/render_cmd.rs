@@ -4,7 +4,8 @@
 //! With `--derivatives` each view also gets `view_XXX_d_sigma_t` and `view_XXX_d_albedo` (EXR,
 //! and a false-colour PNG: red > 0, blue < 0, one symmetric range per parameter over all views):
 //! ∂I/∂σ_t and ∂I/∂α of channel c with respect to that channel's parameter; and from the
-//! volumetric path tracer `view_XXX_d_g`, ∂I_c/∂g of the one g all channels share. The volumetric
+//! volumetric path tracer `view_XXX_d_g`, ∂I_c/∂g_c of channel c with respect to its own g (of
+//! the one g all channels share, where they share one). The volumetric
 //! path tracer differentiates each of its paths analytically (`volpath::derivative`), and its
 //! image is the plain render, bit for bit; the learned BSSRDF uses the paper's estimator
 //! (`ours`), whose image is the mean of its σ_t offset samples.

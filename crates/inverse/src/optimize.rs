@@ -29,52 +29,6 @@ use serde::{Deserialize, Serialize};
 use crate::forward::{ForwardModel, ModelChoice};
 use crate::params::{OneOrRgb, Params};
 
-/// One target view.
-pub struct TargetView<'a> {
-    /// Camera.
-    pub camera: &'a Camera,
-    /// Point light.
-    pub light: &'a PointLight,
-    /// Target image.
-    pub image: &'a Image,
-}
-
-impl<'a> TargetView<'a> {
-    /// Every view of `ds` with its image (`what` names the dataset in errors): an error names
-    /// the first view without an image or with a non-finite pixel, and refuses a dataset whose
-    /// every measured pixel is black (nothing to fit: no camera sees the lit object).
-    pub fn of_dataset(ds: &'a scene::Dataset, what: &str) -> Result<Vec<Self>, InverseError> {
-        let lit = |v: &scene::View| {
-            v.image
-                .as_ref()
-                .is_some_and(|im| im.data.iter().flatten().any(|&x| x != 0.0))
-        };
-        if !ds.views.is_empty() && !ds.views.iter().any(lit) {
-            return Err(InverseError::Invalid(format!(
-                "{what}: every pixel of all {} views is black, so there is nothing to fit; fix: \
-                 check that the cameras see the object (not from inside it, e.g. after scaling \
-                 it) and that its light reaches the side they see",
-                ds.views.len()
-            )));
-        }
-        ds.views
-            .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                let image = v.image.as_ref().ok_or_else(|| {
-                    InverseError::Invalid(format!("{what}: view {i} has no image to fit"))
-                })?;
-                image.check_finite(&format!("{what} view {i}"))?;
-                Ok(TargetView {
-                    camera: &v.camera,
-                    light: &v.light,
-                    image,
-                })
-            })
-            .collect()
-    }
-}
-
 /// One row of the per-iteration history.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IterationRecord {
@@ -154,6 +108,7 @@ mod checkpoint;
 mod config;
 pub(crate) mod gradient;
 mod intervals;
+mod target;
 
 pub use crate::error::InverseError;
 pub use checkpoint::Checkpoint;
@@ -161,6 +116,7 @@ pub(crate) use config::model_spec;
 pub use config::{DEFAULT_REFINE_SHARE, MAX_VIEWS_PER_ITER, OptimizeConfig};
 pub use gradient::{cross_misfit, split_sample_gradient, view_weights};
 pub(crate) use gradient::{decorrelated_gradient, non_finite_part};
+pub use target::TargetView;
 
 impl<'a> Optimizer<'a> {
     /// A new run. `base` supplies g and η (the parameters come from `config.init`); `config.model`
@@ -517,8 +473,8 @@ impl<'a> Optimizer<'a> {
             params: p,
             d_sigma_t: ds_t,
             d_albedo: da,
-            d_g: d_g.map(|d| one_or_rgb(c.params.g_per_channel, d)),
-            d_ln_light_scale: d_k.map(|d| one_or_rgb(c.params.light_scale_per_channel, d)),
+            d_g: d_g.map(|d| OneOrRgb::summed(c.params.g_per_channel, d)),
+            d_ln_light_scale: d_k.map(|d| OneOrRgb::summed(c.params.light_scale_per_channel, d)),
             views,
             crop_origins,
             seconds: t0.elapsed().as_secs_f64(),
@@ -600,14 +556,4 @@ fn adam_config(c: &OptimizeConfig) -> AdamConfig {
 /// Adam state accessors for the checkpoint module.
 fn adam_parts(o: &Optimizer) -> AdamState {
     o.adam.state()
-}
-
-/// A per-channel gradient as the variable has it: each channel's (`per_channel`), or their sum
-/// for one value shared by the channels.
-fn one_or_rgb(per_channel: bool, d: [f64; 3]) -> OneOrRgb<f64> {
-    if per_channel {
-        OneOrRgb::Rgb(d)
-    } else {
-        OneOrRgb::One(d.iter().sum())
-    }
 }

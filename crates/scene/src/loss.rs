@@ -63,8 +63,8 @@ pub struct LossGradient {
     pub loss_channels: [f64; 3],
     pub d_sigma_t: [f64; 3],
     pub d_albedo: [f64; 3],
-    /// Each colour channel's share of ∂ℓ/∂g (g is one value for all channels: ∂ℓ/∂g is their
-    /// sum); `None` where the derivative images have no ∂I/∂g.
+    /// Each colour channel's term of ∂ℓ/∂g: ∂ℓ/∂g_c for a g per channel, and their sum for one g
+    /// shared by the channels; `None` where the derivative images have no ∂I/∂g.
     pub d_g: Option<[f64; 3]>,
     /// Each colour channel's share of ∂ℓ/∂ln k for a factor k on the light's intensity (the
     /// image is linear in it: ∂I/∂ln k = I); `None` where the render did not keep it.

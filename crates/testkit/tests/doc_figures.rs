@@ -80,6 +80,9 @@ const FIGURES: &[(&str, &str, &str)] = &[
     ("end within 3.3 % and 9.4 % of σ_t", DIELECTRIC, "9.4"),
     ("0.0024 of α", DIELECTRIC, "0.0024"),
     ("8.7 %, none determined", DIELECTRIC, "8.7 %"),
+    // A g per channel.
+    ("recovers each within 0.024", FREE, "0.024"),
+    ("leaves σ_t 33–92 % off", FREE, "33–92 %"),
     ("none determined, 4 of 9 `failed`", DIELECTRIC, "4 of 9"),
     // Guided walks against the classical walk.
     ("variance × time 0.82–1.17×", WALKS, "0.82–1.17"),

@@ -13,7 +13,6 @@
 //! next-event estimates with the guided connection, whose MIS weights the directions' channel
 //! densities enter.
 
-use geometry::{Accel, Shape};
 use glam::Vec3;
 use scene::{Anisotropy, Environment, Medium, PointLight};
 use testkit::MeanEstimate;
@@ -21,19 +20,10 @@ use volpath::guided::WalkSampling;
 use volpath::rng::Sampler;
 use volpath::{VolpathScene, VolpathSettings, radiance};
 
+use crate::derivatives::sphere;
+
 const SAMPLES: u64 = 60_000;
 const G: [f32; 3] = [0.0, 0.5, 0.85];
-
-fn sphere() -> Accel {
-    Accel::new(
-        Shape::Sphere {
-            radius: 0.5,
-            subdivisions: 4,
-        }
-        .build()
-        .expect("sphere"),
-    )
-}
 
 /// The mean radiance per channel over `SAMPLES` camera rays from (0, 0, 3) towards the disk of
 /// radius 0.6 at z = 0, with the streams of `stream`.

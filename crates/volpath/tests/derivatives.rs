@@ -31,7 +31,8 @@ const H_SIGMA_T: f32 = 0.02;
 const H_ALBEDO: f32 = 0.01;
 const H_G: f32 = 0.02;
 
-fn sphere() -> Accel {
+/// The sphere of radius 0.5 the derivative and chromatic tests render.
+pub(crate) fn sphere() -> Accel {
     Accel::new(
         Shape::Sphere {
             radius: 0.5,

@@ -178,41 +178,40 @@ fn shared_panels(
 ) -> Vec<Panel> {
     type Of = Box<dyn Fn(&Params) -> Option<f64>>;
     let n = history.len();
-    let mut shared: Vec<(String, String, Of, Option<SharedUncertainty>)> = Vec::new();
-    let g_u = uncertainty.and_then(|u| u.g);
-    match final_params.g {
-        Some(OneOrRgb::Rgb(_)) => shared.extend((0..3).map(|c| -> (_, _, Of, _) {
-            (
-                format!("phase function g_{}", CHANNELS[c]),
-                format!("g_{}", CHANNELS[c]),
-                Box::new(move |p| p.g.map(|g| g.channel(c))),
-                g_u.map(|g| g.channel(c)),
-            )
-        })),
-        _ => shared.push((
-            "phase function g".into(),
-            "g".into(),
-            Box::new(|p| p.g.map(|g| g.channel(0))),
-            g_u.map(|g| g.channel(0)),
-        )),
-    }
-    let k_u = uncertainty.and_then(|u| u.light_scale);
-    match final_params.light_scale {
-        Some(OneOrRgb::Rgb(_)) => shared.extend((0..3).map(|c| -> (_, _, Of, _) {
-            (
-                format!("light scale k_{} (× the stated intensity)", CHANNELS[c]),
-                format!("k_{}", CHANNELS[c]),
-                Box::new(move |p| p.light_scale.map(|k| k.channel(c))),
-                k_u.map(|k| k.channel(c)),
-            )
-        })),
-        _ => shared.push((
-            "light scale k (× the stated intensity)".into(),
-            "k".into(),
-            Box::new(|p| p.light_scale.map(|k| k.channel(0))),
-            k_u.map(|k| k.channel(0)),
-        )),
-    }
+    // One panel per variable of an unknown that is one value or one per channel: (title and
+    // label with `{}` for the channel's suffix, the unknown of a Params, its intervals).
+    let per_variable = |title: &str,
+                        label: &str,
+                        of: fn(&Params) -> Option<OneOrRgb<f64>>,
+                        u: Option<OneOrRgb<SharedUncertainty>>|
+     -> Vec<(String, String, Of, Option<SharedUncertainty>)> {
+        let channels: &[(usize, &str)] = match of(final_params) {
+            Some(OneOrRgb::Rgb(_)) => &[(0, "_R"), (1, "_G"), (2, "_B")],
+            _ => &[(0, "")],
+        };
+        (channels.iter())
+            .map(|&(c, suffix)| -> (_, _, Of, _) {
+                (
+                    title.replace("{}", suffix),
+                    label.replace("{}", suffix),
+                    Box::new(move |p| of(p).map(|v| v.channel(c))),
+                    u.map(|u| u.channel(c)),
+                )
+            })
+            .collect()
+    };
+    let mut shared = per_variable(
+        "phase function g{}",
+        "g{}",
+        |p| p.g,
+        uncertainty.and_then(|u| u.g),
+    );
+    shared.extend(per_variable(
+        "light scale k{} (× the stated intensity)",
+        "k{}",
+        |p| p.light_scale,
+        uncertainty.and_then(|u| u.light_scale),
+    ));
     let mut out = Vec::new();
     for (title, label, of, u) in shared {
         let Some(last) = of(final_params) else {

@@ -216,6 +216,24 @@ fn an_exported_scene_reads_back_as_the_same_scene() {
     let e = MitsubaExport::of(&moved, 64, 32).unwrap();
     let names: Vec<&str> = e.files.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["view_000.xml", "view_001.xml"]);
+    // A g per channel: a scene per channel, each at its channel's g, and the snippet says the
+    // mean is written.
+    let mut chromatic = s.clone();
+    chromatic.medium.g = crate::Anisotropy([0.3, 0.5, 0.7]);
+    let e = MitsubaExport::of(&chromatic, 64, 32).unwrap();
+    let names: Vec<&str> = e.files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["scene_r.xml", "scene_g.xml", "scene_b.xml"]);
+    let out = tempfile::tempdir().unwrap();
+    e.write(out.path(), &chromatic.medium, false).unwrap();
+    for (name, g) in [("scene_r.xml", 0.3), ("scene_b.xml", 0.7)] {
+        let back = SceneDesc::load(&out.path().join(name)).unwrap();
+        assert_eq!(back.medium.g, crate::Anisotropy::uniform(g), "{name}");
+    }
+    let snippet = std::fs::read_to_string(out.path().join("medium.xml")).unwrap();
+    assert!(
+        snippet.contains("(0.3, 0.5, 0.7)") && snippet.contains("mean"),
+        "{snippet}"
+    );
 }
 
 #[test]

@@ -15,8 +15,8 @@ use crate::scene_file::{SceneDesc, ViewDesc};
 use crate::{Medium, PointLight, SceneError};
 
 /// The object's `<bsdf>` and interior `<medium>` for `m`, to place inside a `<shape>`. Mitsuba
-/// 3's `hg` has one g for every channel: a chromatic g is written as the channels' mean, with
-/// a comment that says so (the scene export refuses it, [`MitsubaExport::of`]).
+/// 3's `hg` has one g for every channel: a g per channel is written as the channels' mean, with
+/// a comment that says so (the scene export writes a scene per channel, [`MitsubaExport::of`]).
 pub fn medium_snippet(m: &Medium) -> String {
     let mut s = String::new();
     let f = |v: f32| format!("{v}");
@@ -73,7 +73,9 @@ pub struct MitsubaExport {
 impl MitsubaExport {
     /// The scene `desc` with its medium, at `spp` samples per pixel and `max_depth` (Mitsuba
     /// `volpath` semantics). Fails on a view with a cropped camera (Mitsuba would render the
-    /// whole film) and when the mesh does not load.
+    /// whole film) and when the mesh does not load. A medium with a g per channel is one scene
+    /// per channel (`scene_r.xml`, `scene_g.xml`, `scene_b.xml`, or `view_XXX_r.xml` …), each at
+    /// that channel's g: channel c of the object's images is channel c of its scene's.
     pub fn of(desc: &SceneDesc, spp: u32, max_depth: u32) -> Result<Self, SceneError> {
         if let Some(i) = desc.views.iter().position(|v| v.camera.crop.is_some()) {
             return Err(SceneError::Invalid {
@@ -96,39 +98,37 @@ impl MitsubaExport {
                     .into(),
             });
         }
-        if !desc.medium.g.is_uniform() {
-            return Err(SceneError::Invalid {
-                location: format!("{}: medium.g = {}", desc.path.display(), desc.medium.g),
-                reason: "Mitsuba 3's hg phase function has one g for every channel, so a \
-                         medium with a g per channel has no Mitsuba scene; fix: render each \
-                         channel's g as a scene of its own, or give one g"
-                    .into(),
-            });
-        }
         let (mesh, _) = desc.mesh.load()?;
         let shared = desc.views.iter().all(|v| v.light == desc.views[0].light);
-        let files = if shared {
-            vec![(
-                "scene.xml".to_string(),
-                scene_xml(
-                    &desc.medium,
-                    &desc.views,
-                    desc.views[0].light,
-                    spp,
-                    max_depth,
-                ),
-            )]
-        } else {
-            desc.views
-                .iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    let views = std::slice::from_ref(v);
-                    let xml = scene_xml(&desc.medium, views, v.light, spp, max_depth);
-                    (format!("view_{i:03}.xml"), xml)
+        // Mitsuba 3's hg has one g for every channel: a medium with a g per channel is written
+        // as one scene per channel (`_r`, `_g`, `_b`), each at that channel's g, whose channel
+        // of the images is the medium's.
+        let media: Vec<(&str, Medium)> = match desc.medium.g.as_uniform() {
+            Some(_) => vec![("", desc.medium)],
+            None => ["_r", "_g", "_b"]
+                .into_iter()
+                .zip(desc.medium.g.channels())
+                .map(|(suffix, g)| {
+                    let m = Medium {
+                        g: crate::Anisotropy::uniform(g),
+                        ..desc.medium
+                    };
+                    (suffix, m)
                 })
-                .collect()
+                .collect(),
         };
+        let mut files = Vec::new();
+        for (suffix, m) in &media {
+            if shared {
+                let xml = scene_xml(m, &desc.views, desc.views[0].light, spp, max_depth);
+                files.push((format!("scene{suffix}.xml"), xml));
+            } else {
+                for (i, v) in desc.views.iter().enumerate() {
+                    let xml = scene_xml(m, std::slice::from_ref(v), v.light, spp, max_depth);
+                    files.push((format!("view_{i:03}{suffix}.xml"), xml));
+                }
+            }
+        }
         Ok(Self { files, mesh })
     }
 
