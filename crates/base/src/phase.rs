@@ -109,20 +109,22 @@ impl ChannelHg {
     /// Density of each channel as a function of cos θ.
     #[inline]
     pub fn eval_cos(&self, cos_theta: f32) -> [f32; 3] {
-        if self.uniform {
-            [self.hg[0].eval_cos(cos_theta); 3]
-        } else {
-            self.hg.map(|p| p.eval_cos(cos_theta))
-        }
+        self.per_channel(|p| p.eval_cos(cos_theta))
     }
 
     /// ∂ ln p_{g_c}/∂g_c at cos θ, per channel.
     #[inline]
     pub fn d_log_dg(&self, cos_theta: f32) -> [f32; 3] {
+        self.per_channel(|p| p.d_log_dg(cos_theta))
+    }
+
+    /// `f` of each channel's phase function; computed once where the channels share one g.
+    #[inline(always)]
+    fn per_channel(&self, f: impl Fn(&HenyeyGreenstein) -> f32) -> [f32; 3] {
         if self.uniform {
-            [self.hg[0].d_log_dg(cos_theta); 3]
+            [f(&self.hg[0]); 3]
         } else {
-            self.hg.map(|p| p.d_log_dg(cos_theta))
+            [f(&self.hg[0]), f(&self.hg[1]), f(&self.hg[2])]
         }
     }
 

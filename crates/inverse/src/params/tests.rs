@@ -84,13 +84,7 @@ fn a_free_g_is_the_seventh_variable() {
     let g = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.0, -1.0, 0.5], [1.0; 3]);
     assert_eq!(g.len(), 7);
     assert_eq!(g[6], -2.5);
-    let base = Medium {
-        sigma_t: [1.0; 3],
-        albedo: [0.5; 3],
-        g: scene::Anisotropy::uniform(0.3),
-        eta: 1.4,
-        roughness: 0.1,
-    };
+    let base = stated_g_03(1.4, 0.1);
     assert_eq!(p.medium(&base).g, scene::Anisotropy::uniform(0.7));
     assert_eq!(
         Params::new([40.0; 3], [0.9; 3]).medium(&base).g,
@@ -132,13 +126,7 @@ fn a_g_per_channel_is_three_variables() {
     assert!((q.light_scale_of(1) - 2.0).abs() < 1e-5);
     let d = spec.chain(&p, [0.0; 3], [0.0; 3], [-2.0, -1.0, 0.5], [1.0; 3]);
     assert_eq!(d[6..], [-2.0, -1.0, 0.5, 3.0]);
-    let base = Medium {
-        sigma_t: [1.0; 3],
-        albedo: [0.5; 3],
-        g: scene::Anisotropy::uniform(0.3),
-        eta: 1.0,
-        roughness: 0.0,
-    };
+    let base = stated_g_03(1.0, 0.0);
     assert_eq!(p.medium(&base).g, scene::Anisotropy([0.6, 0.7, 0.8]));
     let one = ParamSpec {
         free_g: true,
@@ -239,4 +227,14 @@ fn a_per_channel_light_scale_is_three_variables() {
     assert_eq!(json(&p), serde_json::json!([0.5, 1.0, 2.0]));
     let back: Params = serde_json::from_value(serde_json::to_value(p).unwrap()).unwrap();
     assert_eq!(back, p);
+}
+
+/// A medium whose object states g 0.3, with boundary `eta` and `roughness`.
+fn stated_g_03(eta: f32, roughness: f32) -> Medium {
+    let object = scene::Object {
+        eta,
+        roughness,
+        g: scene::Anisotropy::uniform(0.3),
+    };
+    object.medium([1.0; 3], [0.5; 3])
 }
