@@ -9,9 +9,14 @@
 //!   A = Σ_v Σ_p J_p J_pᵀ                       (Gauss–Newton: half the Hessian of L)
 //!   g_v = Σ_p J_p r_p                           (half the gradient of view v's loss)
 //!   B = V/(V − 1) · Σ_v (g_v − ḡ)(g_v − ḡ)ᵀ     (the views as independent draws of the capture)
-//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + s_b²·d dᵀ + C_opt + C_drift (+ C_capture),   d = A⁻¹ Σ_v Σ_p J_p I_p
+//!   Cov(θ̂) ≈ A⁻¹ B A⁻¹ + C_step + s_b²·d dᵀ + C_opt + C_drift (+ C_capture),
+//!   d = A⁻¹ Σ_v Σ_p J_p I_p,   C_step = Δ Δᵀ,   Δ = A⁻¹ Σ_v g_v
 //!
-//! (C_capture, for a stated capture error such as a scanned mesh's accuracy: [`capture`]).
+//! B and the remaining Gauss–Newton step Δ are each taken from the two independent renders of
+//! every view, one render's values against the other's derivatives, so that neither holds those
+//! renders' own Monte Carlo noise ([`meat`]); C_step allows for a run that stops short of the
+//! loss's minimum. (C_capture, for a stated capture error such as a scanned mesh's accuracy:
+//! [`capture`]).
 //!
 //! (the M-estimator sandwich with views as clusters: White 1980, Liang & Zeger 1986). B holds
 //! whatever makes the views disagree at the estimate: the targets' noise, the renderer's noise
@@ -71,7 +76,11 @@ pub const DETERMINED_ALBEDO_HALF_WIDTH: f64 = 0.02;
 pub const DETERMINED_G_HALF_WIDTH: f64 = 0.05;
 
 pub mod capture;
+pub mod iterates;
 pub mod joint;
+pub mod meat;
+
+pub use iterates::{iterate_covariance, iterate_drift};
 
 pub use joint::SharedUncertainty;
 
@@ -114,8 +123,9 @@ impl Default for UncertaintySettings {
 pub struct Accumulator {
     /// A per channel, [a00, a01, a11] in (ln σ_t, α).
     a: [[f64; 3]; 3],
-    /// g_v per view and channel.
-    g: Vec<[[f64; 2]; 3]>,
+    /// g_v per view and channel, from each render's values and the other's derivatives
+    /// ([`meat`]).
+    g: [Vec<[[f64; 2]; 3]>; 2],
     /// Σ_p J_p I_p per channel (the direction of a common brightness error).
     ji: [[f64; 2]; 3],
     /// Each view's share of A, in the order the views were added.
@@ -155,11 +165,12 @@ impl Accumulator {
     /// row in (ln σ_t, α) and of the value, and the target. J J^T and J·I each take their two
     /// factors from different estimates (no Monte Carlo covariance between them).
     pub fn add_rows(&mut self, rows: impl Iterator<Item = (usize, [[f64; 2]; 2], [f64; 2], f64)>) {
-        let mut g = [[0.0; 2]; 3];
+        let mut g = [[[0.0; 2]; 3]; 2];
         let mut view_a = [[0.0; 3]; 3];
         for (c, [j1, j2], [v1, v2], t) in rows {
-            let res = 0.5 * (v1 + v2) - t;
-            if !(res.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
+            let (r1, r2) = (v1 - t, v2 - t);
+            if !(r1.is_finite() && r2.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite()))
+            {
                 continue;
             }
             let a = &mut view_a[c];
@@ -167,7 +178,8 @@ impl Accumulator {
             a[1] += 0.5 * (j1[0] * j2[1] + j1[1] * j2[0]);
             a[2] += j1[1] * j2[1];
             for k in 0..2 {
-                g[c][k] += 0.5 * (j1[k] + j2[k]) * res;
+                g[0][c][k] += j2[k] * r1;
+                g[1][c][k] += j1[k] * r2;
                 self.ji[c][k] += 0.5 * (j1[k] * v2 + j2[k] * v1);
             }
         }
@@ -176,7 +188,9 @@ impl Accumulator {
                 self.a[c][k] += view_a[c][k];
             }
         }
-        self.g.push(g);
+        for (all, view) in self.g.iter_mut().zip(g) {
+            all.push(view);
+        }
         self.view_a.push(view_a);
     }
 
@@ -186,7 +200,7 @@ impl Accumulator {
         &self.view_a
     }
 
-    /// The covariance A⁻¹BA⁻¹ + s_b²·d dᵀ per channel in (ln σ_t, α) as [c00, c01, c11]
+    /// The covariance A⁻¹BA⁻¹ + C_step + s_b²·d dᵀ per channel in (ln σ_t, α) as [c00, c01, c11]
     /// (`model_brightness_sd` = s_b), or `None` for a channel whose A is not positive definite
     /// or with fewer than two views.
     pub fn covariance(&self, model_brightness_sd: f64) -> [Option<[f64; 3]>; 3] {
@@ -202,7 +216,7 @@ impl Accumulator {
         model_brightness_sd: f64,
         fixed: [bool; 2],
     ) -> [Option<[f64; 3]>; 3] {
-        let v = self.g.len();
+        let v = self.g[0].len();
         std::array::from_fn(|c| {
             if v < 2 {
                 return None;
@@ -218,16 +232,14 @@ impl Accumulator {
                 }
                 _ => return None,
             };
-            let mean = [0, 1].map(|k| self.g.iter().map(|g| g[c][k]).sum::<f64>() / v as f64);
-            let mut b = [0.0; 3];
-            for g in &self.g {
-                let d = [g[c][0] - mean[0], g[c][1] - mean[1]];
-                b[0] += d[0] * d[0];
-                b[1] += d[0] * d[1];
-                b[2] += d[1] * d[1];
-            }
-            let f = v as f64 / (v as f64 - 1.0);
-            let b = b.map(|x| x * f);
+            let [g1, g2] = [0, 1].map(|k| {
+                self.g[k]
+                    .iter()
+                    .map(|g| nalgebra::DVector::from_row_slice(&g[c]))
+                    .collect::<Vec<_>>()
+            });
+            let b = meat::to_packed(&meat::cross_meat(&g1, &g2)?);
+            let step = meat::to_packed(&meat::remaining_step(&meat::from_packed(inv), &g1, &g2));
             let ji = self.ji[c];
             let d = [
                 inv[0] * ji[0] + inv[1] * ji[1],
@@ -237,9 +249,9 @@ impl Accumulator {
             let m = sandwich(inv, b);
             let cap = capture::channel_term(inv, self.capture.iter().map(|s| s[c]));
             Some([
-                m[0] + s2 * d[0] * d[0] + cap[0],
-                m[1] + s2 * d[0] * d[1] + cap[1],
-                m[2] + s2 * d[1] * d[1] + cap[2],
+                m[0] + step[0] + s2 * d[0] * d[0] + cap[0],
+                m[1] + step[1] + s2 * d[0] * d[1] + cap[1],
+                m[2] + step[2] + s2 * d[1] * d[1] + cap[2],
             ])
         })
     }
@@ -257,51 +269,6 @@ fn sandwich(s: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         m00 * s[1] + m01 * s[2],
         m10 * s[1] + m11 * s[2],
     ]
-}
-
-/// The covariance per channel in (ln σ_t, α) of the iterates `params` (σ_t, α per channel).
-pub fn iterate_covariance(params: &[([f64; 3], [f64; 3])]) -> [[f64; 3]; 3] {
-    let n = params.len();
-    if n < 2 {
-        return [[0.0; 3]; 3];
-    }
-    std::array::from_fn(|c| {
-        let x: Vec<[f64; 2]> = params.iter().map(|(s, a)| [s[c].ln(), a[c]]).collect();
-        let m = [0, 1].map(|k| x.iter().map(|v| v[k]).sum::<f64>() / n as f64);
-        let mut cov = [0.0; 3];
-        for v in &x {
-            let d = [v[0] - m[0], v[1] - m[1]];
-            cov[0] += d[0] * d[0];
-            cov[1] += d[0] * d[1];
-            cov[2] += d[1] * d[1];
-        }
-        cov.map(|v| v / (n as f64 - 1.0))
-    })
-}
-
-/// The drift of the iterates `params` (σ_t, α per channel) as a covariance per channel in
-/// (ln σ_t, α): d dᵀ with d the mean of their second half minus the mean of their first half.
-/// A run still moving along a flat valley when it stops is further from its limit than its
-/// iterates' spread says; the movement over the window is the allowance for that (module docs,
-/// C_drift). Where the iterates are stationary, d is of the order of the spread's standard error.
-pub fn iterate_drift(params: &[([f64; 3], [f64; 3])]) -> [[f64; 3]; 3] {
-    let n = params.len();
-    if n < 2 {
-        return [[0.0; 3]; 3];
-    }
-    let (first, second) = params.split_at(n / 2);
-    let mean = |part: &[([f64; 3], [f64; 3])], c: usize| -> [f64; 2] {
-        let k = part.len() as f64;
-        [
-            part.iter().map(|(s, _)| s[c].ln()).sum::<f64>() / k,
-            part.iter().map(|(_, a)| a[c]).sum::<f64>() / k,
-        ]
-    };
-    std::array::from_fn(|c| {
-        let (a, b) = (mean(first, c), mean(second, c));
-        let d = [b[0] - a[0], b[1] - a[1]];
-        [d[0] * d[0], d[0] * d[1], d[1] * d[1]]
-    })
 }
 
 /// 95 % intervals, standard deviations and whether each parameter is determined.
@@ -413,8 +380,9 @@ impl Uncertainty {
             g: None,
             light_scale: None,
             mesh_error: None,
-            method: "sandwich: Gauss-Newton bread, per-view gradient meat, the model's brightness \
-                     error, the spread and drift of the last iterates"
+            method: "sandwich: Gauss-Newton bread, per-view gradient meat from two independent \
+                     renders, the remaining Gauss-Newton step, the model's brightness error, the \
+                     spread and drift of the last iterates"
                 .into(),
         }
     }

@@ -54,8 +54,8 @@ impl Shared {
 pub struct JointAccumulator {
     shared: Vec<Shared>,
     a: Joint,
-    /// g_v per view.
-    g: Vec<DVector<f64>>,
+    /// g_v per view, from each render's values and the other's derivatives ([`super::meat`]).
+    g: [Vec<DVector<f64>>; 2],
     /// Σ_p J_p I_p.
     ji: DVector<f64>,
     /// Σ_p J_p δI_p of each draw of a stated capture error ([`super::capture`]).
@@ -69,7 +69,7 @@ impl JointAccumulator {
         Self {
             shared,
             a: DMatrix::zeros(n, n),
-            g: Vec::new(),
+            g: [Vec::new(), Vec::new()],
             ji: DVector::zeros(n),
             capture: Vec::new(),
         }
@@ -100,7 +100,7 @@ impl JointAccumulator {
             self.shared.len(),
             "one image pair per shared parameter"
         );
-        let mut gv = DVector::zeros(n);
+        let mut gv = [DVector::zeros(n), DVector::zeros(n)];
         let mut a = DMatrix::zeros(n, n);
         let mut idx = vec![0; n - 4];
         let (mut j1, mut j2) = (vec![0.0; n - 4], vec![0.0; n - 4]);
@@ -123,28 +123,36 @@ impl JointAccumulator {
                     }
                 }
                 let [v1, v2] = [0, 1].map(|k| r.value[k].data[p][c] as f64);
-                let res = 0.5 * (v1 + v2) - r.target.data[p][c] as f64;
-                if !(res.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
+                let t = r.target.data[p][c] as f64;
+                let (r1, r2) = (v1 - t, v2 - t);
+                if !(r1.is_finite()
+                    && r2.is_finite()
+                    && j1.iter().chain(&j2).all(|x| x.is_finite()))
+                {
                     continue;
                 }
                 for x in 0..idx.len() {
                     for y in 0..idx.len() {
                         a[(idx[x], idx[y])] += 0.5 * (j1[x] * j2[y] + j2[x] * j1[y]);
                     }
-                    gv[idx[x]] += 0.5 * (j1[x] + j2[x]) * res;
+                    gv[0][idx[x]] += j2[x] * r1;
+                    gv[1][idx[x]] += j1[x] * r2;
                     self.ji[idx[x]] += 0.5 * (j1[x] * v2 + j2[x] * v1);
                 }
             }
         }
         self.a += a;
-        self.g.push(gv);
+        for (all, view) in self.g.iter_mut().zip(gv) {
+            all.push(view);
+        }
     }
 
-    /// A⁻¹BA⁻¹ + s_b²·d dᵀ (+ C_capture, [`super::capture`]) over the variables the run moves (`fixed`: [σ_t, α]; their rows and
+    /// A⁻¹BA⁻¹ + C_step + s_b²·d dᵀ (+ C_capture, [`super::capture`]; B and C_step:
+    /// [`super::meat`]) over the variables the run moves (`fixed`: [σ_t, α]; their rows and
     /// columns are 0), or `None` with fewer than two views or where A is not positive definite
     /// over them.
     pub fn covariance(&self, model_brightness_sd: f64, fixed: [bool; 2]) -> Option<Joint> {
-        let v = self.g.len();
+        let v = self.g[0].len();
         let n_all = self.len();
         if v < 2 {
             return None;
@@ -156,18 +164,16 @@ impl JointAccumulator {
             return None;
         }
         let s = a.cholesky()?.inverse();
-        let mean: Vec<f64> = free
-            .iter()
-            .map(|&i| self.g.iter().map(|g| g[i]).sum::<f64>() / v as f64)
-            .collect();
-        let mut b = DMatrix::zeros(n, n);
-        for g in &self.g {
-            let d = DVector::from_fn(n, |i, _| g[free[i]] - mean[i]);
-            b += &d * d.transpose();
-        }
-        b *= v as f64 / (v as f64 - 1.0);
+        let [g1, g2] = [0, 1].map(|k| {
+            self.g[k]
+                .iter()
+                .map(|g| DVector::from_fn(n, |i, _| g[free[i]]))
+                .collect::<Vec<_>>()
+        });
+        let b = super::meat::cross_meat(&g1, &g2)?;
+        let step = super::meat::remaining_step(&s, &g1, &g2);
         let d = &s * DVector::from_fn(n, |i, _| self.ji[free[i]]);
-        let mut m = &s * b * &s + model_brightness_sd.powi(2) * &d * d.transpose();
+        let mut m = &s * b * &s + step + model_brightness_sd.powi(2) * &d * d.transpose();
         for shift in &self.capture {
             let d = &s * DVector::from_fn(n, |i, _| shift[free[i]]);
             m += &d * d.transpose() / self.capture.len() as f64;
@@ -439,14 +445,14 @@ mod tests {
             let idx = vars(c);
             let a = DMatrix::from_fn(3, 3, |i, j| rgb.a[(idx[i], idx[j])]);
             let s = a.cholesky().unwrap().inverse();
-            let n = rgb.g.len() as f64;
-            let mean = DVector::from_fn(3, |i, _| rgb.g.iter().map(|g| g[idx[i]]).sum::<f64>() / n);
-            let mut b = DMatrix::zeros(3, 3);
-            for g in &rgb.g {
-                let d = DVector::from_fn(3, |i, _| g[idx[i]]) - &mean;
-                b += &d * d.transpose();
-            }
-            let want = &s * (b * (n / (n - 1.0))) * &s;
+            let [g1, g2] = [0, 1].map(|k| {
+                rgb.g[k]
+                    .iter()
+                    .map(|g| DVector::from_fn(3, |i, _| g[idx[i]]))
+                    .collect::<Vec<_>>()
+            });
+            let b = crate::uncertainty::meat::cross_meat(&g1, &g2).unwrap();
+            let want = &s * b * &s + crate::uncertainty::meat::remaining_step(&s, &g1, &g2);
             for i in 0..3 {
                 for j in 0..3 {
                     let got = m[(idx[i], idx[j])];
