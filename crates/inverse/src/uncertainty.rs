@@ -169,8 +169,7 @@ impl Accumulator {
         let mut view_a = [[0.0; 3]; 3];
         for (c, [j1, j2], [v1, v2], t) in rows {
             let (r1, r2) = (v1 - t, v2 - t);
-            if !(r1.is_finite() && r2.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite()))
-            {
+            if !(r1.is_finite() && r2.is_finite() && j1.iter().chain(&j2).all(|x| x.is_finite())) {
                 continue;
             }
             let a = &mut view_a[c];
