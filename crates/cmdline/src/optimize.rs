@@ -186,9 +186,10 @@ pub struct OptimizeArgs {
     /// over the dataset; 0: no intervals).
     #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().views)]
     pub uncertainty_views: usize,
-    /// Samples per pixel of the interval renders. Their noise widens the intervals: 256 in place
-    /// of 32 narrowed the suite's median σ_t interval from a factor 1.79 to 1.29, and lowered
-    /// calibration from 96 % to 90 % (BENCHMARKS.md, "The intervals' own render noise").
+    /// Samples per pixel of the interval renders (two per view). Their noise is kept out of the
+    /// intervals: each view's gradient takes one render's values against the other's
+    /// derivatives (BENCHMARKS.md, "The intervals' own render noise"); more samples make the
+    /// intervals' own estimate less noisy, at a proportional cost.
     #[arg(help_heading = crate::CHECK_OPTIONS, long, default_value_t = inverse::uncertainty::UncertaintySettings::default().spp)]
     pub uncertainty_spp: u32,
     /// The mesh's accuracy, for a scanned or reconstructed mesh: the RMS distance of its
